@@ -1,0 +1,14 @@
+#pragma once
+// Each `netkf` subcommand registers itself on the top-level CLI11 app. A command's
+// callback throws CLI::RuntimeError(code) to end with a non-zero exit status.
+#include <CLI/CLI.hpp>
+
+namespace netkf::cli {
+
+void add_launch_command(CLI::App& app);
+void add_ctl_command(CLI::App& app);
+void add_record_command(CLI::App& app);
+void add_analyze_command(CLI::App& app);
+void add_simulate_command(CLI::App& app);
+
+}  // namespace netkf::cli

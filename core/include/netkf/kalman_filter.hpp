@@ -1,0 +1,119 @@
+#pragma once
+// The intermittent multi-sensor Kalman filter (MMSE recursion): predict, then a
+// fused update with exactly the sensors whose samples arrived.
+// Multi-sensor paper Thm 1 (eqs. 8-9); Liu-Goldsmith eqs. 9-11; Sinopoli eqs. 14-16.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "netkf/types.hpp"
+
+namespace netkf {
+
+struct SensorModel {
+  int id = 0;
+  Matrix C;  // C_i
+  Matrix R;  // R_i
+};
+
+/// One sensor's sample for the period being fused.
+struct SensorSample {
+  int sensor_id = 0;
+  Vector y;
+};
+
+enum class FilterState { ok, diverging };
+const char* to_string(FilterState state);
+
+/// Why a sample was not fused.
+enum class RejectReason : int {
+  unknown_sensor = 0,
+  wrong_size,
+  non_finite,
+  duplicate,   // same sensor twice in one fused update
+  count_
+};
+const char* to_string(RejectReason reason);
+
+struct RejectionCounts {
+  std::array<std::uint64_t, static_cast<int>(RejectReason::count_)> by_reason{};
+  std::uint64_t total() const;
+  std::uint64_t operator[](RejectReason r) const { return by_reason[static_cast<int>(r)]; }
+};
+
+/// Result of one fused update.
+struct FusedUpdateResult {
+  std::vector<int> fused_ids;              // sensors whose samples were used (sorted)
+  std::vector<std::pair<int, RejectReason>> rejected;
+};
+
+struct FilterOptions {
+  /// Tr P above this marks the filter `diverging` (arrival rate below critical).
+  double divergence_trace_bound = 1e6;
+  /// P is clamped (scaled) so its entries never exceed this; keeps everything finite.
+  double covariance_ceiling = 1e150;
+};
+
+/// Validated system model the filter runs on.
+struct FilterModel {
+  Matrix A;                     // n x n
+  Matrix Q;                     // n x n
+  std::optional<Matrix> B;      // n x p (closed loop)
+  std::vector<SensorModel> sensors;
+};
+
+class IntermittentKalmanFilter {
+ public:
+  /// x0 / P0: the prior for the first period, x̂_{0|-1}, P_{0|-1}.
+  IntermittentKalmanFilter(FilterModel model, Vector x0, Matrix P0, FilterOptions options = {});
+
+  /// Fused measurement update for the current period with the samples that arrived
+  /// (any subset; empty = no update). Invalid samples are rejected and counted, never fused.
+  /// After the call, x()/P() are the filtered x̂_{k|k}, P_{k|k}.
+  FusedUpdateResult update(std::span<const SensorSample> received);
+
+  /// Time update to the next period: x̂_{k+1|k} = A x̂_{k|k} + B u_k, P_{k+1|k} = A P A' + Q.
+  /// `input` must have B's column count (ignored when the model has no B).
+  void predict(const Vector* input = nullptr);
+
+  const Vector& x() const { return x_; }
+  const Matrix& P() const { return P_; }
+  double trace_P() const { return P_.trace(); }
+  FilterState state() const { return state_; }
+  const RejectionCounts& rejections() const { return rejections_; }
+  const FilterModel& model() const { return model_; }
+  int state_dim() const { return static_cast<int>(x_.size()); }
+
+ private:
+  void refresh_state();
+  FilterModel model_;
+  FilterOptions options_;
+  Vector x_;
+  Matrix P_;
+  FilterState state_ = FilterState::ok;
+  RejectionCounts rejections_;
+};
+
+// ---- Reference forms of the fused update (for tests and benchmarks) ----
+// All take the prior (x, P) and the received sensors' (C_i, R_i, y_i) and return the posterior.
+struct FusedPosterior {
+  Vector x;
+  Matrix P;
+};
+struct ReceivedBlock {
+  const Matrix* C;
+  const Matrix* R;
+  const Vector* y;
+};
+
+/// Stacked form with an explicit inverse of the stacked innovation covariance (naive, O(m^3)).
+FusedPosterior fused_update_stacked_inverse(const Vector& x, const Matrix& P, std::span<const ReceivedBlock> blocks);
+/// Sequential per-sensor Joseph-form updates (block-diagonal R): O(d).
+FusedPosterior fused_update_sequential(const Vector& x, const Matrix& P, std::span<const ReceivedBlock> blocks);
+/// Information form: P^-1 + Σ C_i' R_i^-1 C_i.
+FusedPosterior fused_update_information(const Vector& x, const Matrix& P, std::span<const ReceivedBlock> blocks);
+
+}  // namespace netkf

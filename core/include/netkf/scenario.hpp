@@ -1,0 +1,105 @@
+#pragma once
+// The scenario model: everything a run of netkf is configured by (see DESIGN.md,
+// "Scenario file"). Loading validates every field and reports problems as
+// ScenarioError with "file:line:col: what is wrong".
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "netkf/types.hpp"
+
+namespace netkf {
+
+/// i.i.d. drops: each sample is lost with probability `loss` (arrival rate λ = 1 - loss).
+struct BernoulliLink {
+  double loss = 0.0;
+  bool operator==(const BernoulliLink&) const = default;
+};
+
+/// Two-state Gilbert-Elliott chain, one transition per sample.
+/// p = P(good -> bad), r = P(bad -> good); loss_good / loss_bad = P(drop) in each state.
+struct GilbertElliottLink {
+  double p = 0.0;
+  double r = 1.0;
+  double loss_good = 0.0;
+  double loss_bad = 1.0;
+  bool operator==(const GilbertElliottLink&) const = default;
+};
+
+using LinkModel = std::variant<BernoulliLink, GilbertElliottLink>;
+
+/// Stationary probability that a sample is dropped.
+double stationary_loss(const LinkModel& model);
+/// Mean length of a run of consecutive drops (infinite if the link never delivers).
+double mean_burst_length(const LinkModel& model);
+/// "bernoulli" or "gilbert_elliott".
+std::string link_model_name(const LinkModel& model);
+/// Throws std::invalid_argument naming the offending parameter when a probability is outside [0,1].
+void validate_link_model(const LinkModel& model);
+
+struct SensorSpec {
+  int id = 0;
+  Matrix C;  // C_i (m_i x n)
+  Matrix R;  // R_i (m_i x m_i), symmetric positive definite
+  LinkModel link = BernoulliLink{};
+};
+
+/// LQG feedback u = -gain x̂_{k|k}; either given, or computed from LQR weights.
+struct ControlSpec {
+  Matrix gain;                 // L (p x n); filled from lqr weights at load time when absent
+  std::optional<Matrix> lqr_Qx;
+  std::optional<Matrix> lqr_Ru;
+};
+
+struct PlantSpec {
+  Matrix A;                    // n x n
+  Matrix Q;                    // process noise covariance, symmetric PSD
+  std::optional<Matrix> B;     // n x p, present iff the loop is closed
+  std::optional<ControlSpec> control;
+  Vector x0;                   // initial state mean (default zeros)
+  Matrix P0;                   // initial covariance (default identity)
+  double state_bound = 1e8;    // an uncontrolled run ends cleanly when |x|_inf exceeds this
+};
+
+struct EstimatorSpec {
+  std::optional<int> deadline_ms;          // default: period_ms * 0.8
+  double divergence_trace_bound = 1e6;     // Tr P above this => state "diverging"
+};
+
+struct Scenario {
+  std::string name;
+  std::string source;          // file the scenario was loaded from (for messages)
+  int period_ms = 10;
+  std::uint64_t seed = 0;
+  PlantSpec plant;
+  std::vector<SensorSpec> sensors;
+  EstimatorSpec estimator;
+
+  int state_dim() const { return static_cast<int>(plant.A.rows()); }
+  const SensorSpec* find_sensor(int id) const;
+  int deadline_ms() const;
+};
+
+class ScenarioError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Load and validate a scenario file. Throws ScenarioError("FILE:LINE:COL: message").
+Scenario load_scenario_file(const std::filesystem::path& path);
+/// Same, from YAML text; `source_name` is used in error messages.
+Scenario parse_scenario(const std::string& yaml_text, const std::string& source_name);
+/// The built-in default scenario (three sensors, mixed links, closed loop) used by `netkf launch`.
+Scenario default_scenario();
+/// Serialise to YAML that parse_scenario accepts (used to hand the scenario to child processes).
+std::string scenario_to_yaml(const Scenario& scenario);
+
+/// Validate an already-built scenario (used by parse and by programmatic construction).
+/// Throws ScenarioError with a message naming the field.
+void validate_scenario(const Scenario& scenario);
+
+}  // namespace netkf

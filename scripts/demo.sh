@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Quick start 1: install what is missing, build, and run the default scenario live
+# on localhost (all DDS traffic on 127.0.0.1, no multicast). Extra arguments go to
+# `netkf launch` (e.g. a scenario file, --duration 30, --record run.csv).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/deps.sh
+scripts/build.sh default
+exec build/default/cli/netkf launch "$@"
