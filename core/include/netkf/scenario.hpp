@@ -4,6 +4,7 @@
 // ScenarioError with "file:line:col: what is wrong".
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -101,5 +102,25 @@ std::string scenario_to_yaml(const Scenario& scenario);
 /// Validate an already-built scenario (used by parse and by programmatic construction).
 /// Throws ScenarioError with a message naming the field.
 void validate_scenario(const Scenario& scenario);
+
+// ---- Additions (scenario engineer) -------------------------------------------------
+
+/// Where a key path such as "sensors[1].R" sits in the scenario's source file.
+/// line/column are 1-based; 0 when unknown (programmatic scenarios).
+struct SourceLocation {
+  std::string file;
+  int line = 0;
+  int column = 0;
+};
+/// Maps a key path to its location; used to put "FILE:LINE:COL:" in front of messages.
+using ScenarioLocator = std::function<SourceLocation(const std::string& key_path)>;
+
+/// validate_scenario() with messages placed by `locate` (the loader passes the YAML marks).
+void validate_scenario(const Scenario& scenario, const ScenarioLocator& locate);
+
+/// Fill what is derived from other fields, then validate: when plant.control has LQR
+/// weights and no gain, the gain is computed with lqr_gain() (netkf/lqr.hpp).
+/// Use this for programmatic scenarios that give control by LQR weights.
+void complete_scenario(Scenario& scenario, const ScenarioLocator& locate = {});
 
 }  // namespace netkf

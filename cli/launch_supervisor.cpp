@@ -1,0 +1,246 @@
+#include "launch_supervisor.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <thread>
+
+namespace netkf::cli {
+
+std::string ChildExit::describe() const {
+  if (signal > 0) {
+    const char* name = strsignal(signal);
+    return "killed by signal " + std::to_string(signal) + " (" + (name ? name : "?") + ")";
+  }
+  return "exited with status " + std::to_string(exit_code);
+}
+
+RestartPolicy parse_restart_policy(const std::string& text) {
+  if (text == "fail") return RestartPolicy::fail;
+  if (text == "restart") return RestartPolicy::restart;
+  throw std::invalid_argument("unknown restart policy '" + text + "' (expected fail or restart)");
+}
+
+std::string SupervisorEvent::message() const {
+  const std::string who = child + " (pid " + std::to_string(pid) + ")";
+  switch (kind) {
+    case Kind::started: return "started " + who;
+    case Kind::exited: return who + " " + exit.describe();
+    case Kind::restart_scheduled:
+      return "restarting " + child + " in " + std::to_string(backoff.count()) + " ms";
+    case Kind::gave_up: return "giving up on " + child + ": " + exit.describe();
+    case Kind::start_failed: return "could not start " + child;
+  }
+  return {};
+}
+
+namespace {
+
+ChildExit decode_status(int status) {
+  ChildExit exit;
+  if (WIFEXITED(status)) exit.exit_code = WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) exit.signal = WTERMSIG(status);
+  return exit;
+}
+
+}  // namespace
+
+Supervisor::Supervisor(SupervisorOptions options) : options_(options) {}
+
+Supervisor::~Supervisor() { stop_all(); }
+
+SupervisorEvent Supervisor::start(ChildSpec spec) {
+  children_.push_back(Child{std::move(spec)});
+  return spawn(children_.back());
+}
+
+SupervisorEvent Supervisor::spawn(Child& child) {
+  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name};
+  std::vector<std::string> argv_storage;
+  argv_storage.push_back(child.spec.executable);
+  argv_storage.insert(argv_storage.end(), child.spec.args.begin(), child.spec.args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_storage) argv.push_back(a.data());
+  argv.push_back(nullptr);
+
+  // A pipe with O_CLOEXEC tells the parent whether exec succeeded (closed by exec)
+  // or failed (the child writes errno).
+  int pipe_fds[2];
+  if (pipe2(pipe_fds, O_CLOEXEC) != 0) {
+    event.kind = SupervisorEvent::Kind::start_failed;
+    return event;
+  }
+  const pid_t parent = getpid();
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(pipe_fds[0]);
+    close(pipe_fds[1]);
+    event.kind = SupervisorEvent::Kind::start_failed;
+    return event;
+  }
+  if (pid == 0) {
+    // Child: own process group, so a terminal's Ctrl-C reaches only netkf, which
+    // then stops the children in order; die with the parent so nothing is orphaned.
+    setpgid(0, 0);
+    prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (getppid() != parent) _exit(127);  // parent already gone
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
+    signal(SIGINT, SIG_DFL);
+    signal(SIGTERM, SIG_DFL);
+    signal(SIGPIPE, SIG_DFL);
+    close(pipe_fds[0]);
+    execv(argv[0], argv.data());
+    const int err = errno;
+    [[maybe_unused]] auto n = write(pipe_fds[1], &err, sizeof err);
+    _exit(127);
+  }
+  close(pipe_fds[1]);
+  int child_errno = 0;
+  ssize_t n;
+  do {
+    n = read(pipe_fds[0], &child_errno, sizeof child_errno);
+  } while (n < 0 && errno == EINTR);
+  close(pipe_fds[0]);
+  event.pid = pid;
+  if (n > 0) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    event.kind = SupervisorEvent::Kind::start_failed;
+    event.exit.exit_code = 127;
+    child.pid = -1;
+    failed_ = true;
+    failure_reason_ = "could not execute " + child.spec.executable + ": " + std::strerror(child_errno);
+    return event;
+  }
+  child.pid = pid;
+  return event;
+}
+
+void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_point now,
+                             std::vector<SupervisorEvent>& events) {
+  const pid_t old_pid = child.pid;
+  child.pid = -1;
+  events.push_back({SupervisorEvent::Kind::exited, child.spec.name, old_pid, exit});
+  if (stopping_) return;
+  if (child.spec.critical && exit.clean()) {
+    // The plant ends on its own after --max-periods or at its state bound.
+    finished_ = true;
+    if (finished_reason_.empty()) finished_reason_ = child.spec.name + " finished";
+    return;
+  }
+  const bool may_restart = options_.policy == RestartPolicy::restart && !child.spec.critical &&
+                           child.restarts < options_.max_restarts;
+  if (!may_restart) {
+    events.push_back({SupervisorEvent::Kind::gave_up, child.spec.name, old_pid, exit});
+    if (!failed_) {
+      failed_ = true;
+      failure_reason_ = child.spec.name + " " + exit.describe() +
+                        (child.spec.critical ? " (critical process, not restarted)"
+                         : options_.policy == RestartPolicy::fail ? " (restart policy: fail)"
+                                                                   : " (no restarts left)");
+    }
+    return;
+  }
+  const auto backoff = options_.first_backoff * (1 << child.restarts);
+  child.restarts++;
+  child.restart_at = now + backoff;
+  SupervisorEvent e{SupervisorEvent::Kind::restart_scheduled, child.spec.name, old_pid, exit};
+  e.backoff = std::chrono::duration_cast<std::chrono::milliseconds>(backoff);
+  events.push_back(e);
+}
+
+std::vector<SupervisorEvent> Supervisor::poll(Clock::time_point now) {
+  std::vector<SupervisorEvent> events;
+  for (auto& child : children_) {
+    if (child.pid <= 0) continue;
+    int status = 0;
+    const pid_t r = waitpid(child.pid, &status, WNOHANG);
+    if (r == child.pid) handle_exit(child, decode_status(status), now, events);
+  }
+  if (!stopping_ && !failed_) {
+    for (auto& child : children_) {
+      if (child.pid <= 0 && child.restart_at && *child.restart_at <= now) {
+        child.restart_at.reset();
+        events.push_back(spawn(child));
+      }
+    }
+  }
+  return events;
+}
+
+std::vector<SupervisorEvent> Supervisor::stop_all() {
+  stopping_ = true;
+  std::vector<SupervisorEvent> events;
+  for (auto& child : children_) {
+    child.restart_at.reset();
+    if (child.pid > 0) kill(child.pid, SIGTERM);
+  }
+  const auto deadline = Clock::now() + options_.stop_timeout;
+  auto reap = [&] {
+    for (auto& child : children_) {
+      if (child.pid <= 0) continue;
+      int status = 0;
+      if (waitpid(child.pid, &status, WNOHANG) == child.pid)
+        handle_exit(child, decode_status(status), Clock::now(), events);
+    }
+  };
+  while (running_count() > 0 && Clock::now() < deadline) {
+    reap();
+    if (running_count() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  for (auto& child : children_) {
+    if (child.pid <= 0) continue;
+    // Did not stop in time: SIGKILL the child's whole group (it may have helpers).
+    kill(-child.pid, SIGKILL);
+    kill(child.pid, SIGKILL);
+    int status = 0;
+    if (waitpid(child.pid, &status, 0) == child.pid) {
+      auto exit = decode_status(status);
+      events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (after SIGKILL)", child.pid, exit});
+    }
+    child.pid = -1;
+  }
+  return events;
+}
+
+std::optional<pid_t> Supervisor::pid_of(const std::string& name) const {
+  for (const auto& child : children_)
+    if (child.spec.name == name && child.pid > 0) return child.pid;
+  return std::nullopt;
+}
+
+std::size_t Supervisor::running_count() const {
+  std::size_t n = 0;
+  for (const auto& child : children_) n += child.pid > 0 ? 1 : 0;
+  return n;
+}
+
+std::string node_binary_root() {
+  if (const char* env = std::getenv("NETKF_BIN_DIR"); env && *env) return env;
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) return ".";
+  // build/<preset>/cli/netkf -> build/<preset>
+  return self.parent_path().parent_path().string();
+}
+
+std::string node_executable(const std::string& name) {
+  const std::filesystem::path root = node_binary_root();
+  for (const auto& candidate : {root / name / name, root / name}) {
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(candidate, ec)) return candidate.string();
+  }
+  return (root / name / name).string();
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,113 @@
+#pragma once
+// Process supervision for `netkf launch`: spawn the node executables, notice when one
+// dies (with its exit status or signal), apply the restart policy, and stop everything
+// in bounded time (SIGTERM, wait, SIGKILL). No DDS here, so it is testable alone.
+//
+// Why fork/exec rather than a library: we need prctl(PR_SET_PDEATHSIG) and a new
+// process group in the child between fork and exec, which posix_spawn cannot do.
+#include <sys/types.h>
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace netkf::cli {
+
+struct ChildSpec {
+  std::string name;               // e.g. "sensor_node[2]" (used in messages)
+  std::string executable;         // path to the program
+  std::vector<std::string> args;  // argv[1..]
+  // Critical children (plant, estimator) are never restarted: the run's clock and
+  // estimate would restart at k = 0, which would silently corrupt a recording.
+  bool critical = false;
+};
+
+/// How a child ended, as waitpid reported it.
+struct ChildExit {
+  int exit_code = -1;  // >= 0 when it exited normally
+  int signal = 0;      // > 0 when a signal ended it
+  std::string describe() const;  // "exited with status 3" / "killed by signal 9 (Killed)"
+  bool clean() const { return signal == 0 && exit_code == 0; }
+};
+
+enum class RestartPolicy { fail, restart };
+RestartPolicy parse_restart_policy(const std::string& text);  // throws std::invalid_argument
+
+struct SupervisorOptions {
+  RestartPolicy policy = RestartPolicy::restart;
+  int max_restarts = 3;                                 // per child
+  std::chrono::milliseconds first_backoff{500};         // doubled at each restart
+  std::chrono::milliseconds stop_timeout{3000};         // SIGTERM -> SIGKILL
+};
+
+/// Something the supervisor observed; the caller logs it.
+struct SupervisorEvent {
+  enum class Kind { started, exited, restart_scheduled, gave_up, start_failed } kind;
+  std::string child;
+  pid_t pid = -1;
+  ChildExit exit;
+  std::chrono::milliseconds backoff{0};
+  std::string message() const;
+};
+
+class Supervisor {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  explicit Supervisor(SupervisorOptions options = {});
+  ~Supervisor();  // stop_all()
+  Supervisor(const Supervisor&) = delete;
+  Supervisor& operator=(const Supervisor&) = delete;
+
+  /// Spawn a child now. Returns the event (started or start_failed).
+  SupervisorEvent start(ChildSpec spec);
+
+  /// Reap children that ended, apply the policy, start due restarts. Never blocks.
+  std::vector<SupervisorEvent> poll(Clock::time_point now = Clock::now());
+
+  /// True once the launch must end with an error: a critical child died, a child
+  /// ran out of restarts, or (policy fail) any child died unexpectedly.
+  bool failed() const { return failed_; }
+  std::string failure_reason() const { return failure_reason_; }
+  /// True when a critical child ended on its own with status 0 (e.g. the plant
+  /// reached --max-periods or its state bound): the run is over, cleanly.
+  bool finished() const { return finished_; }
+  std::string finished_reason() const { return finished_reason_; }
+
+  /// SIGTERM every running child, wait up to stop_timeout, then SIGKILL the rest and
+  /// reap them. Returns the exits observed during the stop (for reporting).
+  std::vector<SupervisorEvent> stop_all();
+
+  /// pid of the running child with that name (nullopt when not running).
+  std::optional<pid_t> pid_of(const std::string& name) const;
+  std::size_t running_count() const;
+
+ private:
+  struct Child {
+    ChildSpec spec;
+    pid_t pid = -1;  // -1 when not running
+    int restarts = 0;
+    std::optional<Clock::time_point> restart_at;
+  };
+  SupervisorEvent spawn(Child& child);
+  void handle_exit(Child& child, const ChildExit& exit, Clock::time_point now,
+                   std::vector<SupervisorEvent>& events);
+
+  SupervisorOptions options_;
+  std::vector<Child> children_;
+  bool stopping_ = false;
+  bool failed_ = false;
+  bool finished_ = false;
+  std::string failure_reason_;
+  std::string finished_reason_;
+};
+
+/// Directory holding the node executables: $NETKF_BIN_DIR if set, else the build
+/// tree's root found from /proc/self/exe (build/<preset>/cli/netkf -> build/<preset>).
+std::string node_binary_root();
+/// Path of a node executable, e.g. node_executable("sensor_node") ->
+/// <root>/sensor_node/sensor_node (or <root>/sensor_node when installed flat).
+std::string node_executable(const std::string& name);
+
+}  // namespace netkf::cli

@@ -1,0 +1,54 @@
+#pragma once
+// `netkf analyze`: everything the papers say about a scenario, in one report
+// (DESIGN.md "netkf analyze FILE --json" lists the keys).
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "netkf/analysis/critical_rate.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::analysis {
+
+enum class Verdict { yes, no, unknown };
+const char* to_string(Verdict verdict);
+
+struct CriticalRates {
+  double lower = 0.0;                       // Sinopoli Thm 3 closed form (1 − α^{−2/d})
+  std::optional<double> upper;              // LMI bisection (CSDP), Sinopoli Cor. 1
+  std::optional<double> upper_iteration;    // cross-check: bisection on the g_λ iteration
+  std::optional<double> exact;              // Markov criterion where it applies
+};
+
+struct SweepPoint {
+  double lambda = 0.0;
+  std::optional<double> lower_trace;  // Tr S̄ (nullopt: unbounded)
+  std::optional<double> upper_trace;  // Tr V̄ (nullopt: unbounded or undecided)
+};
+
+struct AnalysisReport {
+  double spectral_radius = 0.0;
+  Verdict stable = Verdict::unknown;
+  std::optional<double> lower_trace;   // Tr S̄ for the configured links
+  std::optional<double> upper_trace;   // Tr V̄
+  std::optional<CriticalRates> critical_rate;  // all links Bernoulli with one shared rate
+  std::optional<double> markov_criterion;      // max_i α_i² limsup P(R_N(i))^{1/N}
+  std::optional<double> second_order_criterion;  // Thm 12 closed form (cross-check), when it applies
+  std::vector<std::string> notes;
+  std::vector<RegionPoint> region;     // filled with AnalyzeOptions::region (two sensors)
+  std::vector<SweepPoint> sweep;       // filled with AnalyzeOptions::sweep
+};
+
+struct AnalyzeOptions {
+  bool region = false;
+  int region_points = 21;
+  bool sweep = false;
+  int sweep_points = 101;
+  bool use_lmi = true;
+};
+
+/// Analyse a validated scenario. Never throws for a valid scenario; what does not apply
+/// is said in `notes`.
+AnalysisReport analyze(const Scenario& scenario, const AnalyzeOptions& options = {});
+
+}  // namespace netkf::analysis

@@ -1,0 +1,300 @@
+// Markov-loss stability criterion by the transition-matrix method (see analysis/markov.hpp).
+#include "netkf/analysis/markov.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+#include <cmath>
+#include <complex>
+#include <numbers>
+#include <sstream>
+#include <variant>
+
+namespace netkf::analysis {
+namespace {
+
+using CMatrix = Eigen::MatrixXcd;
+using Complex = std::complex<double>;
+
+// Orthonormal basis (rows) of the row space of `rows`, with a rank tolerance relative to the
+// largest singular value (rows whose block part is numerically zero reveal nothing).
+CMatrix row_space_basis(const CMatrix& rows) {
+  if (rows.rows() == 0) return CMatrix(0, rows.cols());
+  Eigen::JacobiSVD<CMatrix> svd(rows, Eigen::ComputeFullV);
+  const auto& s = svd.singularValues();
+  const double tol = 1e-9 * std::max(1.0, s.size() > 0 ? s(0) : 0.0);
+  Eigen::Index r = 0;
+  while (r < s.size() && s(r) > tol) ++r;
+  return svd.matrixV().leftCols(r).adjoint();
+}
+
+// One link's Markov chain: transition matrix and per-state arrival probability.
+struct LinkChain {
+  Matrix T;
+  Vector arrival;
+};
+
+LinkChain link_chain(const LinkModel& model) {
+  LinkChain c;
+  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
+    c.T = Matrix::Ones(1, 1);
+    c.arrival = Vector::Constant(1, 1.0 - b->loss);
+  } else {
+    const auto& g = std::get<GilbertElliottLink>(model);
+    c.T.resize(2, 2);
+    c.T << 1.0 - g.p, g.p, g.r, 1.0 - g.r;  // row = from (good, bad)
+    c.arrival.resize(2);
+    c.arrival << 1.0 - g.loss_good, 1.0 - g.loss_bad;
+  }
+  return c;
+}
+
+double nonnegative_spectral_radius(const Matrix& M) {
+  if (M.rows() == 0) return 0.0;
+  if (M.rows() <= 600) return Eigen::EigenSolver<Matrix>(M, false).eigenvalues().cwiseAbs().maxCoeff();
+  // Perron-Frobenius: ρ(M) is an eigenvalue of the nonnegative M; power iteration on I + M.
+  Vector x = Vector::Ones(M.rows());
+  double rho = 0.0;
+  for (int it = 0; it < 5000; ++it) {
+    Vector y = x + M * x;
+    const double norm = y.sum();
+    rho = norm / x.sum() - 1.0;
+    x = y / norm;
+  }
+  return rho;
+}
+
+struct BlockChainResult {
+  bool ok = false;
+  double rate = 0.0;
+  int states = 0;
+};
+
+// ρ of the rank-deficient chain for one eigen-block (see header).
+BlockChainResult block_deficiency_rate(const std::vector<CMatrix>& sensor_rows, const CMatrix& U_inv,
+                                       const std::vector<LinkChain>& links, int max_states) {
+  const Eigen::Index n_i = U_inv.rows();
+  const std::size_t d = links.size();
+  std::vector<int> stride(d, 1);
+  int joint = 1;
+  for (std::size_t j = 0; j < d; ++j) {
+    stride[j] = joint;
+    joint *= static_cast<int>(links[j].T.rows());
+  }
+  auto link_state = [&](int s, std::size_t j) { return (s / stride[j]) % static_cast<int>(links[j].T.rows()); };
+
+  struct State {
+    CMatrix basis;
+    CMatrix projector;
+    int link;
+  };
+  std::vector<State> states;
+  auto find_or_add = [&](const CMatrix& basis, int link) -> int {
+    const CMatrix proj = basis.rows() == 0 ? CMatrix::Zero(n_i, n_i) : CMatrix(basis.adjoint() * basis);
+    for (std::size_t k = 0; k < states.size(); ++k)
+      if (states[k].link == link && states[k].basis.rows() == basis.rows() &&
+          (states[k].projector - proj).norm() < 1e-7)
+        return static_cast<int>(k);
+    states.push_back({basis, proj, link});
+    return static_cast<int>(states.size()) - 1;
+  };
+  for (int s = 0; s < joint; ++s) find_or_add(CMatrix(0, n_i), s);
+
+  std::vector<std::tuple<int, int, double>> transitions;  // (to, from, probability)
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    if (static_cast<int>(states.size()) > max_states) return {};
+    const CMatrix rotated = states[k].basis * U_inv;
+    const int from_link = states[k].link;
+    for (int to_link = 0; to_link < joint; ++to_link) {
+      double p_link = 1.0;
+      for (std::size_t j = 0; j < d && p_link > 0.0; ++j)
+        p_link *= links[j].T(link_state(from_link, j), link_state(to_link, j));
+      if (p_link <= 0.0) continue;
+      for (std::uint32_t mask = 0; mask < (1u << d); ++mask) {
+        double p = p_link;
+        Eigen::Index extra = 0;
+        for (std::size_t j = 0; j < d; ++j) {
+          const double a = links[j].arrival(link_state(to_link, j));
+          const bool arrived = (mask >> j) & 1u;
+          p *= arrived ? a : 1.0 - a;
+          if (arrived) extra += sensor_rows[j].rows();
+        }
+        if (p <= 0.0) continue;
+        CMatrix stacked(rotated.rows() + extra, n_i);
+        stacked.topRows(rotated.rows()) = rotated;
+        Eigen::Index row = rotated.rows();
+        for (std::size_t j = 0; j < d; ++j)
+          if ((mask >> j) & 1u) {
+            stacked.middleRows(row, sensor_rows[j].rows()) = sensor_rows[j];
+            row += sensor_rows[j].rows();
+          }
+        const CMatrix basis = row_space_basis(stacked);
+        if (basis.rows() >= n_i) continue;  // full rank: left R_N for good
+        const int to = find_or_add(basis, to_link);
+        transitions.emplace_back(to, static_cast<int>(k), p);
+      }
+    }
+  }
+  Matrix M = Matrix::Zero(static_cast<Eigen::Index>(states.size()), static_cast<Eigen::Index>(states.size()));
+  for (const auto& [to, from, p] : transitions) M(to, from) += p;
+  return {true, nonnegative_spectral_radius(M), static_cast<int>(states.size())};
+}
+
+}  // namespace
+
+MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
+                                           const MarkovOptions& options) {
+  MarkovCriterion out;
+  const Eigen::Index n = A.rows();
+  Eigen::ComplexEigenSolver<CMatrix> es(A.cast<Complex>());
+  if (es.info() != Eigen::Success) {
+    out.reasons.push_back("eigen-decomposition of A failed");
+    return out;
+  }
+  const CMatrix V = es.eigenvectors();
+  const Eigen::VectorXcd lambda = es.eigenvalues();
+  // Assumption 3 (diagonalisable A): the eigenvector matrix must be well conditioned.
+  Eigen::JacobiSVD<CMatrix> vsvd(V);
+  const double cond = vsvd.singularValues()(0) / std::max(vsvd.singularValues()(n - 1), 1e-300);
+  if (!(cond < 1e8)) {
+    out.reasons.push_back("A is not diagonalisable (Jordan block): the Markov criterion (multi-sensor paper "
+                          "Assumption 3, Thm 7) needs a diagonalisable A");
+    return out;
+  }
+  std::vector<LinkChain> links;
+  for (const auto& s : sensors) links.push_back(link_chain(s.link));
+
+  // Eigen-blocks: eigenvalues of equal modulus (Assumption 3's A_i = α_i diag(e^{iθ})).
+  std::vector<bool> used(static_cast<std::size_t>(n), false);
+  out.applies = true;
+  out.value = 0.0;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (used[static_cast<std::size_t>(i)]) continue;
+    const double alpha = std::abs(lambda(i));
+    std::vector<Eigen::Index> members;
+    for (Eigen::Index j = i; j < n; ++j)
+      if (!used[static_cast<std::size_t>(j)] && std::abs(std::abs(lambda(j)) - alpha) <= 1e-9 * std::max(1.0, alpha)) {
+        members.push_back(j);
+        used[static_cast<std::size_t>(j)] = true;
+      }
+    EigenBlockCriterion block;
+    block.modulus = alpha;
+    block.dimension = static_cast<int>(members.size());
+    if (alpha < 1e-12) {
+      // A nilpotent-free zero block: the state component vanishes after one step.
+      block.deficiency_rate = 0.0;
+      block.criterion = 0.0;
+      out.blocks.push_back(block);
+      continue;
+    }
+    const Eigen::Index ni = static_cast<Eigen::Index>(members.size());
+    CMatrix U_inv = CMatrix::Zero(ni, ni);
+    CMatrix Vi(n, ni);
+    for (Eigen::Index k = 0; k < ni; ++k) {
+      U_inv(k, k) = alpha / lambda(members[static_cast<std::size_t>(k)]);
+      Vi.col(k) = V.col(members[static_cast<std::size_t>(k)]);
+    }
+    std::vector<CMatrix> rows;
+    for (const auto& s : sensors) rows.push_back(s.C.cast<Complex>() * Vi);
+    const BlockChainResult r = block_deficiency_rate(rows, U_inv, links, options.max_chain_states);
+    if (!r.ok) {
+      if (alpha < 1.0) {
+        // A stable block never decides instability: α_i² · rate ≤ α_i² < 1.
+        block.deficiency_rate = 1.0;
+        block.criterion = alpha * alpha;
+        out.reasons.push_back("stable eigen-block |λ| = " + std::to_string(alpha) +
+                              " is aperiodic; bounded its criterion by α² < 1");
+        out.blocks.push_back(block);
+        out.value = std::max(out.value, block.criterion);
+        continue;
+      }
+      out.applies = false;
+      out.reasons.push_back("eigen-block |λ| = " + std::to_string(alpha) +
+                            " is aperiodic (no τ with A^τ ∝ I): the transition-matrix method (multi-sensor "
+                            "paper Thm 9) needs a periodic block");
+      continue;
+    }
+    block.deficiency_rate = r.rate;
+    block.criterion = alpha * alpha * r.rate;
+    block.chain_states = r.states;
+    out.blocks.push_back(block);
+    out.value = std::max(out.value, block.criterion);
+  }
+  return out;
+}
+
+std::optional<double> second_order_iid_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
+                                                 std::span<const double> arrival_rates, std::string* why_not,
+                                                 int* period) {
+  auto fail = [&](const std::string& why) -> std::optional<double> {
+    if (why_not) *why_not = why;
+    return std::nullopt;
+  };
+  if (A.rows() != 2) return fail("Thm 12 needs a second-order system (n = 2)");
+  if (arrival_rates.size() != sensors.size() || sensors.empty()) return fail("Thm 12 needs one i.i.d. rate per sensor");
+  Eigen::ComplexEigenSolver<CMatrix> es(A.cast<Complex>());
+  const Complex l1 = es.eigenvalues()(0), l2 = es.eigenvalues()(1);
+  const double alpha = std::abs(l1);
+  if (std::abs(std::abs(l2) - alpha) > 1e-9 * std::max(1.0, alpha))
+    return fail("Thm 12 (Assumption 5) needs both eigenvalues of A of the same modulus");
+  if (std::abs(l1 - l2) <= 1e-9 * std::max(1.0, alpha)) return fail("Thm 12 (Assumption 5) needs θ1 ≠ θ2");
+  // τ: least τ with e^{i(θ1−θ2)τ} = 1 (A^τ a real multiple of I); 0 = aperiodic.
+  const Complex ratio = (l1 / l2) / std::abs(l1 / l2);
+  int tau = 0;
+  Complex power = ratio;
+  for (int k = 1; k <= 10000; ++k) {
+    if (std::abs(power - 1.0) < 1e-9) {
+      tau = k;
+      break;
+    }
+    power *= ratio;
+  }
+  if (period) *period = tau;
+  // Assumption 6: each C_i one effective row with (A, C_i) observable; rank col{C_i, C_j} = 2.
+  std::vector<Eigen::RowVector2d> c;
+  for (const auto& s : sensors) {
+    Eigen::JacobiSVD<Matrix> svd(s.C, Eigen::ComputeFullV);
+    const auto& sv = svd.singularValues();
+    if (sv.size() == 0 || sv(0) <= 0.0 || (sv.size() > 1 && sv(1) > 1e-9 * sv(0)))
+      return fail("Thm 12 (Assumption 6) needs every C_i of rank one");
+    const Eigen::RowVector2d row = svd.matrixV().col(0).transpose();
+    Eigen::Matrix2d obs;
+    obs << row, row * A;
+    if (std::abs(obs.determinant()) <= 1e-9 * obs.norm() * obs.norm())
+      return fail("Thm 12 (Assumption 6) needs (A, C_i) observable for every sensor");
+    c.push_back(row);
+  }
+  for (std::size_t i = 0; i < c.size(); ++i)
+    for (std::size_t j = i + 1; j < c.size(); ++j) {
+      Eigen::Matrix2d m;
+      m << c[i], c[j];
+      if (std::abs(m.determinant()) <= 1e-9)
+        return fail("Thm 12 (Assumption 6) needs rank col{C_i, C_j} = 2 (combine collinear sensors, Remark 11)");
+    }
+  // Congruent sets (Definition 1) and p*_i (eq. 37).
+  const int horizon = tau > 0 ? tau : 1000;
+  double min_p_star = 1.0;
+  double all_lost = 1.0;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    all_lost *= 1.0 - arrival_rates[i];
+    double p_star = 1.0;
+    for (std::size_t j = 0; j < c.size(); ++j) {
+      Eigen::RowVector2d cj = c[j];
+      bool congruent = false;
+      for (int k = 0; k < horizon && !congruent; ++k) {
+        Eigen::Matrix2d m;
+        m << c[i], cj;
+        congruent = std::abs(m.determinant()) <= 1e-9 * cj.norm();
+        cj = cj * A;
+        cj /= cj.norm();
+      }
+      if (congruent) p_star *= 1.0 - arrival_rates[j];
+    }
+    min_p_star = std::min(min_p_star, p_star);
+  }
+  if (all_lost == 0.0) return 0.0;
+  if (tau == 0) return alpha * alpha * all_lost;  // τ → ∞ limit of eq. (38)
+  // eq. (38), taken to the power 1/τ: α² (Π(1 − p_i)^τ / min_j p*_j)^{1/τ}.
+  return alpha * alpha * std::pow(std::pow(all_lost, tau) / min_p_star, 1.0 / tau);
+}
+
+}  // namespace netkf::analysis

@@ -1,0 +1,232 @@
+// `netkf analyze`: assemble what the papers decide about a scenario (see analysis/report.hpp).
+#include "netkf/analysis/report.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <complex>
+#include <sstream>
+#include <variant>
+
+#include "netkf/analysis/markov.hpp"
+#include "netkf/analysis/riccati.hpp"
+
+namespace netkf::analysis {
+namespace {
+
+std::string fmt(double v) {
+  std::ostringstream os;
+  os.precision(6);
+  os << v;
+  return os.str();
+}
+
+Matrix stacked_C(const Scenario& s) {
+  Eigen::Index m = 0;
+  for (const auto& sensor : s.sensors) m += sensor.C.rows();
+  Matrix C(m, s.state_dim());
+  Eigen::Index row = 0;
+  for (const auto& sensor : s.sensors) {
+    C.middleRows(row, sensor.C.rows()) = sensor.C;
+    row += sensor.C.rows();
+  }
+  return C;
+}
+
+// PBH test: every eigenvalue with |λ| ≥ 1 must be observable through C.
+bool detectable(const Matrix& A, const Matrix& C) {
+  using CM = Eigen::MatrixXcd;
+  Eigen::ComplexEigenSolver<CM> es(A.cast<std::complex<double>>());
+  const Eigen::Index n = A.rows();
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const auto l = es.eigenvalues()(i);
+    if (std::abs(l) < 1.0) continue;
+    CM pbh(n + C.rows(), n);
+    pbh.topRows(n) = A.cast<std::complex<double>>() - l * CM::Identity(n, n);
+    pbh.bottomRows(C.rows()) = C.cast<std::complex<double>>();
+    Eigen::JacobiSVD<CM> svd(pbh);
+    const auto& sv = svd.singularValues();
+    if (sv(n - 1) <= 1e-9 * std::max(1.0, sv(0))) return false;
+  }
+  return true;
+}
+
+// (A, Q^{1/2}) controllable: rank [Q^{1/2}, A Q^{1/2}, ..., A^{n-1} Q^{1/2}] = n.
+bool noise_controllable(const Matrix& A, const Matrix& Q) {
+  const Eigen::Index n = A.rows();
+  Eigen::SelfAdjointEigenSolver<Matrix> es(Q);
+  const Matrix root = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+  Matrix K(n, n * n);
+  Matrix block = root;
+  for (Eigen::Index k = 0; k < n; ++k) {
+    K.middleCols(k * n, n) = block;
+    block = A * block;
+    if (block.norm() > 0) block /= block.norm();
+  }
+  Eigen::JacobiSVD<Matrix> svd(K);
+  const auto& sv = svd.singularValues();
+  return sv(n - 1) > 1e-9 * std::max(1.0, sv(0));
+}
+
+}  // namespace
+
+const char* to_string(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::yes: return "yes";
+    case Verdict::no: return "no";
+    case Verdict::unknown: return "unknown";
+  }
+  return "unknown";
+}
+
+AnalysisReport analyze(const Scenario& scenario, const AnalyzeOptions& options) {
+  AnalysisReport report;
+  const Matrix& A = scenario.plant.A;
+  const Matrix& Q = scenario.plant.Q;
+  const auto& sensors = scenario.sensors;
+  const std::size_t d = sensors.size();
+  report.spectral_radius = spectral_radius(A);
+  const double alpha = report.spectral_radius;
+
+  bool all_bernoulli = true;
+  std::vector<double> rates;
+  for (const auto& s : sensors) {
+    if (const auto* b = std::get_if<BernoulliLink>(&s.link)) rates.push_back(1.0 - b->loss);
+    else all_bernoulli = false;
+  }
+  bool shared = all_bernoulli && d > 0;
+  for (double r : rates) shared = shared && std::abs(r - rates.front()) <= 1e-12;
+
+  if (!noise_controllable(A, Q))
+    report.notes.push_back("(A, Q^1/2) is not controllable: Sinopoli Thm 2-5 assume it; bounds may be loose");
+  if (d > 0 && !detectable(A, stacked_C(scenario)))
+    report.notes.push_back("(A, C) is not detectable: an unstable mode is never observed, so E[P] diverges at any "
+                           "arrival rate");
+  if (alpha < 1.0) report.notes.push_back("A is stable (alpha < 1): E[P] stays bounded for every arrival rate");
+
+  // Necessary-and-sufficient Markov criterion (multi-sensor paper Thm 4/7/9; Rohr et al. Thm 3.1).
+  const MarkovCriterion markov = markov_stability_criterion(A, sensors);
+  if (markov.applies) {
+    report.markov_criterion = markov.value;
+    report.notes.push_back("markov_criterion = max over eigen-blocks of alpha_i^2 limsup P(R_N)^(1/N), by the "
+                           "transition matrix (multi-sensor paper Thm 7, 9; Rohr et al. Lemma 4.1)");
+  }
+  for (const auto& r : markov.reasons) report.notes.push_back(r);
+
+  // i.i.d. bounds S̄ ≤ lim E[P] ≤ V̄ (Sinopoli Thm 4, 6; Liu-Goldsmith Thm 4).
+  UpperBound upper;
+  std::optional<Matrix> lower;
+  if (all_bernoulli && d > 0) {
+    const auto patterns = independent_arrival_patterns(sensors, rates);
+    lower = lyapunov_lower_bound(A, Q, all_lost_probability(rates));
+    upper = expected_covariance_upper_bound(A, Q, patterns);
+    if (lower) report.lower_trace = lower->trace();
+    if (upper.status == BoundStatus::bounded) report.upper_trace = upper.V.trace();
+    if (upper.status == BoundStatus::undecided)
+      report.notes.push_back("upper bound V-bar: the g iteration neither certified a fixed point nor diverged in " +
+                             std::to_string(upper.iterations) + " iterations (operating point near the boundary)");
+  } else if (d > 0) {
+    report.notes.push_back("expected_covariance: the bounds S-bar, V-bar (Sinopoli Thm 4; Liu-Goldsmith Thm 4) "
+                           "assume i.i.d. arrivals; Gilbert-Elliott links have memory, so none is reported");
+  }
+
+  // Thm 12 closed form as a cross-check of the transition matrix (second order, i.i.d.).
+  if (all_bernoulli && d > 0) {
+    std::string why;
+    int tau = 0;
+    const auto thm12 = second_order_iid_criterion(A, sensors, rates, &why, &tau);
+    if (thm12) {
+      report.second_order_criterion = *thm12;
+      std::string line = "Thm 12 closed form (period tau = " + (tau > 0 ? std::to_string(tau) : std::string("inf")) +
+                         "): " + fmt(*thm12);
+      if (markov.applies && std::abs(*thm12 - markov.value) > 1e-6 * std::max(1.0, markov.value))
+        line += " DISAGREES with the transition matrix " + fmt(markov.value);
+      else if (markov.applies)
+        line += ", agrees with the transition matrix";
+      report.notes.push_back(line);
+    } else if (A.rows() == 2) {
+      report.notes.push_back("Thm 12 closed form not applicable: " + why);
+    }
+  }
+
+  // Verdict: the necessary-and-sufficient criterion first, then the i.i.d. bounds.
+  if (d == 0) {
+    report.stable = alpha < 1.0 ? Verdict::yes : Verdict::no;
+    report.notes.push_back("no sensors: open-loop prediction only");
+  } else if (markov.applies) {
+    report.stable = markov.stable() ? Verdict::yes : Verdict::no;
+    report.notes.push_back("stable decided by the Markov criterion " + fmt(markov.value) + (markov.stable() ? " < 1" : " >= 1"));
+    if (upper.status == BoundStatus::bounded && !markov.stable())
+      report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
+  } else if (all_bernoulli) {
+    if (upper.status == BoundStatus::bounded) {
+      report.stable = Verdict::yes;
+      report.notes.push_back("stable decided by the upper bound: V-bar = g(V-bar) exists (Sinopoli Thm 3/5)");
+    } else if (!lower) {
+      report.stable = Verdict::no;
+      report.notes.push_back("unstable decided by the lower bound: S-bar does not exist (q alpha^2 >= 1, Sinopoli Thm 3)");
+    } else {
+      report.stable = Verdict::unknown;
+      report.notes.push_back("stable unknown: the rates lie between the lower and upper bounds of the critical "
+                             "region, and the exact Markov criterion does not apply");
+    }
+  } else {
+    report.stable = Verdict::unknown;
+    report.notes.push_back("stable unknown: Gilbert-Elliott links are decided only by the Markov criterion, which "
+                           "does not apply here");
+  }
+
+  if (shared) {
+    CriticalRates cr;
+    cr.lower = critical_rate_lower_bound(alpha, static_cast<int>(d));
+    const RateFamily family = shared_rate(d);
+    cr.upper_iteration = upper_rate_iteration(A, Q, sensors, family, cr.lower);
+    if (options.use_lmi) cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
+    else cr.upper = cr.upper_iteration;
+    if (markov.applies) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
+    if (d > 1)
+      report.notes.push_back("critical_rate.lower = 1 - alpha^(-2/d) for d links sharing the rate (Sinopoli Thm 3 "
+                             "with Liu-Goldsmith's all-lost probability)");
+    if (cr.upper && cr.upper_iteration && std::abs(*cr.upper - *cr.upper_iteration) > 1e-3)
+      report.notes.push_back("critical_rate.upper: LMI (CSDP) " + fmt(*cr.upper) + " and g-iteration bisection " +
+                             fmt(*cr.upper_iteration) + " disagree");
+    else if (cr.upper && cr.upper_iteration)
+      report.notes.push_back("critical_rate.upper: LMI (CSDP) and g-iteration bisection agree (" +
+                             fmt(*cr.upper_iteration) + ")");
+    report.critical_rate = cr;
+  } else if (d > 0) {
+    report.notes.push_back("critical_rate: null (needs every link Bernoulli with one shared arrival rate)");
+  }
+
+  if (options.sweep && d > 0) {
+    if (!all_bernoulli) report.notes.push_back("sweep: every link treated as Bernoulli with the swept arrival rate");
+    const int points = std::max(2, options.sweep_points);
+    UpperBoundOptions ub;
+    ub.max_iterations = 5000;
+    for (int k = 0; k < points; ++k) {
+      SweepPoint p;
+      p.lambda = static_cast<double>(k) / (points - 1);
+      const std::vector<double> r(d, p.lambda);
+      if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(r))) p.lower_trace = S->trace();
+      const auto patterns = independent_arrival_patterns(sensors, r);
+      const auto V = expected_covariance_upper_bound(A, Q, patterns, ub);
+      if (V.status == BoundStatus::bounded) p.upper_trace = V.V.trace();
+      report.sweep.push_back(p);
+    }
+  }
+  if (options.region) {
+    if (d == 2) {
+      RegionOptions ro;
+      ro.points = options.region_points;
+      ro.use_lmi = options.use_lmi;
+      report.region = stability_region(A, Q, sensors, ro);
+      report.notes.push_back("region: lambda2_lower = Liu-Goldsmith Thm 3 closed form, lambda2_upper = LMI "
+                             "bisection (CSDP), lambda2_exact = Markov criterion where it applies");
+    } else {
+      report.notes.push_back("region: needs exactly two sensors (Liu-Goldsmith); this scenario has " +
+                             std::to_string(d));
+    }
+  }
+  return report;
+}
+
+}  // namespace netkf::analysis

@@ -1,0 +1,384 @@
+// The scenario model: semantic validation (shared by the YAML loader and by
+// programmatic scenarios), the built-in default scenario and YAML serialisation.
+// Parsing the YAML text itself lives in scenario_loader.cpp.
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include <yaml-cpp/yaml.h>
+
+#include "netkf/lqr.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf {
+namespace {
+
+// Relative tolerance of the symmetry check: matrices typed by hand with a few
+// decimals are exactly symmetric; programmatic ones (e.g. A P A') may differ in the
+// last bits, which must not be rejected.
+constexpr double kSymmetryTolerance = 1e-9;
+
+std::string shape(const Matrix& M) { return std::to_string(M.rows()) + "x" + std::to_string(M.cols()); }
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+double scale_of(const Matrix& M) { return M.size() == 0 ? 1.0 : std::max(1.0, M.cwiseAbs().maxCoeff()); }
+
+double smallest_eigenvalue(const Matrix& M) {
+  Eigen::SelfAdjointEigenSolver<Matrix> es(0.5 * (M + M.transpose()), Eigen::EigenvaluesOnly);
+  return es.eigenvalues().minCoeff();
+}
+
+double spectral_radius(const Matrix& M) {
+  return Eigen::EigenSolver<Matrix>(M, false).eigenvalues().cwiseAbs().maxCoeff();
+}
+
+// "FILE:LINE:COL: " when the loader knows where `path` is, else "FILE: " or "scenario 'NAME': ".
+std::string message_prefix(const Scenario& s, const ScenarioLocator& locate, const std::string& path) {
+  SourceLocation where;
+  if (locate) where = locate(path);
+  if (where.file.empty()) where.file = s.source.empty() ? "scenario '" + s.name + "'" : s.source;
+  std::string prefix = where.file;
+  if (where.line > 0) prefix += ":" + std::to_string(where.line) + ":" + std::to_string(std::max(1, where.column));
+  return prefix + ": ";
+}
+
+class Validator {
+ public:
+  Validator(const Scenario& s, const ScenarioLocator& locate) : s_(s), locate_(locate) {}
+
+  void run(bool gain_may_be_pending) {
+    if (s_.period_ms <= 0) fail("period_ms", "period_ms must be > 0, got " + std::to_string(s_.period_ms));
+    if (s_.estimator.deadline_ms) {
+      const int d = *s_.estimator.deadline_ms;
+      if (d <= 0 || d > s_.period_ms)
+        fail("estimator.deadline_ms", "estimator.deadline_ms must be in (0, period_ms] = (0, " +
+                                          std::to_string(s_.period_ms) + "], got " + std::to_string(d));
+    }
+    positive("estimator.divergence_trace_bound", s_.estimator.divergence_trace_bound);
+    plant(gain_may_be_pending);
+    sensors();
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& path, const std::string& message) const {
+    throw ScenarioError(message_prefix(s_, locate_, path) + message);
+  }
+
+  // "first at line 9" when the location is known, else the key path.
+  std::string where_is(const std::string& path) const {
+    if (locate_) {
+      const SourceLocation loc = locate_(path);
+      if (loc.line > 0) return "line " + std::to_string(loc.line);
+    }
+    return path;
+  }
+
+  void positive(const std::string& path, double v) const {
+    if (!std::isfinite(v) || v <= 0.0) fail(path, path + " must be a positive finite number, got " + num(v));
+  }
+
+  void finite(const std::string& path, const Matrix& M) const {
+    for (Eigen::Index i = 0; i < M.rows(); ++i)
+      for (Eigen::Index j = 0; j < M.cols(); ++j)
+        if (!std::isfinite(M(i, j)))
+          fail(path, path + "[" + std::to_string(i) + "][" + std::to_string(j) + "] must be a finite number, got " +
+                         num(M(i, j)));
+  }
+
+  void square_shape(const std::string& path, const Matrix& M, Eigen::Index n, const std::string& why) const {
+    if (M.rows() != n || M.cols() != n)
+      fail(path, path + " must be " + std::to_string(n) + "x" + std::to_string(n) + " " + why + ", got " + shape(M));
+  }
+
+  void symmetric(const std::string& path, const Matrix& M) const {
+    const Matrix asym = M - M.transpose();
+    Eigen::Index i = 0, j = 0;
+    const double worst = asym.cwiseAbs().maxCoeff(&i, &j);
+    if (worst > kSymmetryTolerance * scale_of(M))
+      fail(path, path + " must be symmetric, but " + path + "[" + std::to_string(i) + "][" + std::to_string(j) +
+                     "] = " + num(M(i, j)) + " differs from " + path + "[" + std::to_string(j) + "][" +
+                     std::to_string(i) + "] = " + num(M(j, i)));
+  }
+
+  // Covariances: symmetric and PSD (Q, Qx) or PD (R, P0, Ru). The eigenvalue
+  // tolerance scales with the matrix so that rounding never decides the verdict.
+  void covariance(const std::string& path, const Matrix& M, bool definite) const {
+    finite(path, M);
+    symmetric(path, M);
+    const double lmin = smallest_eigenvalue(M);
+    const double tol = 1e-12 * scale_of(M);
+    if (definite && !(lmin > tol))
+      fail(path, path + " is not positive definite (smallest eigenvalue " + num(lmin) + ")");
+    if (!definite && lmin < -tol)
+      fail(path, path + " is not positive semidefinite (smallest eigenvalue " + num(lmin) + ")");
+  }
+
+  void plant(bool gain_may_be_pending) {
+    const PlantSpec& p = s_.plant;
+    if (p.A.size() == 0) fail("plant.A", "plant.A must not be empty");
+    finite("plant.A", p.A);
+    if (p.A.rows() != p.A.cols()) fail("plant.A", "plant.A must be square, got " + shape(p.A));
+    const Eigen::Index n = p.A.rows();
+    square_shape("plant.Q", p.Q, n, "to match A");
+    covariance("plant.Q", p.Q, false);
+    if (p.x0.size() != n)
+      fail("plant.x0", "plant.x0 must have " + std::to_string(n) + " entries to match A, got " +
+                           std::to_string(p.x0.size()));
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!std::isfinite(p.x0(i)))
+        fail("plant.x0", "plant.x0[" + std::to_string(i) + "] must be a finite number, got " + num(p.x0(i)));
+    square_shape("plant.P0", p.P0, n, "to match A");
+    covariance("plant.P0", p.P0, true);
+    positive("plant.state_bound", p.state_bound);
+
+    if (p.B && !p.control) fail("plant.B", "plant.B is given but plant.control is missing (give a gain or lqr weights)");
+    if (p.control && !p.B) fail("plant.control", "plant.control needs plant.B (the input matrix, n x p)");
+    if (!p.B) return;
+    const Matrix& B = *p.B;
+    if (B.rows() != n || B.cols() == 0)
+      fail("plant.B", "plant.B must have " + std::to_string(n) + " rows to match A (n x p, p >= 1), got " + shape(B));
+    finite("plant.B", B);
+    const Eigen::Index inputs = B.cols();
+    const ControlSpec& c = *p.control;
+    if (c.lqr_Qx.has_value() != c.lqr_Ru.has_value())
+      fail("plant.control.lqr", "plant.control.lqr needs both Qx and Ru");
+    const bool lqr = c.lqr_Qx.has_value();
+    if (lqr) {
+      square_shape("plant.control.lqr.Qx", *c.lqr_Qx, n, "to match A");
+      covariance("plant.control.lqr.Qx", *c.lqr_Qx, false);
+      square_shape("plant.control.lqr.Ru", *c.lqr_Ru, inputs, "to match the columns of B");
+      covariance("plant.control.lqr.Ru", *c.lqr_Ru, true);
+    }
+    if (c.gain.size() == 0) {
+      if (!lqr) fail("plant.control", "plant.control needs 'gain' or 'lqr' (with Qx and Ru)");
+      if (gain_may_be_pending) return;
+      fail("plant.control.gain", "plant.control.gain is empty: call complete_scenario() to compute it from the lqr weights");
+    }
+    if (c.gain.rows() != inputs || c.gain.cols() != n)
+      fail("plant.control.gain", "plant.control.gain must be " + std::to_string(inputs) + "x" + std::to_string(n) +
+                                     " (B columns x states), got " + shape(c.gain));
+    finite("plant.control.gain", c.gain);
+    // u = -L x̂ must stabilise the plant, or the live run diverges whatever the links do.
+    const double rho = spectral_radius(p.A - B * c.gain);
+    if (!(rho < 1.0))
+      fail("plant.control.gain", "plant.control.gain does not stabilise the plant: A - B*gain has spectral radius " +
+                                     num(rho) + " (must be < 1)");
+    if (lqr) {
+      Matrix expected;
+      try {
+        expected = lqr_gain(p.A, B, *c.lqr_Qx, *c.lqr_Ru);
+      } catch (const std::invalid_argument& e) {
+        fail("plant.control.lqr", std::string("plant.control.lqr: ") + e.what());
+      }
+      if ((expected - c.gain).norm() > 1e-8 * std::max(1.0, expected.norm()))
+        fail("plant.control.gain", "plant.control.gain differs from the LQR gain of plant.control.lqr (give one of them)");
+    }
+  }
+
+  void probability(const std::string& path, double v) const {
+    if (!std::isfinite(v) || v < 0.0 || v > 1.0) fail(path, path + " must be in [0,1], got " + num(v));
+  }
+
+  void sensors() {
+    if (s_.sensors.empty()) fail("sensors", "sensors must list at least one sensor");
+    const Eigen::Index n = s_.plant.A.rows();
+    std::map<int, std::size_t> first_index;
+    for (std::size_t k = 0; k < s_.sensors.size(); ++k) {
+      const SensorSpec& sensor = s_.sensors[k];
+      const std::string at = "sensors[" + std::to_string(k) + "]";
+      if (sensor.id < 0) fail(at + ".id", at + ".id must be a non-negative integer, got " + std::to_string(sensor.id));
+      const auto [it, inserted] = first_index.emplace(sensor.id, k);
+      if (!inserted)
+        fail(at + ".id", "duplicate sensor id " + std::to_string(sensor.id) + " in " + at + " (first at " +
+                             where_is("sensors[" + std::to_string(it->second) + "].id") + ")");
+      const Matrix& C = sensor.C;
+      if (C.rows() == 0 || C.cols() != n)
+        fail(at + ".C", at + ".C must have " + std::to_string(n) + " columns to match A (m x " + std::to_string(n) +
+                            ", m >= 1), got " + shape(C));
+      finite(at + ".C", C);
+      const Matrix& R = sensor.R;
+      if (R.rows() != C.rows() || R.cols() != C.rows())
+        fail(at + ".R", at + ".R must be " + std::to_string(C.rows()) + "x" + std::to_string(C.rows()) +
+                            " to match C (" + std::to_string(C.rows()) + " rows), got " + shape(R));
+      covariance(at + ".R", R, true);
+      link(at + ".link", sensor.link);
+    }
+  }
+
+  void link(const std::string& at, const LinkModel& model) const {
+    if (const auto* b = std::get_if<BernoulliLink>(&model)) {
+      probability(at + ".loss", b->loss);
+    } else {
+      const auto& g = std::get<GilbertElliottLink>(model);
+      probability(at + ".p", g.p);
+      probability(at + ".r", g.r);
+      probability(at + ".loss_good", g.loss_good);
+      probability(at + ".loss_bad", g.loss_bad);
+      // p = r = 0 leaves the chain's stationary distribution undefined.
+      if (g.p + g.r <= 0.0) fail(at + ".p", at + ": p and r cannot both be 0 (the chain would never move)");
+    }
+    try {
+      validate_link_model(model);  // the loss-model library's own checks, in case they are stricter
+    } catch (const std::invalid_argument& e) {
+      fail(at, at + ": " + e.what());
+    }
+  }
+
+  const Scenario& s_;
+  const ScenarioLocator& locate_;
+};
+
+void emit_matrix(YAML::Emitter& out, const Matrix& M) {
+  out << YAML::Flow << YAML::BeginSeq;
+  for (Eigen::Index i = 0; i < M.rows(); ++i) {
+    out << YAML::Flow << YAML::BeginSeq;
+    for (Eigen::Index j = 0; j < M.cols(); ++j) out << M(i, j);
+    out << YAML::EndSeq;
+  }
+  out << YAML::EndSeq;
+}
+
+}  // namespace
+
+const SensorSpec* Scenario::find_sensor(int id) const {
+  for (const auto& s : sensors)
+    if (s.id == id) return &s;
+  return nullptr;
+}
+
+int Scenario::deadline_ms() const {
+  // Default: 80 % of the period, leaving the rest for the fused update and publishing.
+  return estimator.deadline_ms.value_or(std::max(1, period_ms * 4 / 5));
+}
+
+void validate_scenario(const Scenario& scenario, const ScenarioLocator& locate) {
+  Validator(scenario, locate).run(false);
+}
+
+void validate_scenario(const Scenario& scenario) { validate_scenario(scenario, ScenarioLocator{}); }
+
+void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
+  Validator(scenario, locate).run(true);
+  if (scenario.plant.control && scenario.plant.control->gain.size() == 0) {
+    ControlSpec& c = *scenario.plant.control;
+    try {
+      c.gain = lqr_gain(scenario.plant.A, *scenario.plant.B, *c.lqr_Qx, *c.lqr_Ru);
+    } catch (const std::invalid_argument& e) {
+      throw ScenarioError(message_prefix(scenario, locate, "plant.control.lqr") + "plant.control.lqr: " + e.what());
+    }
+    validate_scenario(scenario, locate);
+  }
+}
+
+Scenario default_scenario() {
+  // A slightly unstable 2-state plant (eigenvalues 1.1 and 0.95; α = 1.1, so a single
+  // Bernoulli link would need λ > 1 - 1/α² ≈ 0.17, Sinopoli Thm 3) closed by LQR
+  // through the second state. Three sensors all see the unstable mode, over mixed links;
+  // all three are lost together only ~0.7 % of the time, far below 1/α² ≈ 0.83, so the
+  // filter is comfortably stable for hours until someone degrades the links with `ctl`.
+  Scenario s;
+  s.name = "default";
+  s.source = "<built-in default scenario>";
+  s.period_ms = 10;
+  s.seed = 42;
+  s.plant.A = (Matrix(2, 2) << 1.1, 0.1, 0.0, 0.95).finished();
+  s.plant.Q = (Matrix(2, 2) << 0.1, 0.0, 0.0, 0.1).finished();
+  s.plant.B = (Matrix(2, 1) << 0.0, 1.0).finished();
+  ControlSpec control;
+  control.lqr_Qx = Matrix::Identity(2, 2);
+  control.lqr_Ru = Matrix::Identity(1, 1);
+  s.plant.control = control;
+  s.plant.x0 = (Vector(2) << 1.0, -0.5).finished();
+  s.plant.P0 = Matrix::Identity(2, 2);
+  s.sensors.push_back({1, (Matrix(1, 2) << 1.0, 0.0).finished(), Matrix::Constant(1, 1, 0.5), BernoulliLink{0.2}});
+  s.sensors.push_back({2, (Matrix(1, 2) << 1.0, 1.0).finished(), Matrix::Constant(1, 1, 1.0), BernoulliLink{0.3}});
+  s.sensors.push_back({3, (Matrix(1, 2) << 1.0, 0.0).finished(), Matrix::Constant(1, 1, 0.25),
+                       GilbertElliottLink{0.05, 0.4, 0.02, 0.9}});
+  s.estimator.deadline_ms = 8;
+  complete_scenario(s);
+  return s;
+}
+
+std::string scenario_to_yaml(const Scenario& s) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);  // 17 significant digits: every double round-trips exactly
+  out << YAML::BeginMap;
+  out << YAML::Key << "name" << YAML::Value << s.name;
+  out << YAML::Key << "period_ms" << YAML::Value << s.period_ms;
+  out << YAML::Key << "seed" << YAML::Value << s.seed;
+
+  out << YAML::Key << "plant" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "A" << YAML::Value;
+  emit_matrix(out, s.plant.A);
+  out << YAML::Key << "Q" << YAML::Value;
+  emit_matrix(out, s.plant.Q);
+  if (s.plant.B) {
+    out << YAML::Key << "B" << YAML::Value;
+    emit_matrix(out, *s.plant.B);
+  }
+  if (s.plant.control) {
+    const ControlSpec& c = *s.plant.control;
+    out << YAML::Key << "control" << YAML::Value << YAML::BeginMap;
+    if (c.lqr_Qx && c.lqr_Ru) {
+      // The gain is derived from the weights; the reader recomputes it identically.
+      out << YAML::Key << "lqr" << YAML::Value << YAML::BeginMap;
+      out << YAML::Key << "Qx" << YAML::Value;
+      emit_matrix(out, *c.lqr_Qx);
+      out << YAML::Key << "Ru" << YAML::Value;
+      emit_matrix(out, *c.lqr_Ru);
+      out << YAML::EndMap;
+    } else {
+      out << YAML::Key << "gain" << YAML::Value;
+      emit_matrix(out, c.gain);
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::Key << "x0" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (Eigen::Index i = 0; i < s.plant.x0.size(); ++i) out << s.plant.x0(i);
+  out << YAML::EndSeq;
+  out << YAML::Key << "P0" << YAML::Value;
+  emit_matrix(out, s.plant.P0);
+  out << YAML::Key << "state_bound" << YAML::Value << s.plant.state_bound;
+  out << YAML::EndMap;
+
+  out << YAML::Key << "sensors" << YAML::Value << YAML::BeginSeq;
+  for (const SensorSpec& sensor : s.sensors) {
+    out << YAML::BeginMap;
+    out << YAML::Key << "id" << YAML::Value << sensor.id;
+    out << YAML::Key << "C" << YAML::Value;
+    emit_matrix(out, sensor.C);
+    out << YAML::Key << "R" << YAML::Value;
+    emit_matrix(out, sensor.R);
+    out << YAML::Key << "link" << YAML::Value << YAML::Flow << YAML::BeginMap;
+    if (const auto* b = std::get_if<BernoulliLink>(&sensor.link)) {
+      out << YAML::Key << "model" << YAML::Value << "bernoulli";
+      out << YAML::Key << "loss" << YAML::Value << b->loss;
+    } else {
+      const auto& g = std::get<GilbertElliottLink>(sensor.link);
+      out << YAML::Key << "model" << YAML::Value << "gilbert_elliott";
+      out << YAML::Key << "p" << YAML::Value << g.p;
+      out << YAML::Key << "r" << YAML::Value << g.r;
+      out << YAML::Key << "loss_good" << YAML::Value << g.loss_good;
+      out << YAML::Key << "loss_bad" << YAML::Value << g.loss_bad;
+    }
+    out << YAML::EndMap;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  out << YAML::Key << "estimator" << YAML::Value << YAML::BeginMap;
+  if (s.estimator.deadline_ms) out << YAML::Key << "deadline_ms" << YAML::Value << *s.estimator.deadline_ms;
+  out << YAML::Key << "divergence_trace_bound" << YAML::Value << s.estimator.divergence_trace_bound;
+  out << YAML::EndMap;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace netkf

@@ -1,0 +1,88 @@
+#pragma once
+// Wire <-> core conversions: the only place where wire types meet Eigen / core types.
+// Every conversion from the wire validates: a wrong size or a non-finite number throws
+// ConversionError (never crashes, never lets a NaN into the math).
+#include <cstdint>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "netkf/kalman_filter.hpp"
+#include "netkf/scenario.hpp"
+#include "netkf/types.hpp"
+#include "netkf/dds/wire.hpp"
+
+namespace netkf::dds {
+
+class ConversionError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+/// Steady-clock time in nanoseconds (stamps for latency measurement; same clock in all
+/// processes of one host).
+std::int64_t steady_now_ns();
+
+// ---- vectors and matrices ----
+/// `what` names the field in error messages. expected_size < 0: any size.
+Vector to_vector(const std::vector<double>& values, int expected_size, const char* what);
+std::vector<double> to_wire(const Vector& v);
+/// Row-major `values` of a rows x cols matrix.
+Matrix to_matrix(const std::vector<double>& row_major, int rows, int cols, const char* what);
+std::vector<double> to_wire_row_major(const Matrix& m);
+/// True when every value is finite.
+bool all_finite(const std::vector<double>& values);
+
+// ---- measurements ----
+wire::Measurement make_measurement(int sensor_id, std::uint64_t k, std::int64_t stamp_ns, const Vector& y);
+/// Throws ConversionError on a non-finite value or (expected_size >= 0) a wrong size.
+SensorSample to_sensor_sample(const wire::Measurement& m, int expected_size = -1);
+
+// ---- plant ----
+wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input);
+wire::Tick make_tick(std::uint64_t k, double t, const Vector& applied_input, bool final_tick);
+/// The truth x_k checked against the state dimension (throws ConversionError).
+Vector truth_state(const wire::Truth& truth, int state_dim);
+/// The applied input u_{k-1} of a tick; empty vector when the tick carries none.
+/// Throws ConversionError when present with a size other than input_dim or non-finite.
+Vector tick_applied_input(const wire::Tick& tick, int input_dim);
+wire::ControlInput make_control_input(std::uint64_t k, const Vector& u);
+Vector control_input_u(const wire::ControlInput& c, int input_dim);
+
+// ---- estimate ----
+/// One period's published estimate in core terms.
+struct EstimateRecord {
+  std::uint64_t k = 0;
+  double t = 0.0;
+  Vector x_hat;                 // x̂_{k|k}
+  Matrix P;                     // P_{k|k}
+  std::vector<int> fused;       // sensor ids fused for k (sorted)
+  std::uint32_t late = 0;       // samples that arrived during period k for periods already fused
+  std::uint64_t late_total = 0;
+  std::uint64_t rejected_total = 0;
+  FilterState state = FilterState::ok;
+  std::int64_t fused_at_ns = 0;
+  std::int64_t stamp_ns = 0;
+  std::int64_t last_sample_stamp_ns = 0;
+};
+/// Throws ConversionError if x_hat / P are not finite or P is not square of x_hat's size
+/// (the estimator never publishes NaN: this is the last gate).
+wire::Estimate to_wire(const EstimateRecord& e);
+/// Validates sizes (state_dim < 0: taken from x_hat) and finiteness.
+EstimateRecord from_wire(const wire::Estimate& e, int state_dim = -1);
+/// "ok" / "diverging" <-> FilterState; throws ConversionError on anything else.
+FilterState filter_state_from_string(const std::string& s);
+
+// ---- links ----
+/// Build a link change request.
+wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model);
+/// The model a request asks for; throws ConversionError on an unknown model name, a
+/// non-finite number or a probability outside [0,1] (message names the parameter).
+LinkModel to_link_model(const wire::LinkControl& c);
+/// Fill model name + parameters of a status (unused parameters are 0).
+void set_link_model(wire::LinkStatus& status, const LinkModel& model);
+/// The model a status describes (throws ConversionError on an unknown model name).
+LinkModel link_model_of(const wire::LinkStatus& status);
+
+}  // namespace netkf::dds

@@ -1,0 +1,174 @@
+#pragma once
+// Typed publish/subscribe helpers over a Participant.
+//
+// Reader callbacks run on a Fast DDS listener thread: they must be cheap. Hand the
+// sample to the node's io_context (boost::asio::post) and do the work there; never do
+// math or block in the callback. netkf::dds::post_to() does exactly that.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <thread>
+#include <utility>
+
+#include <fastdds/dds/core/status/PublicationMatchedStatus.hpp>
+#include <fastdds/dds/core/status/SubscriptionMatchedStatus.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+
+#include "netkf/dds/participant.hpp"
+#include "netkf/dds/topics.hpp"
+
+namespace netkf::dds {
+
+namespace detail {
+/// Poll `count` until it reaches `n` or `timeout` passes (discovery waits in tools/tests).
+template <class F>
+bool wait_until(F count, int n, std::chrono::milliseconds timeout) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (count() < n) {
+    if (std::chrono::steady_clock::now() >= until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return true;
+}
+}  // namespace detail
+
+/// Publishes samples of one topic.
+template <class T>
+class Writer : private eprosima::fastdds::dds::DataWriterListener {
+ public:
+  /// Throws DdsError when the writer cannot be created.
+  Writer(Participant& participant, const Topic<T>& spec) : participant_(participant), topic_name_(spec.name) {
+    writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(spec.qos), this,
+                                                          eprosima::fastdds::dds::StatusMask::publication_matched());
+    if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_);
+  }
+  ~Writer() override {
+    writer_->set_listener(nullptr);
+    participant_.publisher()->delete_datawriter(writer_);
+  }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  /// Publish one sample; false when DDS refused it (e.g. history full and blocking timed out).
+  bool write(const T& sample) {
+    // DataWriter::write takes a non-const void*; the sample is only read.
+    return writer_->write(const_cast<T*>(&sample));
+  }
+
+  /// Number of readers currently matched.
+  int matched() const { return matched_.load(); }
+  /// Wait until at least `n` readers are matched; false on timeout.
+  bool wait_for_matched(int n, std::chrono::milliseconds timeout) const {
+    return detail::wait_until([this] { return matched(); }, n, timeout);
+  }
+  /// Wait until every matched reader acknowledged what was written (reliable topics).
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout) {
+    eprosima::fastrtps::Duration_t d(static_cast<double>(timeout.count()) / 1000.0);
+    return writer_->wait_for_acknowledgments(d) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK;
+  }
+  const std::string& topic_name() const { return topic_name_; }
+  eprosima::fastdds::dds::DataWriter* get() const { return writer_; }
+
+ private:
+  void on_publication_matched(eprosima::fastdds::dds::DataWriter*,
+                              const eprosima::fastdds::dds::PublicationMatchedStatus& status) override {
+    matched_.store(status.current_count);
+  }
+
+  Participant& participant_;
+  std::string topic_name_;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  std::atomic<int> matched_{0};
+};
+
+/// Subscribes to one topic; `on_sample` is called (on the DDS listener thread) for every
+/// valid sample taken. Keep it cheap (see the file comment).
+template <class T>
+class Reader : private eprosima::fastdds::dds::DataReaderListener {
+ public:
+  using Callback = std::function<void(T&&)>;
+
+  /// Throws DdsError when the reader cannot be created.
+  Reader(Participant& participant, const Topic<T>& spec, Callback on_sample)
+      : participant_(participant), topic_name_(spec.name), on_sample_(std::move(on_sample)) {
+    reader_ = participant_.subscriber()->create_datareader(
+        participant_.topic(spec), reader_qos(spec.qos), this,
+        eprosima::fastdds::dds::StatusMask::data_available() << eprosima::fastdds::dds::StatusMask::subscription_matched());
+    if (reader_ == nullptr) throw DdsError("cannot create a DDS reader for topic " + topic_name_);
+  }
+  ~Reader() override {
+    reader_->set_listener(nullptr);
+    participant_.subscriber()->delete_datareader(reader_);
+  }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  /// Number of writers currently matched.
+  int matched() const { return matched_.load(); }
+  bool wait_for_matched(int n, std::chrono::milliseconds timeout) const {
+    return detail::wait_until([this] { return matched(); }, n, timeout);
+  }
+  /// Samples delivered to the callback so far.
+  std::uint64_t received() const { return received_.load(); }
+  const std::string& topic_name() const { return topic_name_; }
+  eprosima::fastdds::dds::DataReader* get() const { return reader_; }
+
+ private:
+  void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
+    T sample;
+    eprosima::fastdds::dds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
+      if (!info.valid_data) continue;
+      received_.fetch_add(1);
+      if (on_sample_) on_sample_(std::move(sample));
+      sample = T{};
+    }
+  }
+  void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
+                               const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
+    matched_.store(status.current_count);
+  }
+
+  Participant& participant_;
+  std::string topic_name_;
+  Callback on_sample_;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+  std::atomic<int> matched_{0};
+  std::atomic<std::uint64_t> received_{0};
+};
+
+// Compiled once in dds/src/endpoints.cpp.
+extern template class Writer<wire::Truth>;
+extern template class Writer<wire::Tick>;
+extern template class Writer<wire::Measurement>;
+extern template class Writer<wire::Estimate>;
+extern template class Writer<wire::ControlInput>;
+extern template class Writer<wire::LinkControl>;
+extern template class Writer<wire::LinkControlReply>;
+extern template class Writer<wire::LinkStatus>;
+extern template class Reader<wire::Truth>;
+extern template class Reader<wire::Tick>;
+extern template class Reader<wire::Measurement>;
+extern template class Reader<wire::Estimate>;
+extern template class Reader<wire::ControlInput>;
+extern template class Reader<wire::LinkControl>;
+extern template class Reader<wire::LinkControlReply>;
+extern template class Reader<wire::LinkStatus>;
+
+/// A reader callback that moves each sample into `handler` on `executor` (an Asio
+/// io_context executor or strand), so the node's logic runs on its own thread:
+///   Reader<wire::Tick> r(p, topics::tick, post_to<wire::Tick>(io.get_executor(), [&](wire::Tick t){...}));
+template <class T, class Executor, class Handler>
+std::function<void(T&&)> post_to(Executor executor, Handler handler);
+
+}  // namespace netkf::dds
+
+#include "netkf/dds/detail/post_to.hpp"

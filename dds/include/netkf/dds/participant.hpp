@@ -1,0 +1,97 @@
+#pragma once
+// Participant creation with the project's DDS profile.
+// Default: localhost only, set IN CODE (so a forgotten environment variable can never
+// make a launch multicast): builtin transports off; shared memory + UDPv4 whitelisted
+// to 127.0.0.1 (maxInitialPeersRange 64); metatraffic unicast 127.0.0.1, no multicast;
+// initial peers 127.0.0.1 (dds-notes.md, "Keeping discovery on loopback").
+// A user picks another profile (e.g. deploy/dds/discovery-server.xml) with a file:
+// --dds-profile FILE or NETKF_DDS_PROFILE, never by editing code.
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include "netkf/dds/topics.hpp"
+
+namespace netkf::dds {
+
+/// Any failure of the DDS layer (bad profile file, participant not created, ...).
+class DdsError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Environment variables read by resolve_domain / resolve_profile.
+inline constexpr const char* kDomainEnv = "NETKF_DOMAIN";
+inline constexpr const char* kProfileEnv = "NETKF_DDS_PROFILE";
+/// Participant profile a profile file may define; otherwise its default participant profile is used.
+inline constexpr const char* kProfileName = "netkf_participant";
+
+struct ParticipantOptions {
+  int domain = 0;
+  /// XML profile file; empty = the built-in localhost-only configuration.
+  std::optional<std::filesystem::path> profile_file;
+  std::string name = "netkf";
+};
+
+/// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
+/// the value is not an integer in [0, 232].
+int resolve_domain(std::optional<int> flag);
+/// Profile file: the flag when given (non-empty), else $NETKF_DDS_PROFILE (if set and
+/// non-empty), else nullopt (built-in localhost-only configuration).
+std::optional<std::filesystem::path> resolve_profile(const std::optional<std::string>& flag);
+
+/// The built-in localhost-only participant QoS (exposed for tests and tools).
+eprosima::fastdds::dds::DomainParticipantQos localhost_participant_qos(const std::string& name);
+
+/// One DDS participant with one publisher and one subscriber. Topics are created on
+/// first use (the type is registered then). Not copyable; destroying it deletes all
+/// entities it created and leaves the domain cleanly (writers/readers must be
+/// destroyed first: they hold a reference to the participant).
+class Participant {
+ public:
+  /// Throws DdsError with a clear message (bad profile file, creation failure).
+  explicit Participant(const ParticipantOptions& options);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  int domain() const { return domain_; }
+  const std::string& name() const { return name_; }
+  eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
+  eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
+  eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
+
+  /// The DDS topic for `spec` (created and its type registered on first use).
+  template <class T>
+  eprosima::fastdds::dds::Topic* topic(const Topic<T>& spec) {
+    return topic_impl(std::string(spec.name), eprosima::fastdds::dds::TypeSupport(new typename PubSubTypeOf<T>::type()));
+  }
+
+ private:
+  eprosima::fastdds::dds::Topic* topic_impl(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
+
+  int domain_ = 0;
+  std::string name_;
+  eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
+  eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
+  eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
+  std::map<std::string, eprosima::fastdds::dds::Topic*> topics_;
+};
+
+/// Map a topic's QoS to DDS writer / reader QoS (used by Writer/Reader).
+eprosima::fastdds::dds::DataWriterQos writer_qos(const TopicQos& qos);
+eprosima::fastdds::dds::DataReaderQos reader_qos(const TopicQos& qos);
+
+}  // namespace netkf::dds

@@ -1,0 +1,62 @@
+#pragma once
+// Topic names and QoS of the live network: the single place where they are defined.
+// A Topic<T> ties a name to its wire type so a Writer/Reader cannot mix them up.
+#include <cstdint>
+#include <string_view>
+
+#include "netkf/dds/wire.hpp"
+
+namespace netkf::dds {
+
+/// How a topic's samples are kept and delivered.
+struct TopicQos {
+  /// Reliable delivery (every topic of netkf is reliable: losses are the channel emulator's job).
+  bool reliable = true;
+  /// Transient-local: late joiners receive the last `depth` samples (link status).
+  bool transient_local = false;
+  /// Keep-last history depth (per writer); sized for 100 Hz x 64 sensors with margin.
+  std::int32_t depth = 64;
+};
+
+template <class T>
+struct Topic {
+  using type = T;
+  std::string_view name;
+  TopicQos qos;
+};
+
+/// The fastddsgen type support of each wire type.
+template <class T>
+struct PubSubTypeOf;
+template <> struct PubSubTypeOf<wire::Truth> { using type = wire::TruthPubSubType; };
+template <> struct PubSubTypeOf<wire::Tick> { using type = wire::TickPubSubType; };
+template <> struct PubSubTypeOf<wire::Measurement> { using type = wire::MeasurementPubSubType; };
+template <> struct PubSubTypeOf<wire::Estimate> { using type = wire::EstimatePubSubType; };
+template <> struct PubSubTypeOf<wire::ControlInput> { using type = wire::ControlInputPubSubType; };
+template <> struct PubSubTypeOf<wire::LinkControl> { using type = wire::LinkControlPubSubType; };
+template <> struct PubSubTypeOf<wire::LinkControlReply> { using type = wire::LinkControlReplyPubSubType; };
+template <> struct PubSubTypeOf<wire::LinkStatus> { using type = wire::LinkStatusPubSubType; };
+
+namespace topics {
+// plant -> sensors, recorders: ground truth x_k (the estimator never subscribes).
+inline constexpr Topic<wire::Truth> truth{"netkf/truth", {true, false, 256}};
+// plant -> estimator: sample clock k, t_k and the input the plant applied.
+inline constexpr Topic<wire::Tick> tick{"netkf/tick", {true, false, 256}};
+// sensors -> channel emulator: every sample a sensor produced.
+inline constexpr Topic<wire::Measurement> raw_measurement{"netkf/measurement/raw", {true, false, 256}};
+// channel emulator -> estimator: the samples the lossy links delivered (one writer for
+// all sensors: depth for 64 sensors x 100 Hz over 0.5 s).
+inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measurement/delivered", {true, false, 4096}};
+// estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
+inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
+// estimator -> plant: u_k = -L x̂_{k|k}.
+inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {true, false, 256}};
+// netkf ctl -> channel emulator: link changes.
+inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {true, false, 64}};
+// channel emulator -> netkf ctl: the answer to each link change.
+inline constexpr Topic<wire::LinkControlReply> link_control_reply{"netkf/link/reply", {true, false, 64}};
+// channel emulator -> everyone, transient-local so `netkf ctl status` sees it on joining.
+inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true, true, 256}};
+}  // namespace topics
+
+}  // namespace netkf::dds

@@ -1,0 +1,170 @@
+// Participant creation with the project's DDS profile (see participant.hpp).
+#include "netkf/dds/participant.hpp"
+
+#include <cerrno>
+#include <cstdlib>
+#include <limits>
+#include <mutex>
+#include <system_error>
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/publisher/qos/PublisherQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+#include <fastdds/dds/subscriber/qos/SubscriberQos.hpp>
+#include <fastdds/dds/topic/qos/TopicQos.hpp>
+#include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
+#include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastrtps/utils/IPLocator.h>
+
+namespace netkf::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+using eprosima::fastrtps::types::ReturnCode_t;
+
+namespace {
+std::mutex& factory_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+eprosima::fastrtps::rtps::Locator_t loopback_locator() {
+  eprosima::fastrtps::rtps::Locator_t loc;
+  loc.kind = LOCATOR_KIND_UDPv4;
+  eprosima::fastrtps::rtps::IPLocator::setIPv4(loc, 127, 0, 0, 1);
+  loc.port = 0;  // automatic: expands to the well-known participant ports
+  return loc;
+}
+}  // namespace
+
+int resolve_domain(std::optional<int> flag) {
+  int domain = 0;
+  if (flag) {
+    domain = *flag;
+  } else if (const char* env = std::getenv(kDomainEnv); env != nullptr && *env != '\0') {
+    char* end = nullptr;
+    errno = 0;
+    const long v = std::strtol(env, &end, 10);
+    if (errno != 0 || end == env || *end != '\0' || v < std::numeric_limits<int>::min() ||
+        v > std::numeric_limits<int>::max()) {
+      throw DdsError(std::string(kDomainEnv) + "='" + env + "' is not an integer domain id");
+    }
+    domain = static_cast<int>(v);
+  }
+  // RTPS port mapping (7400 + 250 * domain + ...) must fit in 16 bits.
+  if (domain < 0 || domain > 232) throw DdsError("DDS domain id " + std::to_string(domain) + " is outside [0, 232]");
+  return domain;
+}
+
+std::optional<std::filesystem::path> resolve_profile(const std::optional<std::string>& flag) {
+  if (flag && !flag->empty()) return std::filesystem::path(*flag);
+  if (const char* env = std::getenv(kProfileEnv); env != nullptr && *env != '\0') return std::filesystem::path(env);
+  return std::nullopt;
+}
+
+fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  // Builtin transports would add UDP on every interface and multicast discovery.
+  qos.transport().use_builtin_transports = false;
+  auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList.emplace_back("127.0.0.1");
+  // How many participants per host find each other through the initial peers
+  // (dds-notes.md: >= 32; a launch with 64 sensors has ~70 participants).
+  udp->maxInitialPeersRange = 128;
+  qos.transport().user_transports.push_back(shm);
+  qos.transport().user_transports.push_back(udp);
+
+  auto& builtin = qos.wire_protocol().builtin;
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(loopback_locator());
+  builtin.metatrafficMulticastLocatorList.clear();  // no multicast discovery
+  builtin.initialPeersList.clear();
+  builtin.initialPeersList.push_back(loopback_locator());
+  return qos;
+}
+
+Participant::Participant(const ParticipantOptions& options) : domain_(options.domain), name_(options.name) {
+  if (domain_ < 0 || domain_ > 232) throw DdsError("DDS domain id " + std::to_string(domain_) + " is outside [0, 232]");
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  fdds::DomainParticipantQos qos;
+  {
+    std::lock_guard lock(factory_mutex());
+    if (options.profile_file) {
+      const auto& file = *options.profile_file;
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(file, ec)) {
+        throw DdsError("DDS profile file '" + file.string() + "' does not exist or is not a regular file");
+      }
+      if (factory->load_XML_profiles_file(file.string()) != ReturnCode_t::RETCODE_OK) {
+        throw DdsError("DDS profile file '" + file.string() + "' is not a valid Fast DDS XML profile");
+      }
+      // The profile named netkf_participant, else the file's default participant profile.
+      if (factory->get_participant_qos_from_profile(kProfileName, qos) != ReturnCode_t::RETCODE_OK) {
+        qos = factory->get_default_participant_qos();
+      }
+      qos.name(name_);
+    } else {
+      qos = localhost_participant_qos(name_);
+    }
+  }
+  participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_), qos);
+  if (participant_ == nullptr) {
+    throw DdsError("cannot create DDS participant '" + name_ + "' on domain " + std::to_string(domain_) +
+                   (options.profile_file ? " with profile " + options.profile_file->string() : std::string()));
+  }
+  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  if (publisher_ == nullptr || subscriber_ == nullptr) {
+    participant_->delete_contained_entities();
+    factory->delete_participant(participant_);
+    throw DdsError("cannot create DDS publisher/subscriber for participant '" + name_ + "'");
+  }
+}
+
+Participant::~Participant() {
+  if (participant_ == nullptr) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Participant::topic_impl(const std::string& name, fdds::TypeSupport type) {
+  if (auto it = topics_.find(name); it != topics_.end()) return it->second;
+  const std::string type_name = type.get_type_name();
+  if (participant_->find_type(type_name).empty() && type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {
+    throw DdsError("cannot register DDS type " + type_name);
+  }
+  auto* topic = participant_->create_topic(name, type_name, fdds::TOPIC_QOS_DEFAULT);
+  if (topic == nullptr) throw DdsError("cannot create DDS topic " + name + " (" + type_name + ")");
+  topics_.emplace(name, topic);
+  return topic;
+}
+
+namespace {
+template <class Q>
+void apply_common(Q& q, const TopicQos& qos) {
+  q.reliability().kind = qos.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
+  q.durability().kind = qos.transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
+  q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  q.history().depth = qos.depth;
+  // No keyed types: one instance, so the per-instance limit is the history depth.
+  q.resource_limits().max_instances = 1;
+  q.resource_limits().max_samples_per_instance = qos.depth;
+  q.resource_limits().max_samples = qos.depth;
+}
+}  // namespace
+
+fdds::DataWriterQos writer_qos(const TopicQos& qos) {
+  fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
+  apply_common(q, qos);
+  return q;
+}
+
+fdds::DataReaderQos reader_qos(const TopicQos& qos) {
+  fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
+  apply_common(q, qos);
+  return q;
+}
+
+}  // namespace netkf::dds
