@@ -1,7 +1,555 @@
-// TEMPORARY placeholder until the live-network commands land (launch, ctl, record).
+// `netkf launch`, `netkf ctl`, `netkf record`: the live network seen from the command line.
+// launch spawns and supervises the node processes (launch_supervisor), records and shows
+// status from DDS (live_bus, record_csv, live_status). ctl tunes links at runtime.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <random>
+#include <unistd.h>
+
 #include "commands.hpp"
+#include "launch_supervisor.hpp"
+#include "live_bus.hpp"
+#include "live_status.hpp"
+#include "netkf/scenario.hpp"
+#include "record_csv.hpp"
+
 namespace netkf::cli {
-void add_launch_command(CLI::App& app) { app.add_subcommand("launch", "(not built yet)"); }
-void add_ctl_command(CLI::App& app) { app.add_subcommand("ctl", "(not built yet)"); }
-void add_record_command(CLI::App& app) { app.add_subcommand("record", "(not built yet)"); }
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// The options every live command shares.
+struct NetworkOptions {
+  std::optional<int> domain;
+  std::optional<std::string> profile;
+  void add_to(CLI::App* cmd) {
+    cmd->add_option("--domain", domain, "DDS domain id (default: $NETKF_DOMAIN, else 0)")->check(CLI::Range(0, 232));
+    cmd->add_option("--dds-profile", profile,
+                    "Fast DDS XML profile (default: $NETKF_DDS_PROFILE, else built-in localhost-only)");
+  }
+  BusOptions bus(const std::string& name) const { return BusOptions{domain, profile, name}; }
+};
+
+[[noreturn]] void fail(int code, const std::string& message) {
+  std::cerr << "netkf: error: " << message << "\n";
+  throw CLI::RuntimeError(code);
+}
+
+/// Record CSV files written from the main thread: truth + estimates, and optionally
+/// every delivered sample.
+class Recording {
+ public:
+  Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
+            const Scenario& scenario)
+      : periods_(scenario.state_dim()), samples_(max_measurement_dim(scenario)) {
+    if (periods_file) {
+      periods_out_.open(*periods_file, std::ios::trunc);
+      if (!periods_out_) fail(2, "cannot write " + *periods_file + ": " + std::strerror(errno));
+      periods_out_ << PeriodCsvRecorder::header(scenario.state_dim()) << "\n";
+    }
+    if (samples_file) {
+      samples_out_.open(*samples_file, std::ios::trunc);
+      if (!samples_out_) fail(2, "cannot write " + *samples_file + ": " + std::strerror(errno));
+      samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario)) << "\n";
+    }
+  }
+  bool wants_samples() const { return samples_out_.is_open(); }
+  void truth(const TruthRecord& t) {
+    if (periods_out_.is_open()) periods_.add_truth(t);
+  }
+  void estimate(const EstimateRecord& e) {
+    if (periods_out_.is_open()) periods_.add_estimate(e);
+    if (samples_out_.is_open()) samples_.add_estimate(e);
+  }
+  void delivered(const DeliveredRecord& d) {
+    if (samples_out_.is_open()) samples_.add_delivered(d);
+  }
+  void flush() {
+    if (periods_out_.is_open()) {
+      periods_.flush(periods_out_);
+      periods_out_.flush();
+    }
+    if (samples_out_.is_open()) {
+      samples_.flush(samples_out_);
+      samples_out_.flush();
+    }
+  }
+  std::uint64_t rows() const { return periods_.rows_written(); }
+
+ private:
+  static int max_measurement_dim(const Scenario& s) {
+    int m = 0;
+    for (const auto& sensor : s.sensors) m = std::max(m, static_cast<int>(sensor.C.rows()));
+    return m;
+  }
+  PeriodCsvRecorder periods_;
+  SampleCsvRecorder samples_;
+  std::ofstream periods_out_;
+  std::ofstream samples_out_;
+};
+
+/// State shared by launch and record: a bus feeding a recording and a status view.
+struct Observer {
+  LiveStatus status;
+  Recording recording;
+  std::uint64_t non_finite = 0;
+  Observer(const Scenario& scenario, const std::optional<std::string>& record,
+           const std::optional<std::string>& record_samples)
+      : status(scenario), recording(record, record_samples, scenario) {}
+
+  BusHandlers handlers() {
+    BusHandlers h;
+    h.truth = [this](TruthRecord&& t) {
+      status.add_truth(t);
+      recording.truth(t);
+    };
+    h.estimate = [this](EstimateRecord&& e) {
+      status.add_estimate(e);
+      recording.estimate(e);
+    };
+    h.link_status = [this](LinkStatusRecord&& l) { status.add_link_status(l); };
+    if (recording.wants_samples()) h.delivered = [this](DeliveredRecord&& d) { recording.delivered(d); };
+    h.invalid = [this](const std::string& what) {
+      ++non_finite;
+      std::cerr << "netkf: rejected a sample: " << what << "\n";
+    };
+    return h;
+  }
+};
+
+Scenario load_or_default(const std::optional<std::string>& file) {
+  if (!file) return default_scenario();
+  try {
+    return load_scenario_file(*file);
+  } catch (const std::exception& e) {
+    fail(2, e.what());
+  }
+  return {};
+}
+
+// ---------------------------------------------------------------- launch
+
+struct LaunchOptions {
+  std::optional<std::string> scenario;
+  double duration = 0.0;  // 0: until Ctrl-C
+  std::optional<std::string> record;
+  std::optional<std::string> record_samples;
+  NetworkOptions network;
+  std::string log_level = "warn";
+  std::string restart_policy = "restart";
+  int max_restarts = 3;
+  double status_interval = 1.0;
+  std::optional<std::string> pid_file;
+};
+
+int run_launch(const LaunchOptions& o) {
+  const Scenario scenario = load_or_default(o.scenario);
+  const RestartPolicy policy = parse_restart_policy(o.restart_policy);
+
+  // The children read the effective scenario from a private temporary file.
+  const auto scenario_path =
+      std::filesystem::temp_directory_path() / ("netkf-launch-" + std::to_string(getpid()) + ".yaml");
+  {
+    std::ofstream out(scenario_path);
+    out << scenario_to_yaml(scenario);
+    if (!out) fail(2, "cannot write " + scenario_path.string());
+  }
+  struct RemoveOnExit {
+    std::filesystem::path p;
+    ~RemoveOnExit() {
+      std::error_code ec;
+      std::filesystem::remove(p, ec);
+    }
+  } remove_scenario{scenario_path};
+
+  boost::asio::io_context io;
+  Observer observer(scenario, o.record, o.record_samples);
+  std::unique_ptr<LiveBus> bus;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"), observer.handlers(), false);
+  } catch (const std::exception& e) {
+    fail(2, std::string("DDS: ") + e.what());
+  }
+  const int domain = bus->domain();
+
+  auto common_args = [&] {
+    std::vector<std::string> a{"--scenario", scenario_path.string(), "--domain", std::to_string(domain),
+                               "--log-level", o.log_level};
+    if (o.network.profile) {
+      a.push_back("--dds-profile");
+      a.push_back(*o.network.profile);
+    }
+    return a;
+  };
+
+  SupervisorOptions so;
+  so.policy = policy;
+  so.max_restarts = o.max_restarts;
+  Supervisor supervisor(so);
+  auto report = [](const std::vector<SupervisorEvent>& events) {
+    for (const auto& e : events) std::cerr << "netkf launch: " << e.message() << "\n";
+  };
+  std::vector<SupervisorEvent> started;
+  // Consumers first, the plant (the clock) last, so period 0 finds its readers.
+  started.push_back(supervisor.start({"channel_emulator", node_executable("channel_emulator"), common_args(), false}));
+  started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), common_args(), true}));
+  for (const auto& sensor : scenario.sensors) {
+    auto args = common_args();
+    args.push_back("--sensor-id");
+    args.push_back(std::to_string(sensor.id));
+    started.push_back(supervisor.start(
+        {"sensor_node[" + std::to_string(sensor.id) + "]", node_executable("sensor_node"), args, false}));
+  }
+  started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), common_args(), true}));
+  report(started);
+  if (supervisor.failed()) {
+    supervisor.stop_all();
+    fail(1, supervisor.failure_reason());
+  }
+  if (o.pid_file) {
+    // For scripts and tests: name and pid of every child.
+    std::ofstream pids(*o.pid_file);
+    for (const auto& e : started) pids << e.child << " " << e.pid << "\n";
+  }
+  std::cerr << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
+            << scenario.sensors.size() << " sensors, period " << scenario.period_ms << " ms"
+            << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops") << "\n";
+
+  enum class End { running, duration, signal, failed, finished } end = End::running;
+  boost::asio::signal_set signals(io, SIGINT, SIGTERM);
+  signals.async_wait([&](const boost::system::error_code& ec, int) {
+    if (!ec && end == End::running) end = End::signal;
+  });
+  const auto start = Clock::now();
+  auto next_status = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.status_interval));
+  boost::asio::steady_timer timer(io);
+  std::function<void()> tick = [&] {
+    report(supervisor.poll());
+    observer.recording.flush();
+    const auto now = Clock::now();
+    if (end == End::running) {
+      if (supervisor.failed()) end = End::failed;
+      else if (supervisor.finished()) end = End::finished;
+      else if (o.duration > 0 && now - start >= std::chrono::duration<double>(o.duration)) end = End::duration;
+    }
+    if (o.status_interval > 0 && now >= next_status) {
+      next_status += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.status_interval));
+      std::cerr << observer.status.render(true);
+      for (const auto& w : observer.status.take_warnings()) std::cerr << "netkf launch: WARNING: " << w << "\n";
+      std::cerr << std::flush;
+    }
+    if (end != End::running) {
+      io.stop();
+      return;
+    }
+    timer.expires_after(std::chrono::milliseconds(50));
+    timer.async_wait([&](const boost::system::error_code& ec) {
+      if (!ec) tick();
+    });
+  };
+  tick();
+  io.run();
+
+  // Stop: the children get SIGTERM (SIGKILL after the timeout); then take what DDS
+  // still delivered so the recording ends with the last complete period.
+  report(supervisor.stop_all());
+  io.restart();
+  io.run_for(std::chrono::milliseconds(300));
+  observer.recording.flush();
+  signals.cancel();
+  bus.reset();
+
+  std::cerr << "netkf launch: stopped (" <<
+      (end == End::duration ? "duration reached" : end == End::signal ? "signal" :
+       end == End::finished ? supervisor.finished_reason() : "failure") << "); "
+            << observer.status.estimates_seen() << " estimates seen";
+  if (o.record) std::cerr << ", " << observer.recording.rows() << " rows in " << *o.record;
+  std::cerr << "\n";
+  if (observer.status.saw_non_finite() || observer.non_finite > 0)
+    std::cerr << "netkf launch: WARNING: " << observer.non_finite << " invalid samples were rejected\n";
+  if (end == End::failed) fail(1, supervisor.failure_reason());
+  return 0;
+}
+
+// ---------------------------------------------------------------- record
+
+struct RecordOptions {
+  std::optional<std::string> scenario;
+  double duration = 0.0;
+  std::string out;
+  std::optional<std::string> samples;
+  NetworkOptions network;
+};
+
+int run_record(const RecordOptions& o) {
+  const Scenario scenario = load_or_default(o.scenario);
+  boost::asio::io_context io;
+  Observer observer(scenario, o.out, o.samples);
+  std::unique_ptr<LiveBus> bus;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"), observer.handlers(), false);
+  } catch (const std::exception& e) {
+    fail(2, std::string("DDS: ") + e.what());
+  }
+  bool stop = false;
+  boost::asio::signal_set signals(io, SIGINT, SIGTERM);
+  signals.async_wait([&](const boost::system::error_code& ec, int) { stop = !ec; });
+  const auto start = Clock::now();
+  boost::asio::steady_timer timer(io);
+  std::function<void()> tick = [&] {
+    observer.recording.flush();
+    if (stop || (o.duration > 0 && Clock::now() - start >= std::chrono::duration<double>(o.duration))) {
+      io.stop();
+      return;
+    }
+    timer.expires_after(std::chrono::milliseconds(100));
+    timer.async_wait([&](const boost::system::error_code& ec) {
+      if (!ec) tick();
+    });
+  };
+  tick();
+  io.run();
+  observer.recording.flush();
+  signals.cancel();
+  bus.reset();
+  std::cerr << "netkf record: " << observer.recording.rows() << " rows written to " << o.out << "\n";
+  return 0;
+}
+
+// ---------------------------------------------------------------- ctl
+
+/// Run `io` until `done()` or the deadline; true when done.
+bool run_until(boost::asio::io_context& io, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
+  while (!done()) {
+    if (Clock::now() >= deadline) return false;
+    io.restart();
+    io.run_for(std::chrono::milliseconds(20));
+  }
+  return true;
+}
+
+nlohmann::json link_json(const LinkStatusRecord& l) {
+  nlohmann::json j{{"sensor_id", l.sensor_id},
+                   {"model", l.model},
+                   {"samples_in", l.samples_in},
+                   {"delivered", l.delivered},
+                   {"dropped", l.dropped},
+                   {"observed_loss", l.observed_loss},
+                   {"mean_burst_length", l.mean_burst_length},
+                   {"last_request_id", l.last_request_id}};
+  if (l.model == "bernoulli" && !l.params.empty()) {
+    j["loss"] = l.params[0];
+  } else if (l.params.size() >= 4) {
+    j["p"] = l.params[0];
+    j["r"] = l.params[1];
+    j["loss_good"] = l.params[2];
+    j["loss_bad"] = l.params[3];
+  }
+  if (auto m = link_model_from_status(l)) {
+    j["stationary_loss"] = stationary_loss(*m);
+    j["arrival_rate"] = 1.0 - stationary_loss(*m);
+  }
+  if (!l.rejection_reason.empty()) j["last_rejection"] = l.rejection_reason;
+  return j;
+}
+
+struct CtlOptions {
+  NetworkOptions network;
+  double timeout = 5.0;
+  int sensor_id = 0;
+  std::optional<double> bernoulli;
+  std::vector<double> gilbert_elliott;
+  bool json = false;
+};
+
+int run_ctl_status(const CtlOptions& o) {
+  boost::asio::io_context io;
+  std::map<int, LinkStatusRecord> links;
+  BusHandlers h;
+  h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
+  std::unique_ptr<LiveBus> bus;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, false);
+  } catch (const std::exception& e) {
+    fail(2, std::string("DDS: ") + e.what());
+  }
+  const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
+  if (!run_until(io, [&] { return !links.empty(); }, timeout))
+    fail(3, "no link status received within " + std::to_string(o.timeout) + " s on DDS domain " +
+                std::to_string(bus->domain()) + " (is a network running? netkf launch)");
+  // Link status is transient-local: the other links arrive in the same burst; the
+  // channel also republishes every second, so wait a little longer for stragglers.
+  run_until(io, [] { return false; }, std::chrono::milliseconds(1200));
+  std::vector<LinkStatusRecord> list;
+  for (auto& [id, l] : links) list.push_back(l);
+  if (o.json) {
+    nlohmann::json j{{"domain", bus->domain()}, {"links", nlohmann::json::array()}};
+    for (const auto& l : list) j["links"].push_back(link_json(l));
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << render_link_table(list);
+  }
+  return 0;
+}
+
+int run_ctl_set_link(const CtlOptions& o) {
+  LinkModel model;
+  if (o.bernoulli && !o.gilbert_elliott.empty()) fail(2, "give either --bernoulli or --gilbert-elliott, not both");
+  if (o.bernoulli) {
+    model = BernoulliLink{*o.bernoulli};
+  } else if (o.gilbert_elliott.size() == 2 || o.gilbert_elliott.size() == 4) {
+    GilbertElliottLink g;
+    g.p = o.gilbert_elliott[0];
+    g.r = o.gilbert_elliott[1];
+    if (o.gilbert_elliott.size() == 4) {
+      g.loss_good = o.gilbert_elliott[2];
+      g.loss_bad = o.gilbert_elliott[3];
+    }
+    model = g;
+  } else if (!o.gilbert_elliott.empty()) {
+    fail(2, "--gilbert-elliott takes P R [LOSS_GOOD LOSS_BAD] (2 or 4 numbers), got " +
+                std::to_string(o.gilbert_elliott.size()));
+  } else {
+    fail(2, "give the new model: --bernoulli LOSS or --gilbert-elliott P R [LOSS_GOOD LOSS_BAD]");
+  }
+  // Reject bad parameters here, before anything is sent.
+  try {
+    validate_link_model(model);
+  } catch (const std::exception& e) {
+    fail(2, std::string("invalid link model: ") + e.what());
+  }
+  if (o.sensor_id <= 0) fail(2, "sensor id must be positive, got " + std::to_string(o.sensor_id));
+
+  boost::asio::io_context io;
+  std::optional<LinkReplyRecord> reply;
+  std::optional<LinkStatusRecord> acknowledged;
+  std::uint64_t request_id = 0;
+  {
+    std::random_device rd;  // a request id unlikely to collide with another ctl's
+    request_id = (static_cast<std::uint64_t>(rd()) << 20) ^ static_cast<std::uint64_t>(getpid()) ^
+                 static_cast<std::uint64_t>(Clock::now().time_since_epoch().count());
+    request_id &= 0x7fffffffffffffffULL;
+    if (request_id == 0) request_id = 1;
+  }
+  BusHandlers h;
+  h.link_reply = [&](LinkReplyRecord&& r) {
+    if (r.request_id == request_id) reply = r;
+  };
+  h.link_status = [&](LinkStatusRecord&& l) {
+    if (l.last_request_id == request_id) acknowledged = l;
+  };
+  std::unique_ptr<LiveBus> bus;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, true);
+  } catch (const std::exception& e) {
+    fail(2, std::string("DDS: ") + e.what());
+  }
+  const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
+  const auto start = Clock::now();
+  if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
+    fail(3, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
+                std::to_string(o.timeout) + " s (is a network running? netkf launch)");
+  if (!bus->send_link_control(request_id, o.sensor_id, model)) fail(3, "DDS refused to send the link change");
+  const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
+  if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
+    fail(3, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
+                std::to_string(o.timeout) + " s");
+  if (!reply->applied) fail(4, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
+  // Show the status that acknowledges the request (published right after applying).
+  run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
+  std::cout << "link " << o.sensor_id << ": applied "
+            << describe_link(link_model_name(model), std::holds_alternative<BernoulliLink>(model)
+                                                         ? std::vector<double>{std::get<BernoulliLink>(model).loss}
+                                                         : std::vector<double>{std::get<GilbertElliottLink>(model).p,
+                                                                               std::get<GilbertElliottLink>(model).r,
+                                                                               std::get<GilbertElliottLink>(model).loss_good,
+                                                                               std::get<GilbertElliottLink>(model).loss_bad})
+            << " (request " << request_id << ", arrival rate " << 1.0 - stationary_loss(model) << ")\n";
+  if (acknowledged) std::cout << render_link_table({*acknowledged});
+  return 0;
+}
+
+}  // namespace
+
+void add_launch_command(CLI::App& app) {
+  auto o = std::make_shared<LaunchOptions>();
+  auto* cmd = app.add_subcommand("launch", "Start and supervise all processes of a scenario on localhost");
+  cmd->add_option("scenario", o->scenario, "Scenario YAML (default: built-in three-sensor scenario)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--record", o->record, "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state");
+  cmd->add_option("--record-samples", o->record_samples,
+                  "Write every delivered measurement: k,sensor_id,stamp,fused,y..");
+  o->network.add_to(cmd);
+  cmd->add_option("--log-level", o->log_level, "Log level of the node processes (trace..off)")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}));
+  cmd->add_option("--restart-policy", o->restart_policy,
+                  "When a sensor or the channel dies: restart it (with backoff) or fail the launch")
+      ->check(CLI::IsMember({"restart", "fail"}));
+  cmd->add_option("--max-restarts", o->max_restarts, "Restarts per process before the launch fails")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--pid-file", o->pid_file, "Write 'name pid' of each started process to FILE");
+  cmd->callback([o] {
+    if (const int rc = run_launch(*o); rc != 0) throw CLI::RuntimeError(rc);
+  });
+}
+
+void add_ctl_command(CLI::App& app) {
+  auto o = std::make_shared<CtlOptions>();
+  auto* cmd = app.add_subcommand("ctl", "Tune links of a running network and show their status");
+  cmd->require_subcommand(1);
+  auto* set = cmd->add_subcommand("set-link", "Change one link's loss model from the next sample on");
+  set->add_option("id", o->sensor_id, "Sensor id of the link")->required();
+  auto* b = set->add_option("--bernoulli", o->bernoulli, "i.i.d. drops with probability LOSS");
+  auto* ge = set->add_option("--gilbert-elliott", o->gilbert_elliott,
+                             "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
+                 ->expected(2, 4);
+  b->excludes(ge);
+  o->network.add_to(set);
+  set->add_option("--timeout", o->timeout, "Seconds to wait for the channel emulator's answer");
+  set->callback([o] {
+    if (const int rc = run_ctl_set_link(*o); rc != 0) throw CLI::RuntimeError(rc);
+  });
+  auto* status = cmd->add_subcommand("status", "Table of links (model, counts, observed loss)");
+  status->add_flag("--json", o->json, "One JSON object on stdout");
+  o->network.add_to(status);
+  status->add_option("--timeout", o->timeout, "Seconds to wait for the first link status");
+  status->callback([o] {
+    if (const int rc = run_ctl_status(*o); rc != 0) throw CLI::RuntimeError(rc);
+  });
+}
+
+void add_record_command(CLI::App& app) {
+  auto o = std::make_shared<RecordOptions>();
+  auto* cmd = app.add_subcommand("record", "Record truth and estimates of a running network to CSV");
+  cmd->add_option("scenario", o->scenario, "Scenario the network runs (for the state size; default: built-in)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--out", o->out, "CSV file: k,t,x..,xhat..,trace_P,fused,late,state")->required();
+  cmd->add_option("--samples", o->samples, "Also write every delivered measurement to this CSV");
+  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  o->network.add_to(cmd);
+  cmd->callback([o] {
+    if (const int rc = run_record(*o); rc != 0) throw CLI::RuntimeError(rc);
+  });
+}
+
 }  // namespace netkf::cli

@@ -51,4 +51,12 @@ struct LinkStatusRecord {
   std::string rejection_reason;  // empty when the last request was applied
 };
 
+/// The channel's answer to one link change request.
+struct LinkReplyRecord {
+  std::uint64_t request_id = 0;
+  int sensor_id = 0;
+  bool applied = false;
+  std::string reason;
+};
+
 }  // namespace netkf::cli

@@ -231,3 +231,23 @@ UpperBound expected_covariance_upper_bound(const Matrix& A, const Matrix& Q,
 }
 
 }  // namespace netkf::analysis
+
+namespace netkf::analysis {
+
+std::optional<Matrix> static_gain_covariance(const Matrix& A, const Matrix& C, const Matrix& Q, const Matrix& R,
+                                             double arrival_rate, const Matrix& K) {
+  const Eigen::Index n = A.rows();
+  const Matrix F = A - K * C;
+  const Matrix L = (1.0 - arrival_rate) * kron(A, A) + arrival_rate * kron(F, F);
+  if (Eigen::EigenSolver<Matrix>(L, false).eigenvalues().cwiseAbs().maxCoeff() >= 1.0) return std::nullopt;
+  const Matrix constant = Q + arrival_rate * K * R * K.transpose();
+  const Vector x = (Matrix::Identity(n * n, n * n) - L).partialPivLu().solve(Eigen::Map<const Vector>(constant.data(), n * n));
+  return symmetrised(Eigen::Map<const Matrix>(x.data(), n, n));
+}
+
+Matrix predictor_gain(const Matrix& A, const Matrix& C, const Matrix& R, const Matrix& X) {
+  const Matrix innovation = C * X * C.transpose() + R;
+  return innovation.ldlt().solve(C * X * A.transpose()).transpose();
+}
+
+}  // namespace netkf::analysis

@@ -54,6 +54,7 @@ class Validator {
   Validator(const Scenario& s, const ScenarioLocator& locate) : s_(s), locate_(locate) {}
 
   void run(bool gain_may_be_pending) {
+    if (s_.name.empty()) fail("name", "name must not be empty");
     if (s_.period_ms <= 0) fail("period_ms", "period_ms must be > 0, got " + std::to_string(s_.period_ms));
     if (s_.estimator.deadline_ms) {
       const int d = *s_.estimator.deadline_ms;

@@ -206,6 +206,34 @@ void set_link_model(wire::LinkStatus& status, const LinkModel& model) {
   status.stationary_loss(stationary_loss(model));
 }
 
+wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
+                                  std::uint64_t last_request_id, bool last_request_rejected,
+                                  const std::string& reject_reason, std::int64_t stamp_ns) {
+  wire::LinkStatus s;
+  s.sensor_id(sensor_id);
+  set_link_model(s, model);
+  s.samples_in(stats.samples());
+  s.delivered(stats.delivered());
+  s.dropped(stats.dropped());
+  s.observed_loss(stats.observed_loss());
+  s.mean_burst_length(stats.mean_burst_length());
+  s.last_request_id(last_request_id);
+  s.last_request_rejected(last_request_rejected);
+  s.reject_reason(reject_reason);
+  s.stamp_ns(stamp_ns);
+  return s;
+}
+
+wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
+                                               const std::string& reason) {
+  wire::LinkControlReply r;
+  r.request_id(request_id);
+  r.sensor_id(sensor_id);
+  r.applied(applied);
+  r.reason(reason);
+  return r;
+}
+
 LinkModel link_model_of(const wire::LinkStatus& status) {
   if (status.model() == "bernoulli") return BernoulliLink{status.loss()};
   if (status.model() == "gilbert_elliott")

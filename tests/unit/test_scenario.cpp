@@ -160,8 +160,8 @@ TEST_P(BrokenScenario, GivesOnePreciseError) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BadFiles, BrokenScenario, ::testing::ValuesIn(yaml_files(kData / "bad")),
-                         [](const ::testing::TestParamInfo<fs::path>& info) {
-                           std::string name = info.param.stem().string();
+                         [](const ::testing::TestParamInfo<fs::path>& param_info) {
+                           std::string name = param_info.param.stem().string();
                            std::replace(name.begin(), name.end(), '-', '_');
                            return name;
                          });
@@ -294,7 +294,9 @@ TEST(DeployScenarios, EveryShippedFileLoads) {
     ASSERT_NO_THROW(s = netkf::load_scenario_file(f));
     EXPECT_EQ(s.name, f.stem().string());
     names.insert(s.name);
-    if (s.plant.control) EXPECT_LT(spectral_radius(s.plant.A - *s.plant.B * s.plant.control->gain), 1.0);
+    if (s.plant.control) {
+      EXPECT_LT(spectral_radius(s.plant.A - *s.plant.B * s.plant.control->gain), 1.0);
+    }
   }
   for (const char* needed : {"default", "sinopoli-scalar", "sinopoli-mimo", "sinopoli-general", "sinopoli-static-gain",
                              "liu-goldsmith-case1", "liu-goldsmith-diag", "liu-goldsmith-fig5", "markov-gilbert-scalar",

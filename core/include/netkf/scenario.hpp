@@ -104,6 +104,22 @@ std::string scenario_to_yaml(const Scenario& scenario);
 void validate_scenario(const Scenario& scenario);
 
 // ---- Additions (scenario engineer) -------------------------------------------------
+//
+// Scenario file keys (DESIGN.md, "Scenario file"); anything else is an error, so typos
+// are caught. Required: period_ms, plant.A, plant.Q, sensors (at least one), and per
+// sensor id, C, R, link.model plus the model's parameters (bernoulli: loss;
+// gilbert_elliott: p, r). Optional, with defaults:
+//   name                  file stem
+//   seed                  0 (a scenario without a seed is still reproducible)
+//   plant.x0 / plant.P0   zeros / identity
+//   plant.B + plant.control   both or neither; control is { gain: [[..]] } (p x n,
+//                         u = -gain x̂) or { lqr: { Qx: .., Ru: .. } } (gain from lqr_gain)
+//   plant.state_bound     1e8 (|x|_inf ending an uncontrolled run)
+//   link.loss_good / link.loss_bad   0 / 1 (the simple Gilbert channel)
+//   estimator.deadline_ms             80 % of period_ms; must be in (0, period_ms]
+//   estimator.divergence_trace_bound  1e6
+// Covariances: Q and lqr.Qx symmetric PSD; R, P0 and lqr.Ru symmetric PD (symmetry
+// up to a relative 1e-9). A given gain must make A - B gain Schur stable.
 
 /// Where a key path such as "sensors[1].R" sits in the scenario's source file.
 /// line/column are 1-based; 0 when unknown (programmatic scenarios).

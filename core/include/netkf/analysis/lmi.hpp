@@ -15,7 +15,7 @@ namespace netkf::analysis {
 
 struct LmiResult {
   bool solved = false;      // CSDP returned a usable point
-  double margin = 0.0;      // min(λ_min(Ψ), λ_min(Y)) at the returned point (> 0: strictly feasible)
+  double margin = 0.0;      // λ_min(Ψ(Y, Z)) at the returned point (> 0: strictly feasible)
   int solver_code = -1;     // CSDP's return code (0 = success, 3 = partial success)
   bool feasible(double threshold = 1e-8) const { return solved && margin > threshold; }
 };

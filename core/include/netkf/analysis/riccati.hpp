@@ -85,3 +85,19 @@ double linearised_spectral_radius(const Matrix& A, std::span<const ArrivalPatter
 double spectral_radius(const Matrix& A);
 
 }  // namespace netkf::analysis
+
+namespace netkf::analysis {
+
+/// Steady-state covariance of the static-gain predictor x̂_{t+1} = A x̂_t + γ_t K (y_t − C x̂_t)
+/// (Sinopoli Sec. V, eqs. 27-28, one sensor, arrival rate λ):
+///   P = (1−λ)(A P A' + Q) + λ((A − K C) P (A − K C)' + Q + K R K').
+/// In the scalar case P̄ = (Q + λK²R) / (1 − (1−λ)A² − λ(A − KC)²) — note λK²R: eq. (28) as
+/// printed omits the λ. nullopt when the recursion is unstable.
+std::optional<Matrix> static_gain_covariance(const Matrix& A, const Matrix& C, const Matrix& Q, const Matrix& R,
+                                             double arrival_rate, const Matrix& K);
+
+/// Kalman gain of the static predictor in Sinopoli Sec. V's sign convention
+/// (F = A − K C): K = A X C'(C X C' + R)⁻¹.
+Matrix predictor_gain(const Matrix& A, const Matrix& C, const Matrix& R, const Matrix& X);
+
+}  // namespace netkf::analysis

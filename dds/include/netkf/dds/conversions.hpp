@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "netkf/kalman_filter.hpp"
+#include "netkf/loss_model.hpp"
 #include "netkf/scenario.hpp"
 #include "netkf/types.hpp"
 #include "netkf/dds/wire.hpp"
@@ -82,6 +83,13 @@ wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, con
 LinkModel to_link_model(const wire::LinkControl& c);
 /// Fill model name + parameters of a status (unused parameters are 0).
 void set_link_model(wire::LinkStatus& status, const LinkModel& model);
+/// A full link status: model, theory, and what the link did since the model was set.
+wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
+                                  std::uint64_t last_request_id, bool last_request_rejected,
+                                  const std::string& reject_reason, std::int64_t stamp_ns);
+/// The answer to one link change request.
+wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
+                                               const std::string& reason);
 /// The model a status describes (throws ConversionError on an unknown model name).
 LinkModel link_model_of(const wire::LinkStatus& status);
 

@@ -5,3 +5,4 @@
 #include "netkf/dds/participant.hpp"
 #include "netkf/dds/topics.hpp"
 #include "netkf/dds/wire.hpp"
+#include "netkf/dds/node_support.hpp"

@@ -1,0 +1,139 @@
+#include "live_bus.hpp"
+
+#include "netkf/dds/dds.hpp"
+
+namespace netkf::cli {
+
+namespace {
+
+double ns_to_s(std::int64_t ns) { return static_cast<double>(ns) * 1e-9; }
+
+EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) {
+  EstimateRecord r;
+  r.k = static_cast<std::int64_t>(e.k);
+  r.t = e.t;
+  r.xhat.assign(e.x_hat.data(), e.x_hat.data() + e.x_hat.size());
+  r.P = dds::to_wire_row_major(e.P);
+  r.trace_P = w.trace_P();
+  r.fused = e.fused;
+  r.late = e.late;
+  r.rejected = static_cast<std::uint32_t>(e.rejected_total);
+  r.state = to_string(e.state);
+  r.publish_stamp = ns_to_s(e.stamp_ns);
+  return r;
+}
+
+}  // namespace
+
+struct LiveBus::Impl {
+  dds::Participant participant;
+  std::unique_ptr<dds::Reader<wire::Truth>> truth;
+  std::unique_ptr<dds::Reader<wire::Estimate>> estimate;
+  std::unique_ptr<dds::Reader<wire::Measurement>> delivered;
+  std::unique_ptr<dds::Reader<wire::LinkStatus>> link_status;
+  std::unique_ptr<dds::Reader<wire::LinkControlReply>> link_reply;
+  std::unique_ptr<dds::Writer<wire::LinkControl>> link_control;
+
+  explicit Impl(const dds::ParticipantOptions& o) : participant(o) {}
+  ~Impl() {
+    // Endpoints hold a reference to the participant: destroy them first.
+    link_control.reset();
+    link_reply.reset();
+    link_status.reset();
+    delivered.reset();
+    estimate.reset();
+    truth.reset();
+  }
+};
+
+LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHandlers h, bool link_control_writer) {
+  dds::ParticipantOptions po;
+  po.domain = dds::resolve_domain(options.domain);
+  po.profile_file = dds::resolve_profile(options.profile);
+  po.name = options.name;
+  impl_ = std::make_unique<Impl>(po);
+  auto ex = io.get_executor();
+  auto invalid = [this, cb = h.invalid](const std::string& what) {
+    ++invalid_;
+    if (cb) cb(what);
+  };
+
+  if (h.truth) {
+    impl_->truth = std::make_unique<dds::Reader<wire::Truth>>(
+        impl_->participant, dds::topics::truth,
+        dds::post_to<wire::Truth>(ex, [cb = h.truth, invalid](wire::Truth w) {
+          if (!dds::all_finite(w.x())) return invalid("truth with a non-finite value");
+          cb(TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x()});
+        }));
+  }
+  if (h.estimate) {
+    impl_->estimate = std::make_unique<dds::Reader<wire::Estimate>>(
+        impl_->participant, dds::topics::estimate,
+        dds::post_to<wire::Estimate>(ex, [cb = h.estimate, invalid](wire::Estimate w) {
+          try {
+            cb(to_record(dds::from_wire(w), w));
+          } catch (const std::exception& e) {
+            invalid(std::string("estimate rejected: ") + e.what());
+          }
+        }));
+  }
+  if (h.delivered) {
+    impl_->delivered = std::make_unique<dds::Reader<wire::Measurement>>(
+        impl_->participant, dds::topics::delivered_measurement,
+        dds::post_to<wire::Measurement>(ex, [cb = h.delivered, invalid](wire::Measurement w) {
+          if (!dds::all_finite(w.y())) return invalid("measurement with a non-finite value");
+          cb(DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), ns_to_s(w.stamp_ns()), w.y()});
+        }));
+  }
+  if (h.link_status) {
+    impl_->link_status = std::make_unique<dds::Reader<wire::LinkStatus>>(
+        impl_->participant, dds::topics::link_status,
+        dds::post_to<wire::LinkStatus>(ex, [cb = h.link_status, invalid](wire::LinkStatus w) {
+          LinkStatusRecord r;
+          r.sensor_id = w.sensor_id();
+          r.model = w.model();
+          try {
+            const auto model = dds::link_model_of(w);
+            if (auto* b = std::get_if<BernoulliLink>(&model)) {
+              r.params = {b->loss};
+            } else {
+              const auto& g = std::get<GilbertElliottLink>(model);
+              r.params = {g.p, g.r, g.loss_good, g.loss_bad};
+            }
+          } catch (const std::exception& e) {
+            return invalid(std::string("link status rejected: ") + e.what());
+          }
+          r.samples_in = w.samples_in();
+          r.delivered = w.delivered();
+          r.dropped = w.dropped();
+          r.observed_loss = w.observed_loss();
+          r.mean_burst_length = w.mean_burst_length();
+          r.last_request_id = w.last_request_id();
+          r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
+          cb(std::move(r));
+        }));
+  }
+  if (h.link_reply) {
+    impl_->link_reply = std::make_unique<dds::Reader<wire::LinkControlReply>>(
+        impl_->participant, dds::topics::link_control_reply,
+        dds::post_to<wire::LinkControlReply>(ex, [cb = h.link_reply](wire::LinkControlReply w) {
+          cb(LinkReplyRecord{w.request_id(), w.sensor_id(), w.applied(), w.reason()});
+        }));
+  }
+  if (link_control_writer)
+    impl_->link_control = std::make_unique<dds::Writer<wire::LinkControl>>(impl_->participant, dds::topics::link_control);
+}
+
+LiveBus::~LiveBus() = default;
+
+int LiveBus::domain() const { return impl_->participant.domain(); }
+
+bool LiveBus::send_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model) {
+  if (!impl_->link_control) return false;
+  return impl_->link_control->write(dds::make_link_control(request_id, sensor_id, model));
+}
+
+int LiveBus::link_control_readers() const { return impl_->link_control ? impl_->link_control->matched() : 0; }
+int LiveBus::link_reply_writers() const { return impl_->link_reply ? impl_->link_reply->matched() : 0; }
+
+}  // namespace netkf::cli

@@ -1,0 +1,59 @@
+#pragma once
+// The live commands' window on the DDS network: one participant, the readers a command
+// needs, and the link-control writer. Samples are converted from the wire (validated by
+// the DDS library's conversions) and handed to the command's handlers on its own
+// io_context thread (netkf::dds::post_to), never on a DDS listener thread.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "live_records.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli {
+
+struct BusOptions {
+  std::optional<int> domain;           // --domain (else $NETKF_DOMAIN, else 0)
+  std::optional<std::string> profile;  // --dds-profile (else $NETKF_DDS_PROFILE, else localhost-only)
+  std::string name = "netkf-cli";
+};
+
+struct BusHandlers {
+  std::function<void(TruthRecord&&)> truth;
+  std::function<void(EstimateRecord&&)> estimate;
+  std::function<void(DeliveredRecord&&)> delivered;
+  std::function<void(LinkStatusRecord&&)> link_status;
+  std::function<void(LinkReplyRecord&&)> link_reply;
+  /// Called with a message when a sample failed validation (counted, not used).
+  std::function<void(const std::string&)> invalid;
+};
+
+class LiveBus {
+ public:
+  /// Throws netkf::dds::DdsError (bad profile, participant failure).
+  LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHandlers handlers, bool link_control_writer);
+  ~LiveBus();
+  LiveBus(const LiveBus&) = delete;
+  LiveBus& operator=(const LiveBus&) = delete;
+
+  int domain() const;
+  /// Publish a link change; false when DDS refused it.
+  bool send_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model);
+  /// Readers of the link-control topic (the channel emulator) currently matched.
+  int link_control_readers() const;
+  /// Writers matched on the link-reply topic.
+  int link_reply_writers() const;
+  std::uint64_t invalid_samples() const { return invalid_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  std::uint64_t invalid_ = 0;
+};
+
+}  // namespace netkf::cli

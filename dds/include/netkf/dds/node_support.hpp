@@ -1,0 +1,29 @@
+#pragma once
+// What every node main shares: the common flags (--scenario, --domain, --dds-profile,
+// --log-level), spdlog set-up on stderr, and the participant options they resolve to.
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "netkf/dds/participant.hpp"
+
+namespace netkf::dds {
+
+struct CommonNodeFlags {
+  std::string scenario;                  // --scenario FILE (required)
+  std::optional<int> domain;             // --domain N (default $NETKF_DOMAIN, else 0)
+  std::optional<std::string> dds_profile;// --dds-profile FILE (default $NETKF_DDS_PROFILE, else built-in localhost-only)
+  std::string log_level = "info";        // --log-level trace|debug|info|warn|error
+};
+
+/// Register the common flags on `app`.
+void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);
+
+/// Log to stderr with the node's name in every line, at `level` (validated by the flags).
+void setup_node_logging(const std::string& node_name, const std::string& level);
+
+/// Resolve domain and profile (flag, then environment, then default). Throws DdsError.
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name);
+
+}  // namespace netkf::dds

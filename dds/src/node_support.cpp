@@ -1,0 +1,35 @@
+#include "netkf/dds/node_support.hpp"
+
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+
+namespace netkf::dds {
+
+void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
+  app.add_option("--scenario", flags.scenario, "Scenario YAML file")->required()->check(CLI::ExistingFile);
+  app.add_option("--domain", flags.domain, "DDS domain id (default: $NETKF_DOMAIN, else 0)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--dds-profile", flags.dds_profile,
+                 "Fast DDS XML profile file (default: $NETKF_DDS_PROFILE, else the built-in localhost-only profile)");
+  app.add_option("--log-level", flags.log_level, "Log level")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
+      ->capture_default_str();
+}
+
+void setup_node_logging(const std::string& node_name, const std::string& level) {
+  auto logger = spdlog::stderr_color_mt(node_name);
+  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e [%n] %^%l%$ %v");
+  logger->set_level(spdlog::level::from_str(level));
+  logger->flush_on(spdlog::level::info);
+  spdlog::set_default_logger(logger);
+}
+
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name) {
+  ParticipantOptions o;
+  o.domain = resolve_domain(flags.domain);
+  o.profile_file = resolve_profile(flags.dds_profile);
+  o.name = participant_name;
+  return o;
+}
+
+}  // namespace netkf::dds

@@ -1,0 +1,114 @@
+#pragma once
+// The estimator's period logic (DESIGN.md, estimator_node), without DDS or clocks: the node
+// passes every event with the current steady time in ns, so tests drive it with a fake clock.
+//
+// Period k opens when tick k arrives (deadline = arrival + deadline_ms). It is fused exactly
+// once: as soon as every sensor's sample for k is in, or at the deadline, or when a later
+// tick arrives first — whichever comes first. Samples for a fused period are late (counted,
+// never fused); samples for a future period are buffered (bounded) until its tick.
+// Fusion is the multi-sensor MMSE update with exactly the samples received (multi-sensor
+// paper Thm 1, eqs. 8-9; Sinopoli eqs. 14-16 for one sensor); with nothing received the
+// period still advances (open-loop prediction). Prediction to period k uses the input u_{k-1}
+// the plant acknowledged in tick k. With control, u_k = -L x̂_{k|k} (LQG certainty equivalence).
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "netkf/kalman_filter.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::nodes {
+
+/// One fused period, ready to publish.
+struct PeriodEstimate {
+  std::uint64_t k = 0;
+  double t = 0.0;
+  Vector x_hat;                        // x̂_{k|k}
+  Matrix P;                            // P_{k|k}
+  std::vector<int> fused;              // sensor ids fused for k (sorted)
+  std::uint32_t late = 0;              // late samples counted since the previous published estimate
+  std::uint64_t late_total = 0;
+  std::uint64_t rejected_total = 0;
+  FilterState state = FilterState::ok;
+  std::optional<Vector> control;       // u_k = -L x̂_{k|k} to send to the plant (closed loop only)
+  std::int64_t fused_at_ns = 0;
+  std::int64_t last_sample_stamp_ns = 0;  // newest sensor publish stamp among fused samples
+  bool skipped_tick = false;           // tick k never arrived: open-loop period inferred from a later tick
+};
+
+/// Why a sample was rejected by the estimator (in addition to late samples, counted apart).
+enum class SampleRejection { unknown_sensor, wrong_size, non_finite, duplicate, buffer_full, stale_tick, count_ };
+const char* to_string(SampleRejection r);
+
+class EstimatorCore {
+ public:
+  /// Throws std::invalid_argument when the scenario cannot be run (e.g. control without B).
+  explicit EstimatorCore(const Scenario& scenario);
+
+  /// Tick k arrived at `now_ns` with the input u_{k-1} the plant applied (empty: none / zero).
+  /// Returns the periods fused because of it (a still-open earlier period, skipped periods,
+  /// and period k itself if all its samples were already buffered), in order.
+  std::vector<PeriodEstimate> on_tick(std::uint64_t k, const Vector& applied_input, std::int64_t now_ns);
+
+  /// A delivered sample arrived. Returns period k's estimate if this completed its set.
+  std::vector<PeriodEstimate> on_sample(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns,
+                                        std::int64_t now_ns);
+
+  /// A sample that could not be decoded (e.g. NaN caught by the wire conversion).
+  void count_rejection(SampleRejection reason);
+
+  /// Fuse the open period if its deadline has passed.
+  std::vector<PeriodEstimate> on_deadline(std::int64_t now_ns);
+
+  /// Deadline of the open period (for the node's timer); nullopt when none is open.
+  std::optional<std::int64_t> pending_deadline_ns() const;
+  std::optional<std::uint64_t> open_period() const;
+  std::optional<std::uint64_t> last_fused_period() const { return last_fused_; }
+
+  std::uint64_t late_total() const { return late_total_; }
+  std::uint64_t rejected_total() const;
+  std::uint64_t rejected(SampleRejection r) const { return rejected_[static_cast<int>(r)]; }
+  std::size_t buffered_samples() const;
+  const IntermittentKalmanFilter& filter() const { return filter_; }
+  int sensor_count() const { return static_cast<int>(sensor_dims_.size()); }
+
+  /// Future periods buffered at most (samples for k > open + this are rejected: buffer_full).
+  static constexpr std::uint64_t kMaxFuturePeriods = 64;
+
+ private:
+  struct OpenPeriod {
+    std::uint64_t k = 0;
+    double t = 0.0;
+    std::int64_t deadline_ns = 0;
+    std::map<int, SensorSample> samples;
+    std::int64_t last_stamp_ns = 0;
+  };
+  struct Buffered {
+    SensorSample sample;
+    std::int64_t stamp_ns = 0;
+  };
+
+  PeriodEstimate fuse(std::int64_t now_ns);
+  void open(std::uint64_t k, std::int64_t now_ns);
+  void predict_with(const Vector& applied_input);
+  bool complete() const;
+  void reject(SampleRejection r) { ++rejected_[static_cast<int>(r)]; }
+
+  IntermittentKalmanFilter filter_;
+  std::map<int, int> sensor_dims_;   // id -> m_i
+  std::optional<Matrix> gain_;       // L
+  int input_dim_ = 0;
+  double period_s_;
+  std::int64_t deadline_ns_;
+  std::optional<OpenPeriod> open_;
+  std::optional<std::uint64_t> last_fused_;
+  std::optional<Vector> last_control_;  // u sent for the last fused period (assumed applied if its tick is lost)
+  std::map<std::uint64_t, std::map<int, Buffered>> future_;
+  std::uint64_t late_total_ = 0;
+  std::uint32_t late_since_publish_ = 0;
+  std::uint64_t rejected_[static_cast<int>(SampleRejection::count_)] = {};
+};
+
+}  // namespace netkf::nodes
