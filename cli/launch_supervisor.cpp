@@ -58,12 +58,14 @@ Supervisor::Supervisor(SupervisorOptions options) : options_(options) {}
 Supervisor::~Supervisor() { stop_all(); }
 
 SupervisorEvent Supervisor::start(ChildSpec spec) {
-  children_.push_back(Child{std::move(spec)});
+  Child child;
+  child.spec = std::move(spec);
+  children_.push_back(std::move(child));
   return spawn(children_.back());
 }
 
 SupervisorEvent Supervisor::spawn(Child& child) {
-  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name};
+  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name, -1, {}, {}};
   std::vector<std::string> argv_storage;
   argv_storage.push_back(child.spec.executable);
   argv_storage.insert(argv_storage.end(), child.spec.args.begin(), child.spec.args.end());
@@ -130,7 +132,7 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
                              std::vector<SupervisorEvent>& events) {
   const pid_t old_pid = child.pid;
   child.pid = -1;
-  events.push_back({SupervisorEvent::Kind::exited, child.spec.name, old_pid, exit});
+  events.push_back({SupervisorEvent::Kind::exited, child.spec.name, old_pid, exit, {}});
   if (stopping_) return;
   if (child.spec.critical && exit.clean()) {
     // The plant ends on its own after --max-periods or at its state bound.
@@ -141,7 +143,7 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
   const bool may_restart = options_.policy == RestartPolicy::restart && !child.spec.critical &&
                            child.restarts < options_.max_restarts;
   if (!may_restart) {
-    events.push_back({SupervisorEvent::Kind::gave_up, child.spec.name, old_pid, exit});
+    events.push_back({SupervisorEvent::Kind::gave_up, child.spec.name, old_pid, exit, {}});
     if (!failed_) {
       failed_ = true;
       failure_reason_ = child.spec.name + " " + exit.describe() +
@@ -154,7 +156,7 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
   const auto backoff = options_.first_backoff * (1 << child.restarts);
   child.restarts++;
   child.restart_at = now + backoff;
-  SupervisorEvent e{SupervisorEvent::Kind::restart_scheduled, child.spec.name, old_pid, exit};
+  SupervisorEvent e{SupervisorEvent::Kind::restart_scheduled, child.spec.name, old_pid, exit, {}};
   e.backoff = std::chrono::duration_cast<std::chrono::milliseconds>(backoff);
   events.push_back(e);
 }
@@ -206,7 +208,7 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
     int status = 0;
     if (waitpid(child.pid, &status, 0) == child.pid) {
       auto exit = decode_status(status);
-      events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (after SIGKILL)", child.pid, exit});
+      events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (after SIGKILL)", child.pid, exit, {}});
     }
     child.pid = -1;
   }

@@ -334,6 +334,12 @@ int run_record(const RecordOptions& o) {
 
 // ---------------------------------------------------------------- ctl
 
+std::string seconds_text(double s) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", s);
+  return buf;
+}
+
 /// Run `io` until `done()` or the deadline; true when done.
 bool run_until(boost::asio::io_context& io, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
@@ -372,7 +378,7 @@ nlohmann::json link_json(const LinkStatusRecord& l) {
 
 struct CtlOptions {
   NetworkOptions network;
-  double timeout = 5.0;
+  double timeout = 10.0;
   int sensor_id = 0;
   std::optional<double> bernoulli;
   std::vector<double> gilbert_elliott;
@@ -392,11 +398,11 @@ int run_ctl_status(const CtlOptions& o) {
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
   if (!run_until(io, [&] { return !links.empty(); }, timeout))
-    fail(3, "no link status received within " + std::to_string(o.timeout) + " s on DDS domain " +
+    fail(3, "no link status received within " + seconds_text(o.timeout) + " s on DDS domain " +
                 std::to_string(bus->domain()) + " (is a network running? netkf launch)");
-  // Link status is transient-local: the other links arrive in the same burst; the
-  // channel also republishes every second, so wait a little longer for stragglers.
-  run_until(io, [] { return false; }, std::chrono::milliseconds(1200));
+  // Link status is transient-local: the other links arrive in the same burst right
+  // after the first; a short grace period collects them.
+  run_until(io, [] { return false; }, std::chrono::milliseconds(400));
   std::vector<LinkStatusRecord> list;
   for (auto& [id, l] : links) list.push_back(l);
   if (o.json) {
@@ -465,12 +471,12 @@ int run_ctl_set_link(const CtlOptions& o) {
   const auto start = Clock::now();
   if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
     fail(3, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
-                std::to_string(o.timeout) + " s (is a network running? netkf launch)");
+                seconds_text(o.timeout) + " s (is a network running? netkf launch)");
   if (!bus->send_link_control(request_id, o.sensor_id, model)) fail(3, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
     fail(3, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
-                std::to_string(o.timeout) + " s");
+                seconds_text(o.timeout) + " s");
   if (!reply->applied) fail(4, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));

@@ -11,9 +11,11 @@ namespace netkf::cli {
 namespace {
 constexpr std::int64_t kScoreWindow = 500;  // periods kept for joining truth and estimates
 
-std::string fmt(double v, const char* spec = "%.4g") {
+// Short numbers for the status view: 4 significant digits, or 3 decimals for rates.
+std::string fmt(double v, bool fixed3 = false) {
   char buf[48];
-  std::snprintf(buf, sizeof buf, spec, v);
+  if (fixed3) std::snprintf(buf, sizeof buf, "%.3f", v);
+  else std::snprintf(buf, sizeof buf, "%.4g", v);
   return buf;
 }
 }  // namespace
@@ -117,7 +119,7 @@ std::string LiveStatus::render(bool with_theory) {
   std::ostringstream out;
   if (last_estimate_) {
     const auto& e = *last_estimate_;
-    out << "period " << e.k << "  t=" << fmt(e.t, "%.2f") << "s  state=" << e.state << "  Tr P=" << fmt(e.trace_P)
+    out << "period " << e.k << "  t=" << fmt(e.t) << "s  state=" << e.state << "  Tr P=" << fmt(e.trace_P)
         << " (mean " << fmt(sum_trace_ / static_cast<double>(estimates_seen_)) << ")";
     if (last_error_)
       out << "  |x-x̂|=" << fmt(*last_error_) << " (rms " << fmt(std::sqrt(sum_sq_error_ / static_cast<double>(scored_)))
@@ -154,7 +156,7 @@ std::string LiveStatus::render(bool with_theory) {
     observed_rates.push_back(obs < 0 ? cfg_rate : obs);
     char line[200];
     std::snprintf(line, sizeof line, "  %-5d %-52s %6.3f  %6s\n", sensor.id, cfg_text.c_str(), cfg_rate,
-                  obs < 0 ? "-" : fmt(obs, "%.3f").c_str());
+                  obs < 0 ? "-" : fmt(obs, true).c_str());
     out << line;
   }
 

@@ -180,13 +180,23 @@ AnalysisReport analyze(const Scenario& scenario, const AnalyzeOptions& options) 
     cr.lower = critical_rate_lower_bound(alpha, static_cast<int>(d));
     const RateFamily family = shared_rate(d);
     cr.upper_iteration = upper_rate_iteration(A, Q, sensors, family, cr.lower);
-    if (options.use_lmi) cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
-    else cr.upper = cr.upper_iteration;
+    const auto block = static_cast<int>(A.rows()) * (1 + (1 << d));
+    const bool lmi = options.use_lmi && (options.lmi_max_block <= 0 || block <= options.lmi_max_block);
+    if (lmi) {
+      cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
+    } else {
+      cr.upper = cr.upper_iteration;
+      report.notes.push_back(options.use_lmi ? "critical_rate.upper from the g-iteration bisection: the LMI (" +
+                                                   std::to_string(block) + " rows) exceeds the size limit for CSDP "
+                                                   "(analyze --lmi-always forces it)"
+                                             : "critical_rate.upper from the g-iteration bisection (LMI disabled)");
+    }
     if (markov.applies) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
     if (d > 1)
       report.notes.push_back("critical_rate.lower = 1 - alpha^(-2/d) for d links sharing the rate (Sinopoli Thm 3 "
                              "with Liu-Goldsmith's all-lost probability)");
-    if (cr.upper && cr.upper_iteration && std::abs(*cr.upper - *cr.upper_iteration) > 1e-3)
+    if (!lmi) {
+    } else if (cr.upper && cr.upper_iteration && std::abs(*cr.upper - *cr.upper_iteration) > 1e-3)
       report.notes.push_back("critical_rate.upper: LMI (CSDP) " + fmt(*cr.upper) + " and g-iteration bisection " +
                              fmt(*cr.upper_iteration) + " disagree");
     else if (cr.upper && cr.upper_iteration)

@@ -6,6 +6,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include <yaml-cpp/yaml.h>
 
@@ -28,7 +29,9 @@ std::string num(double v) {
   return os.str();
 }
 
-double scale_of(const Matrix& M) { return M.size() == 0 ? 1.0 : std::max(1.0, M.cwiseAbs().maxCoeff()); }
+// Largest |entry|: tolerances are relative to it, so a covariance in small units
+// (say 1e-8 m²) is judged like the same one in large units.
+double scale_of(const Matrix& M) { return M.size() == 0 ? 0.0 : M.cwiseAbs().maxCoeff(); }
 
 double smallest_eigenvalue(const Matrix& M) {
   Eigen::SelfAdjointEigenSolver<Matrix> es(0.5 * (M + M.transpose()), Eigen::EigenvaluesOnly);
@@ -47,6 +50,11 @@ std::string message_prefix(const Scenario& s, const ScenarioLocator& locate, con
   std::string prefix = where.file;
   if (where.line > 0) prefix += ":" + std::to_string(where.line) + ":" + std::to_string(std::max(1, where.column));
   return prefix + ": ";
+}
+
+// lqr_gain() prefixes its messages with "lqr: "; here the key path says it already.
+std::string without_lqr_prefix(const std::string& what) {
+  return what.rfind("lqr: ", 0) == 0 ? what.substr(5) : what;
 }
 
 class Validator {
@@ -102,6 +110,7 @@ class Validator {
     const Matrix asym = M - M.transpose();
     Eigen::Index i = 0, j = 0;
     const double worst = asym.cwiseAbs().maxCoeff(&i, &j);
+    if (i > j) std::swap(i, j);  // name the upper-triangle entry first, as the user reads rows
     if (worst > kSymmetryTolerance * scale_of(M))
       fail(path, path + " must be symmetric, but " + path + "[" + std::to_string(i) + "][" + std::to_string(j) +
                      "] = " + num(M(i, j)) + " differs from " + path + "[" + std::to_string(j) + "][" +
@@ -116,7 +125,8 @@ class Validator {
     const double lmin = smallest_eigenvalue(M);
     const double tol = 1e-12 * scale_of(M);
     if (definite && !(lmin > tol))
-      fail(path, path + " is not positive definite (smallest eigenvalue " + num(lmin) + ")");
+      fail(path, path + " is not positive definite (smallest eigenvalue " + num(lmin) +
+                     (lmin > 0.0 ? ", numerically singular" : "") + ")");
     if (!definite && lmin < -tol)
       fail(path, path + " is not positive semidefinite (smallest eigenvalue " + num(lmin) + ")");
   }
@@ -176,7 +186,7 @@ class Validator {
       try {
         expected = lqr_gain(p.A, B, *c.lqr_Qx, *c.lqr_Ru);
       } catch (const std::invalid_argument& e) {
-        fail("plant.control.lqr", std::string("plant.control.lqr: ") + e.what());
+        fail("plant.control.lqr", "plant.control.lqr: " + without_lqr_prefix(e.what()));
       }
       if ((expected - c.gain).norm() > 1e-8 * std::max(1.0, expected.norm()))
         fail("plant.control.gain", "plant.control.gain differs from the LQR gain of plant.control.lqr (give one of them)");
@@ -272,7 +282,7 @@ void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
     try {
       c.gain = lqr_gain(scenario.plant.A, *scenario.plant.B, *c.lqr_Qx, *c.lqr_Ru);
     } catch (const std::invalid_argument& e) {
-      throw ScenarioError(message_prefix(scenario, locate, "plant.control.lqr") + "plant.control.lqr: " + e.what());
+      throw ScenarioError(message_prefix(scenario, locate, "plant.control.lqr") + "plant.control.lqr: " + without_lqr_prefix(e.what()));
     }
     validate_scenario(scenario, locate);
   }

@@ -52,7 +52,7 @@ struct MapView {
 
 class Loader {
  public:
-  explicit Loader(std::string source) : source_(std::move(source)) {}
+  explicit Loader(std::string source) : source_(source.empty() ? "<scenario>" : std::move(source)) {}
 
   Scenario load(const std::string& text) {
     std::vector<YAML::Node> docs;
@@ -112,9 +112,11 @@ class Loader {
     return parent.empty() ? key : parent + "." + key;
   }
 
-  MapView open_map(const YAML::Node& node, const std::string& path, const YAML::Mark& fallback,
+  // `key_mark`: where the key naming this mapping is (messages about the mapping as a
+  // whole point there, not at its first entry); null for the document itself.
+  MapView open_map(const YAML::Node& node, const std::string& path, const YAML::Mark& key_mark,
                    std::initializer_list<const char*> allowed) {
-    const YAML::Mark at = valid(node.Mark()) ? node.Mark() : fallback;
+    const YAML::Mark at = valid(key_mark) ? key_mark : node.Mark();
     const std::string what = path.empty() ? "the scenario" : path;
     if (!node.IsMap()) fail(at, what + " must be a mapping (key: value), got " + describe(node));
     MapView view{path, at, {}};
@@ -132,9 +134,9 @@ class Loader {
                                   " (first at line " + std::to_string(prev->second.line + 1) + ")");
       key_marks[key] = kv.first.Mark();
       view.values[key] = kv.second;
-      // Where validate_scenario() reports problems with this field: its value, or its
-      // key when the value has no position (e.g. an empty value).
-      marks_[child(path, key)] = valid(kv.second.Mark()) ? kv.second.Mark() : kv.first.Mark();
+      // Where validate_scenario() reports problems with this field: its key, which is on
+      // the line the user reads the name on (a block value starts on the next line).
+      marks_[child(path, key)] = kv.first.Mark();
     }
     return view;
   }
@@ -145,10 +147,11 @@ class Loader {
     return it->second;
   }
 
+  // The key of a field when it has one, else the node itself (list elements).
   YAML::Mark mark_of(const YAML::Node& node, const std::string& path) const {
-    if (valid(node.Mark())) return node.Mark();
     const auto it = marks_.find(path);
-    return it != marks_.end() ? it->second : YAML::Mark::null_mark();
+    if (it != marks_.end() && valid(it->second)) return it->second;
+    return node.Mark();
   }
 
   std::string read_string(const YAML::Node& node, const std::string& path) const {
@@ -280,7 +283,7 @@ class Loader {
     for (std::size_t k = 0; k < node.size(); ++k) {
       const std::string at = "sensors[" + std::to_string(k) + "]";
       marks_[at] = node[k].Mark();
-      const MapView m = open_map(node[k], at, marks_["sensors"], {"id", "C", "R", "link"});
+      const MapView m = open_map(node[k], at, marks_[at], {"id", "C", "R", "link"});
       SensorSpec sensor;
       sensor.id = read_int(require(m, "id"), at + ".id");
       sensor.C = read_matrix(require(m, "C"), at + ".C");
@@ -294,7 +297,11 @@ class Loader {
     const YAML::Mark where = mark_of(node, at);
     if (!node.IsMap()) fail(where, at + " must be a mapping such as { model: bernoulli, loss: 0.1 }, got " + describe(node));
     const YAML::Node model_node = node["model"];
-    if (!model_node) fail(where, "missing required key '" + at + ".model' (bernoulli or gilbert_elliott)");
+    if (!model_node) {
+      // Catch a misspelt 'model' (or any other typo) as an unknown key first.
+      open_map(node, at, where, {"model", "loss", "p", "r", "loss_good", "loss_bad"});
+      fail(where, "missing required key '" + at + ".model' (bernoulli or gilbert_elliott)");
+    }
     const std::string model = read_string(model_node, at + ".model");
     if (model == "bernoulli") {
       const MapView m = open_map(node, at, where, {"model", "loss"});
@@ -330,10 +337,20 @@ class Loader {
 }  // namespace
 
 Scenario parse_scenario(const std::string& yaml_text, const std::string& source_name) {
-  return Loader(source_name).load(yaml_text);
+  try {
+    return Loader(source_name).load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    // Safety net: every yaml-cpp failure the walk above does not anticipate still
+    // becomes a ScenarioError with the position yaml-cpp knows.
+    std::string prefix = source_name;
+    if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
+    throw ScenarioError(prefix + ": " + e.msg);
+  }
 }
 
 Scenario load_scenario_file(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw ScenarioError(path.string() + ": is a directory, not a scenario file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ScenarioError(path.string() + ": cannot open scenario file");
   std::ostringstream text;

@@ -145,12 +145,38 @@ class StdoutSilencer {
   int saved_ = -1;
 };
 
+// Feasibility of Ψ is invariant under a change of state coordinates x̃ = T x (A → T A T⁻¹,
+// C_S → C_S T⁻¹). Badly scaled systems (e.g. Sinopoli's MIMO example with A_23 = 7) otherwise
+// need a very ill-conditioned Y and the margin drowns in the solver's tolerance; T = P⁻½ with P
+// the full-arrival Riccati solution makes the problem well scaled. T only preconditions: the
+// LMI alone decides feasibility.
+Matrix preconditioner(const Matrix& A, std::span<const ArrivalPattern> patterns) {
+  const Eigen::Index n = A.rows();
+  const ArrivalPattern* fullest = &patterns.front();
+  for (const auto& s : patterns)
+    if (s.C.rows() > fullest->C.rows()) fullest = &s;
+  ArrivalPattern all = *fullest;
+  all.probability = 1.0;
+  const Matrix Q = Matrix::Identity(n, n);  // unit process noise: only the shape of P matters
+  const auto P = expected_covariance_upper_bound(A, Q, std::span<const ArrivalPattern>(&all, 1));
+  if (P.status != BoundStatus::bounded) return Matrix::Identity(n, n);
+  Eigen::SelfAdjointEigenSolver<Matrix> es(P.V);
+  if (es.eigenvalues().minCoeff() <= 0.0) return Matrix::Identity(n, n);
+  return es.eigenvectors() * es.eigenvalues().cwiseSqrt().cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+}
+
 }  // namespace
 
-LmiResult solve_stability_lmi(const Matrix& A, std::span<const ArrivalPattern> patterns) {
+LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern> patterns_in) {
   LmiResult result;
-  const Eigen::Index n = A.rows();
-  if (n == 0 || patterns.empty()) return result;
+  const Eigen::Index n = A_in.rows();
+  if (n == 0 || patterns_in.empty()) return result;
+  const Matrix T = preconditioner(A_in, patterns_in);
+  const Matrix T_inv = T.inverse();
+  const Matrix A = T * A_in * T_inv;
+  std::vector<ArrivalPattern> patterns(patterns_in.begin(), patterns_in.end());
+  for (auto& s : patterns)
+    if (s.C.rows() > 0) s.C = s.C * T_inv;
   const Layout layout = make_layout(n, patterns);
   const Vector zero = Vector::Zero(layout.count);
   const Blocks constant = evaluate(A, patterns, layout, zero, true);

@@ -150,6 +150,7 @@ TEST_P(BrokenScenario, GivesOnePreciseError) {
   const BadFile bad = read_bad_file(GetParam());
   ASSERT_FALSE(bad.expected.empty()) << "no '# expect:' line in " << bad.path;
   const std::string message = error_of([&] { netkf::load_scenario_file(bad.path); });
+  RecordProperty("message", message);  // visible with --gtest_output=xml
   const std::string file = bad.path.string();
   if (bad.line > 0) {
     EXPECT_THAT(message, StartsWith(file + ":" + std::to_string(bad.line) + ":")) << message;
@@ -195,6 +196,15 @@ TEST(ScenarioErrors, ColumnPointsAtTheOffendingKey) {
 TEST(ScenarioErrors, MissingFileIsReported) {
   const std::string message = error_of([] { netkf::load_scenario_file(kData / "does-not-exist.yaml"); });
   EXPECT_THAT(message, HasSubstr("does-not-exist.yaml: cannot open scenario file"));
+}
+
+TEST(ScenarioErrors, DirectoryIsReported) {
+  EXPECT_THAT(error_of([] { netkf::load_scenario_file(kData); }), HasSubstr("is a directory"));
+}
+
+TEST(ScenarioErrors, DeepNestingIsAnErrorNotACrash) {
+  const std::string text = "period_ms: 10\nplant: { A: " + std::string(100000, '[') + " }\n";
+  EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "deep.yaml"); }), StartsWith("deep.yaml:"));
 }
 
 TEST(ScenarioErrors, SeveralDocumentsAreRejected) {
@@ -502,6 +512,15 @@ TEST(ProgrammaticValidation, SymmetryCheckToleratesRounding) {
   EXPECT_NO_THROW(netkf::validate_scenario(s));
   s.plant.Q(0, 1) = 1e-3;
   EXPECT_THAT(error_of([&] { netkf::validate_scenario(s); }), HasSubstr("plant.Q must be symmetric"));
+}
+
+TEST(ProgrammaticValidation, DefinitenessIsJudgedRelativeToScale) {
+  netkf::Scenario s = valid_programmatic();
+  s.sensors[0].R = M({{1e-10}});  // tiny but well-conditioned: fine
+  EXPECT_NO_THROW(netkf::validate_scenario(s));
+  s.plant.P0 = M({{1.0, 0.0}, {0.0, 1e-15}});  // condition number 1e15: singular in practice
+  EXPECT_THAT(error_of([&] { netkf::validate_scenario(s); }),
+              HasSubstr("plant.P0 is not positive definite (smallest eigenvalue 1e-15, numerically singular)"));
 }
 
 TEST(ProgrammaticValidation, CompleteScenarioComputesTheLqrGain) {

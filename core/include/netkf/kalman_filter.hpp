@@ -8,6 +8,7 @@
 #include <span>
 #include <string>
 #include <vector>
+#include <utility>
 
 #include "netkf/types.hpp"
 
@@ -89,12 +90,39 @@ class IntermittentKalmanFilter {
 
  private:
   void refresh_state();
+  void saturate();  // keeps P and x finite (FilterOptions::covariance_ceiling)
+  /// Looks up a sensor's index in model_.sensors; -1 when unknown.
+  int sensor_index(int id) const;
+
+  // Per-sensor information terms precomputed at construction (R_i factorised once):
+  // H_i = C_i' R_i^-1 (n x m_i) and Lambda_i = C_i' R_i^-1 C_i (n x n, PSD by construction).
+  struct SensorTerms {
+    Matrix H;
+    Matrix Lambda;
+  };
+
   FilterModel model_;
   FilterOptions options_;
   Vector x_;
   Matrix P_;
   FilterState state_ = FilterState::ok;
   RejectionCounts rejections_;
+  std::vector<SensorTerms> terms_;             // parallel to model_.sensors
+  std::vector<std::pair<int, int>> id_index_;  // (sensor id, index), sorted by id
+
+  // Workspace sized at construction so that update()/predict() do not allocate
+  // matrices at 100 Hz (only the small result vectors are allocated).
+  std::vector<int> accepted_;     // indices of samples accepted in this update
+  std::vector<int> taken_;        // sensor index -> sample index in this update, or -1
+  Matrix lambda_sum_;             // Σ Lambda_i over the received sensors
+  Vector info_vector_;            // Σ H_i (y_i - C_i x̂)
+  Vector residual_;               // y_i - C_i x̂ (length max m_i)
+  Vector work_x_;
+  Matrix factor_;                 // F with P = F F'
+  Matrix work_a_;
+  Matrix work_b_;
+  Eigen::LDLT<Matrix> ldlt_;
+  Eigen::LLT<Matrix> llt_;
 };
 
 // ---- Reference forms of the fused update (for tests and benchmarks) ----

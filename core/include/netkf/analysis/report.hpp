@@ -45,6 +45,10 @@ struct AnalyzeOptions {
   bool sweep = false;
   int sweep_points = 101;
   bool use_lmi = true;
+  /// The LMI's first block has n(1 + #patterns) rows; CSDP takes ~1.5 s per solve at ~100
+  /// (6 states, 4 sensors), so above this size the bisection uses the g iteration only (it
+  /// computes the same λ̄ = inf{λ : ∃X > g_λ(X)}) and says so in the notes. 0: no limit.
+  int lmi_max_block = 48;
 };
 
 /// Analyse a validated scenario. Never throws for a valid scenario; what does not apply

@@ -1,0 +1,304 @@
+// bench_latency: end-to-end latency and capacity of the live pipeline (issue #3, item 5).
+// A benchmark, not a test: run it inside scripts/in-netns.sh, results in BENCHMARKS.md.
+//
+//   scripts/in-netns.sh build/default/bench/bench_latency                  # latency, 8 sensors @ 100 Hz
+//   scripts/in-netns.sh build/default/bench/bench_latency --capacity       # largest sensor count @ 100 Hz
+//
+// Latency: `netkf launch` runs a lossless scenario (plant, d sensor processes, channel,
+// estimator); this process subscribes to the estimates. Each estimate carries the
+// publish stamp of the newest sample fused for its period and its own publish stamp
+// (steady clock, shared by all processes of the host), so
+//   pipeline latency = estimate publish − newest fused sample's publish
+// (sensor → channel → estimator → fused update → estimate published: two DDS hops plus
+// the filter). In the same run, a forked receiver process measures one bare Fast DDS hop
+// (publish → receive) of the same Measurement type at the same total rate (d × rate),
+// so both figures see the same machine load.
+//
+// Capacity: with lossless links every period must fuse all d samples; a period fusing
+// fewer (late or missing samples) is unintended loss. The sweep doubles d until a run
+// has unintended loss or misses periods, and reports the largest clean d × rate.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "netkf/dds/dds.hpp"
+#include "netkf/scenario.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace dds = netkf::dds;
+
+struct Stats {
+  std::size_t n = 0;
+  double p50_us = 0, p99_us = 0, max_us = 0;
+};
+
+Stats stats_of(std::vector<double> us) {
+  Stats s;
+  s.n = us.size();
+  if (us.empty()) return s;
+  std::sort(us.begin(), us.end());
+  auto q = [&](double p) { return us[std::min(us.size() - 1, static_cast<std::size_t>(p * static_cast<double>(us.size())))]; };
+  s.p50_us = q(0.50);
+  s.p99_us = q(0.99);
+  s.max_us = us.back();
+  return s;
+}
+
+std::string netkf_path(const char* argv0) {
+  if (const char* env = std::getenv("NETKF_BIN_DIR"); env && *env) return std::string(env) + "/cli/netkf";
+  // build/<preset>/bench/bench_latency -> build/<preset>/cli/netkf
+  std::error_code ec;
+  auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) self = argv0;
+  return (self.parent_path().parent_path() / "cli" / "netkf").string();
+}
+
+/// A lossless scenario with d sensors at the given period (stable 2-state plant, so the
+/// run means the same thing for any duration).
+std::filesystem::path write_scenario(int sensors, int period_ms) {
+  netkf::Scenario s;
+  s.name = "bench-" + std::to_string(sensors);
+  s.period_ms = period_ms;
+  s.seed = 99;
+  s.plant.A = netkf::Matrix{{0.95, 0.1}, {0.0, 0.9}};
+  s.plant.Q = netkf::Matrix::Identity(2, 2) * 0.1;
+  s.plant.x0 = netkf::Vector::Zero(2);
+  s.plant.P0 = netkf::Matrix::Identity(2, 2);
+  for (int i = 1; i <= sensors; ++i) {
+    netkf::SensorSpec sensor;
+    sensor.id = i;
+    sensor.C = netkf::Matrix{{1.0, 0.1 * (i % 7)}};
+    sensor.R = netkf::Matrix{{1.0}};
+    sensor.link = netkf::BernoulliLink{0.0};
+    s.sensors.push_back(sensor);
+  }
+  netkf::validate_scenario(s);
+  auto path = std::filesystem::temp_directory_path() / ("netkf-bench-" + std::to_string(getpid()) + "-" +
+                                                        std::to_string(sensors) + ".yaml");
+  std::ofstream(path) << netkf::scenario_to_yaml(s);
+  return path;
+}
+
+pid_t spawn(const std::vector<std::string>& args) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<char*> argv;
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+// Bare hop: topic of the same Measurement type, private to the benchmark.
+constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", {true, false, 256}};
+
+/// Forked child: receive hop samples, write latencies (µs) to `fd` when the writer says stop.
+[[noreturn]] void hop_receiver(int domain, int fd) {
+  std::vector<double> lat;
+  lat.reserve(1 << 20);
+  std::mutex m;
+  std::atomic<bool> done{false};
+  {
+    dds::Participant p({domain, std::nullopt, "bench-hop-rx"});
+    dds::Reader<netkf::wire::Measurement> r(p, kHopTopic, [&](netkf::wire::Measurement&& s) {
+      const auto now = dds::steady_now_ns();
+      if (s.sensor_id() < 0) {
+        done = true;
+        return;
+      }
+      std::lock_guard lock(m);
+      lat.push_back(static_cast<double>(now - s.stamp_ns()) / 1000.0);
+    });
+    const auto until = Clock::now() + std::chrono::minutes(10);
+    while (!done && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::lock_guard lock(m);
+  for (double v : lat) {
+    if (write(fd, &v, sizeof v) != static_cast<ssize_t>(sizeof v)) break;
+  }
+  close(fd);
+  _exit(0);
+}
+
+struct RunResult {
+  Stats pipeline;          // estimate publish − newest fused sample publish
+  Stats pipeline_rx;       // estimate received here − newest fused sample publish
+  Stats hop;               // bare one hop
+  std::int64_t periods = 0, gaps = 0, short_periods = 0, late = 0;
+  int launch_status = -1;
+};
+
+RunResult run(const std::string& netkf, int domain, int sensors, int rate_hz, double seconds, bool with_hop) {
+  RunResult result;
+  const int period_ms = 1000 / rate_hz;
+  const auto scenario = write_scenario(sensors, period_ms);
+
+  int pipe_fds[2] = {-1, -1};
+  pid_t hop_pid = -1;
+  if (with_hop) {
+    if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe");
+    hop_pid = fork();
+    if (hop_pid == 0) {
+      close(pipe_fds[0]);
+      hop_receiver(domain, pipe_fds[1]);
+    }
+    close(pipe_fds[1]);
+  }
+
+  std::vector<double> pipeline_us, pipeline_rx_us;
+  std::map<std::uint64_t, std::size_t> fused_count;
+  std::mutex m;
+  {
+    dds::Participant p({domain, std::nullopt, "bench"});
+    dds::Reader<netkf::wire::Estimate> est(p, dds::topics::estimate, [&](netkf::wire::Estimate&& e) {
+      const auto now = dds::steady_now_ns();
+      std::lock_guard lock(m);
+      fused_count[e.k()] = e.fused().size();
+      result.late += e.late();
+      if (e.last_sample_stamp_ns() > 0) {
+        pipeline_us.push_back(static_cast<double>(e.stamp_ns() - e.last_sample_stamp_ns()) / 1000.0);
+        pipeline_rx_us.push_back(static_cast<double>(now - e.last_sample_stamp_ns()) / 1000.0);
+      }
+    });
+    std::unique_ptr<dds::Writer<netkf::wire::Measurement>> hop_writer;
+    if (with_hop) {
+      hop_writer = std::make_unique<dds::Writer<netkf::wire::Measurement>>(p, kHopTopic);
+      hop_writer->wait_for_matched(1, std::chrono::seconds(10));
+    }
+    const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds),
+                                "--domain", std::to_string(domain), "--status-interval", "0"});
+    // The hop: d samples per period, like the sensors, paced by the same period.
+    const auto start = Clock::now();
+    auto next = start;
+    std::uint64_t k = 0;
+    netkf::Vector y = netkf::Vector::Zero(1);
+    int status = 0;
+    while (waitpid(launch, &status, WNOHANG) == 0) {
+      if (hop_writer && Clock::now() - start < std::chrono::duration<double>(seconds)) {
+        for (int i = 1; i <= sensors; ++i) hop_writer->write(dds::make_measurement(i, k, dds::steady_now_ns(), y));
+        ++k;
+      }
+      next += std::chrono::milliseconds(period_ms);
+      std::this_thread::sleep_until(next);
+    }
+    result.launch_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (hop_writer) {
+      hop_writer->write(dds::make_measurement(-1, k, dds::steady_now_ns(), y));
+      hop_writer->wait_for_acknowledgments(std::chrono::seconds(2));
+    }
+  }
+  if (with_hop) {
+    std::vector<double> hop;
+    double v;
+    while (read(pipe_fds[0], &v, sizeof v) == static_cast<ssize_t>(sizeof v)) hop.push_back(v);
+    close(pipe_fds[0]);
+    waitpid(hop_pid, nullptr, 0);
+    result.hop = stats_of(hop);
+  }
+  std::filesystem::remove(scenario);
+
+  // Skip the first second (discovery, process start) and the last periods (shutdown).
+  const std::size_t warmup = static_cast<std::size_t>(rate_hz);
+  if (pipeline_us.size() > 2 * warmup) {
+    pipeline_us.erase(pipeline_us.begin(), pipeline_us.begin() + static_cast<std::ptrdiff_t>(warmup));
+    pipeline_rx_us.erase(pipeline_rx_us.begin(), pipeline_rx_us.begin() + static_cast<std::ptrdiff_t>(warmup));
+  }
+  result.pipeline = stats_of(pipeline_us);
+  result.pipeline_rx = stats_of(pipeline_rx_us);
+  if (!fused_count.empty()) {
+    const auto first = fused_count.begin()->first + warmup, last = fused_count.rbegin()->first - 5;
+    for (auto kk = first; kk <= last; ++kk) {
+      auto it = fused_count.find(kk);
+      ++result.periods;
+      if (it == fused_count.end()) ++result.gaps;
+      else if (static_cast<int>(it->second) < sensors) ++result.short_periods;
+    }
+  }
+  return result;
+}
+
+void print(const char* what, const Stats& s) {
+  std::printf("  %-44s n=%-7zu p50=%8.1f us  p99=%8.1f us  max=%9.1f us\n", what, s.n, s.p50_us, s.p99_us, s.max_us);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128;
+  double seconds = 15.0;
+  bool capacity = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+    if (a == "--sensors") sensors = std::stoi(next());
+    else if (a == "--rate-hz") rate_hz = std::stoi(next());
+    else if (a == "--seconds") seconds = std::stod(next());
+    else if (a == "--domain") domain = std::stoi(next());
+    else if (a == "--capacity") capacity = true;
+    else if (a == "--max-sensors") max_sensors = std::stoi(next());
+    else {
+      std::printf("usage: bench_latency [--sensors D] [--rate-hz R] [--seconds S] [--domain N] [--capacity [--max-sensors M]]\n");
+      return a == "--help" ? 0 : 2;
+    }
+  }
+  if (std::getenv("NETKF_IN_NETNS") == nullptr)
+    std::fprintf(stderr, "warning: not inside scripts/in-netns.sh; DDS stays on localhost by the built-in profile\n");
+  const std::string netkf = netkf_path(argv[0]);
+  std::printf("netkf: %s\n", netkf.c_str());
+  try {
+    if (!capacity) {
+      std::printf("latency: %d sensors at %d Hz for %.0f s (lossless links)\n", sensors, rate_hz, seconds);
+      const auto r = run(netkf, domain, sensors, rate_hz, seconds, true);
+      print("pipeline: sample publish -> estimate publish", r.pipeline);
+      print("pipeline: sample publish -> estimate received", r.pipeline_rx);
+      print("bare Fast DDS hop (same type, same load)", r.hop);
+      if (r.hop.p50_us > 0)
+        std::printf("  pipeline p50 / bare hop p50 = %.2f (goal <= 3)\n", r.pipeline.p50_us / r.hop.p50_us);
+      std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d\n",
+                  static_cast<long long>(r.periods), static_cast<long long>(r.gaps),
+                  static_cast<long long>(r.short_periods), static_cast<long long>(r.late), r.launch_status);
+    } else {
+      int best = 0;
+      for (int d = sensors; d <= max_sensors; d *= 2) {
+        std::printf("capacity: %d sensors at %d Hz for %.0f s ...\n", d, rate_hz, seconds);
+        std::fflush(stdout);
+        const auto r = run(netkf, domain, d, rate_hz, seconds, false);
+        const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;
+        print("pipeline: sample publish -> estimate publish", r.pipeline);
+        std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d => %s\n",
+                    static_cast<long long>(r.periods), static_cast<long long>(r.gaps),
+                    static_cast<long long>(r.short_periods), static_cast<long long>(r.late), r.launch_status,
+                    clean ? "clean" : "LOSS");
+        std::fflush(stdout);
+        if (!clean) break;
+        best = d;
+      }
+      std::printf("largest clean: %d sensors x %d Hz = %d samples/s (goal >= 64 x 100 Hz)\n", best, rate_hz,
+                  best * rate_hz);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_latency: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,21 @@
+#pragma once
+// Figures of `netkf analyze --plot` and `netkf simulate --plot`, drawn by gnuplot (spawned
+// with a script on its stdin). Data go in gnuplot datablocks; missing values (unbounded
+// covariance) are written as NaN, which gnuplot leaves out of the curve.
+#include <filesystem>
+#include <string>
+
+#include "netkf/analysis/report.hpp"
+#include "netkf/monte_carlo.hpp"
+
+namespace netkf::cli {
+
+/// Sinopoli Figs. 2-4: Tr S̄ and Tr V̄ against λ with the critical rates marked.
+void plot_sweep(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out);
+/// Liu-Goldsmith Figs. 4-5: the (λ1, λ2) stable / unstable / undecided regions.
+void plot_region(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out);
+/// Monte Carlo mean Tr P_{k|k-1} and mean squared error with ±2 SE bands, next to S̄ and V̄.
+void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisReport& bounds, const std::string& title,
+                      const std::filesystem::path& out);
+
+}  // namespace netkf::cli

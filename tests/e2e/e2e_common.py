@@ -1,0 +1,193 @@
+"""Shared fixture of the end-to-end tests: run `netkf launch` (real processes, real
+Fast DDS) inside the test's network namespace, make sure every process it started is
+ended, and read the CSV recordings.
+
+Each test runs as `scripts/in-netns.sh python3 test_x.py` (ctest adds the wrapper), on its
+own DDS domain ($NETKF_DOMAIN, set per test by CMake) so tests can run in parallel.
+Environment (set by tests/e2e/CMakeLists.txt):
+  NETKF_BIN_DIR   build tree root (netkf and node executables are found from it)
+  NETKF_REPLAY    path of the netkf_replay helper
+  NETKF_DOMAIN    DDS domain of this test
+"""
+import csv
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+DATA = os.path.join(HERE, "data")
+BIN = os.environ.get("NETKF_BIN_DIR", "")
+NETKF = os.path.join(BIN, "cli", "netkf")
+
+_failures = []
+
+
+def check(condition, message):
+    """Record a failed expectation (the test continues to report all of them)."""
+    if condition:
+        print("  ok:", message, flush=True)
+    else:
+        print("  FAILED:", message, flush=True)
+        _failures.append(message)
+
+
+def finish():
+    if _failures:
+        print("%d expectation(s) failed" % len(_failures), flush=True)
+        sys.exit(1)
+    print("all expectations met", flush=True)
+    sys.exit(0)
+
+
+def require_netns():
+    if os.environ.get("NETKF_IN_NETNS") != "1":
+        print("e2e tests must run inside scripts/in-netns.sh (private network namespace)")
+        sys.exit(2)
+
+
+def workdir(name):
+    d = tempfile.mkdtemp(prefix="netkf-e2e-%s-" % name)
+    return d
+
+
+class Launch:
+    """`netkf launch` in the background; ended (and its children with it) on exit."""
+
+    def __init__(self, scenario, duration, outdir, record=True, samples=False, extra=()):
+        self.record = os.path.join(outdir, "periods.csv") if record else None
+        self.samples = os.path.join(outdir, "samples.csv") if samples else None
+        self.pid_file = os.path.join(outdir, "pids.txt")
+        self.log_path = os.path.join(outdir, "launch.log")
+        cmd = [NETKF, "launch"]
+        if scenario:
+            cmd.append(scenario)
+        cmd += ["--duration", str(duration), "--pid-file", self.pid_file, "--status-interval", "1"]
+        if self.record:
+            cmd += ["--record", self.record]
+        if self.samples:
+            cmd += ["--record-samples", self.samples]
+        cmd += list(extra)
+        print("$", " ".join(cmd), flush=True)
+        self.log = open(self.log_path, "w")
+        # Own session: the fixture can signal launch and everything it spawned.
+        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+        self.started = time.monotonic()
+
+    def wait(self, timeout):
+        try:
+            return self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            print("launch did not end in time; stopping it", flush=True)
+            self.stop()
+            return None
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                pass
+        # Whatever is left in the session (launch and its children): SIGKILL.
+        for pid in [self.proc.pid] + list(self.child_pids().values()):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        self.proc.wait()
+
+    def child_pids(self):
+        pids = {}
+        try:
+            with open(self.pid_file) as f:
+                for line in f:
+                    name, pid = line.rsplit(" ", 1)
+                    pids[name] = int(pid)
+        except (OSError, ValueError):
+            pass
+        return pids
+
+    def output(self):
+        self.log.flush()
+        with open(self.log_path) as f:
+            return f.read()
+
+    def __enter__(self):
+        return self
+
+    def interrupt(self, timeout=30):
+        """Ctrl-C: launch stops its children and exits; returns its exit status."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+        return self.wait(timeout)
+
+    def __exit__(self, *exc):
+        self.stop()
+        text = self.output()
+        self.log.close()
+        print("---- launch output (tail) ----")
+        print("\n".join(text.splitlines()[-40:]), flush=True)
+        return False
+
+
+def netkf(*args, timeout=30):
+    cmd = [NETKF] + [str(a) for a in args]
+    print("$", " ".join(cmd), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    print(r.stdout, r.stderr, sep="", end="", flush=True)
+    return r
+
+
+def read_periods(path, n):
+    """Rows of a --record CSV as dicts with numeric fields; checks the exact header."""
+    with open(path) as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        expected = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + \
+            ["trace_P", "fused", "late", "state"]
+        check(header == expected, "record header is exactly %s" % ",".join(expected))
+        rows = []
+        for c in reader:
+            rows.append({
+                "k": int(c[0]), "t": float(c[1]),
+                "x": [float(v) for v in c[2:2 + n]],
+                "xhat": [float(v) for v in c[2 + n:2 + 2 * n]],
+                "trace_P": float(c[2 + 2 * n]),
+                "fused": [int(v) for v in c[3 + 2 * n].split(";") if v],
+                "late": int(c[4 + 2 * n]),
+                "state": c[5 + 2 * n],
+                "raw": c,
+            })
+    return rows
+
+
+def read_samples(path):
+    with open(path) as f:
+        reader = csv.reader(f)
+        next(reader)
+        return [{"k": int(c[0]), "sensor_id": int(c[1]), "stamp": float(c[2]), "fused": c[3] == "1",
+                 "y": [float(v) for v in c[4:] if v != ""]} for c in reader]
+
+
+def all_finite(rows):
+    for r in rows:
+        for cell in r["raw"]:
+            if cell.lower() in ("nan", "-nan", "inf", "-inf"):
+                return False
+        if not all(math.isfinite(v) for v in r["x"] + r["xhat"] + [r["trace_P"]]):
+            return False
+    return True
+
+
+def contiguous(rows):
+    ks = [r["k"] for r in rows]
+    return ks == list(range(ks[0], ks[0] + len(ks))) if ks else False

@@ -1,0 +1,204 @@
+// The live commands' DDS-free logic: process supervision (launch), the CSV recorders
+// and the status view. Real child processes (/bin/sh), no DDS.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <sstream>
+#include <thread>
+
+#include "launch_supervisor.hpp"
+#include "live_status.hpp"
+#include "record_csv.hpp"
+
+namespace netkf::cli {
+namespace {
+
+using namespace std::chrono_literals;
+
+ChildSpec shell(const std::string& name, const std::string& script, bool critical = false) {
+  return ChildSpec{name, "/bin/sh", {"-c", script}, critical};
+}
+
+/// Poll until `pred` or 10 s; collects the events seen.
+template <class Pred>
+std::vector<SupervisorEvent> poll_until(Supervisor& s, Pred pred) {
+  std::vector<SupervisorEvent> all;
+  const auto until = std::chrono::steady_clock::now() + 10s;
+  while (!pred() && std::chrono::steady_clock::now() < until) {
+    auto ev = s.poll();
+    all.insert(all.end(), ev.begin(), ev.end());
+    std::this_thread::sleep_for(5ms);
+  }
+  return all;
+}
+
+int count(const std::vector<SupervisorEvent>& ev, SupervisorEvent::Kind kind) {
+  int n = 0;
+  for (const auto& e : ev) n += e.kind == kind;
+  return n;
+}
+
+TEST(Supervisor, RestartsADyingChildThenGivesUp) {
+  SupervisorOptions o;
+  o.max_restarts = 2;
+  o.first_backoff = 10ms;
+  Supervisor s(o);
+  EXPECT_EQ(s.start(shell("sensor", "exit 3")).kind, SupervisorEvent::Kind::started);
+  auto ev = poll_until(s, [&] { return s.failed(); });
+  ASSERT_TRUE(s.failed());
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::exited), 3);  // first run + 2 restarts
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::restart_scheduled), 2);
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::started), 2);
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::gave_up), 1);
+  EXPECT_NE(s.failure_reason().find("exited with status 3"), std::string::npos) << s.failure_reason();
+}
+
+TEST(Supervisor, ReportsTheKillingSignal) {
+  SupervisorOptions o;
+  o.policy = RestartPolicy::fail;
+  Supervisor s(o);
+  s.start(shell("sensor", "sleep 30"));
+  const auto pid = s.pid_of("sensor");
+  ASSERT_TRUE(pid);
+  kill(*pid, SIGKILL);
+  auto ev = poll_until(s, [&] { return s.failed(); });
+  ASSERT_TRUE(s.failed());
+  EXPECT_NE(s.failure_reason().find("killed by signal 9"), std::string::npos) << s.failure_reason();
+  EXPECT_EQ(s.running_count(), 0u);
+}
+
+TEST(Supervisor, CriticalChildIsNotRestarted) {
+  SupervisorOptions o;
+  o.first_backoff = 10ms;
+  Supervisor s(o);
+  s.start(shell("estimator", "exit 1", true));
+  poll_until(s, [&] { return s.failed(); });
+  EXPECT_TRUE(s.failed());
+  EXPECT_NE(s.failure_reason().find("critical"), std::string::npos);
+}
+
+TEST(Supervisor, CriticalChildEndingCleanlyFinishesTheRun) {
+  Supervisor s;
+  s.start(shell("plant", "exit 0", true));
+  s.start(shell("sensor", "sleep 30"));
+  poll_until(s, [&] { return s.finished(); });
+  EXPECT_TRUE(s.finished());
+  EXPECT_FALSE(s.failed());
+  s.stop_all();
+  EXPECT_EQ(s.running_count(), 0u);
+}
+
+TEST(Supervisor, StopAllKillsAChildIgnoringSigterm) {
+  SupervisorOptions o;
+  o.stop_timeout = 300ms;
+  Supervisor s(o);
+  s.start(shell("stubborn", "trap '' TERM; while true; do sleep 0.05; done"));
+  s.start(shell("polite", "sleep 30"));
+  std::this_thread::sleep_for(100ms);  // let the shell install its trap
+  auto ev = s.stop_all();
+  EXPECT_EQ(s.running_count(), 0u);
+  bool stubborn_killed = false;
+  for (const auto& e : ev) stubborn_killed |= e.child.find("stubborn") != std::string::npos && e.exit.signal == SIGKILL;
+  EXPECT_TRUE(stubborn_killed);
+  EXPECT_FALSE(s.failed());  // stopping is not a failure
+}
+
+TEST(Supervisor, MissingExecutableIsAClearStartFailure) {
+  Supervisor s;
+  auto e = s.start(ChildSpec{"ghost", "./does/not/exist", {}, false});
+  EXPECT_EQ(e.kind, SupervisorEvent::Kind::start_failed);
+  EXPECT_TRUE(s.failed());
+  EXPECT_NE(s.failure_reason().find("does/not/exist"), std::string::npos);
+}
+
+TEST(Supervisor, NodeExecutableHonoursBinDirOverride) {
+  setenv("NETKF_BIN_DIR", "/nonexistent-root", 1);
+  EXPECT_EQ(node_executable("plant_node"), "/nonexistent-root/plant_node/plant_node");
+  unsetenv("NETKF_BIN_DIR");
+}
+
+TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
+  EXPECT_EQ(PeriodCsvRecorder::header(2), "k,t,x0,x1,xhat0,xhat1,trace_P,fused,late,state");
+  PeriodCsvRecorder r(2);
+  EstimateRecord e;
+  e.k = 5;
+  e.xhat = {0.1, 1.0 / 3.0};
+  e.trace_P = 2.5;
+  e.fused = {1, 3};
+  e.late = 2;
+  e.state = "ok";
+  r.add_estimate(e);
+  std::ostringstream out;
+  EXPECT_EQ(r.flush(out), 0u);  // no truth for k = 5 yet
+  r.add_truth({4, 0.04, {9.0, 9.0}});
+  r.add_truth({5, 0.05, {1.0, -2.0}});
+  EXPECT_EQ(r.flush(out), 1u);
+  EXPECT_EQ(out.str(), "5,0.050000000000000003,1,-2,0.10000000000000001,0.33333333333333331,2.5,1;3,2,ok\n");
+  // 17 significant digits give back the exact double.
+  EXPECT_EQ(std::strtod("0.33333333333333331", nullptr), 1.0 / 3.0);
+  // Wrong sizes are counted, not written.
+  r.add_truth({6, 0.06, {1.0}});
+  EXPECT_EQ(r.rejected(), 1u);
+}
+
+TEST(PeriodCsv, EmptyFusedSetIsAnEmptyCell) {
+  PeriodCsvRecorder r(1);
+  r.add_truth({0, 0.0, {1.0}});
+  EstimateRecord e;
+  e.k = 0;
+  e.xhat = {0.5};
+  e.trace_P = 1.0;
+  e.state = "diverging";
+  r.add_estimate(e);
+  std::ostringstream out;
+  r.flush(out);
+  EXPECT_EQ(out.str(), "0,0,1,0.5,1,,0,diverging\n");
+}
+
+TEST(SampleCsv, MarksFusedAndUnfusedSamples) {
+  EXPECT_EQ(SampleCsvRecorder::header(2), "k,sensor_id,stamp,fused,y0,y1");
+  SampleCsvRecorder r(2);
+  r.add_delivered({1, 7, 1.5, {0.25, 0.5}});
+  r.add_delivered({2, 7, 1.5, {0.75}});
+  EstimateRecord e;
+  e.k = 7;
+  e.fused = {1};
+  r.add_estimate(e);
+  r.add_delivered({3, 7, 1.6, {1.0}});  // after the estimate: late, not fused
+  std::ostringstream out;
+  EXPECT_EQ(r.flush(out), 3u);
+  EXPECT_EQ(out.str(), "7,1,1.5,1,0.25,0.5\n7,2,1.5,0,0.75,\n7,3,1.6000000000000001,0,1,\n");
+}
+
+TEST(LiveStatus, JoinsTruthAndEstimateAndShowsLinks) {
+  Scenario s = default_scenario();
+  LiveStatus status(s);
+  status.add_truth({3, 0.03, {1.0, 2.0}});
+  EstimateRecord e;
+  e.k = 3;
+  e.xhat = {1.0, 2.0 + 3.0};  // error 3
+  e.trace_P = 0.5;
+  e.fused = {1, 2};
+  e.state = "ok";
+  status.add_estimate(e);
+  LinkStatusRecord l;
+  l.sensor_id = 2;
+  l.model = "bernoulli";
+  l.params = {1.0};
+  l.samples_in = 100;
+  l.delivered = 0;
+  l.dropped = 100;
+  l.observed_loss = 1.0;
+  status.add_link_status(l);
+  const std::string text = status.render(false);
+  EXPECT_NE(text.find("period 3"), std::string::npos) << text;
+  EXPECT_NE(text.find("|x-x̂|=3"), std::string::npos) << text;
+  EXPECT_NE(text.find("bernoulli loss=1"), std::string::npos) << text;
+  EXPECT_NE(text.find("0.000"), std::string::npos) << text;  // observed arrival rate of link 2
+}
+
+}  // namespace
+}  // namespace netkf::cli

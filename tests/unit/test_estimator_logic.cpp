@@ -1,0 +1,272 @@
+// EstimatorCore: period fusion semantics (DESIGN.md, estimator_node) driven by explicit
+// calls and a fake clock. Expected numbers come from the scalar Kalman recursion written
+// out here by hand (information form of the fused update, Sinopoli eqs. 14-16 /
+// multi-sensor paper Thm 1), independent of core's implementation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "netkf/nodes/estimator_core.hpp"
+
+namespace {
+
+using netkf::Matrix;
+using netkf::Vector;
+using netkf::nodes::EstimatorCore;
+using netkf::nodes::SampleRejection;
+
+constexpr std::int64_t kMs = 1000000;
+
+Matrix m1(double v) { return Matrix::Constant(1, 1, v); }
+Vector v1(double v) { return Vector::Constant(1, v); }
+
+// Scalar plant A = 1.2, Q = 1, two sensors C = 1 with R = 0.5 and R = 1, prior N(0, 1).
+netkf::Scenario scalar_scenario(int sensors = 2) {
+  netkf::Scenario s;
+  s.name = "unit-scalar";
+  s.period_ms = 10;
+  s.seed = 7;
+  s.plant.A = m1(1.2);
+  s.plant.Q = m1(1.0);
+  s.plant.x0 = v1(0.0);
+  s.plant.P0 = m1(1.0);
+  const double R[] = {0.5, 1.0, 2.0};
+  for (int i = 0; i < sensors; ++i) {
+    netkf::SensorSpec sp;
+    sp.id = i + 1;
+    sp.C = m1(1.0);
+    sp.R = m1(R[i]);
+    s.sensors.push_back(sp);
+  }
+  s.estimator.deadline_ms = 8;
+  return s;
+}
+
+// Fused scalar update in information form: P+ = (1/P + Σ 1/R_i)^-1, x+ = P+ (x/P + Σ y_i/R_i).
+struct Scalar {
+  double x, P;
+};
+Scalar fuse(Scalar prior, std::initializer_list<std::pair<double, double>> y_and_R) {
+  double info = 1.0 / prior.P;
+  double weighted = prior.x / prior.P;
+  for (auto [y, R] : y_and_R) {
+    info += 1.0 / R;
+    weighted += y / R;
+  }
+  return {weighted / info, 1.0 / info};
+}
+Scalar predict(Scalar post, double A, double Q, double Bu = 0.0) { return {A * post.x + Bu, A * A * post.P + Q}; }
+
+TEST(EstimatorLogic, CompleteSetFusesBeforeTheDeadline) {
+  EstimatorCore core(scalar_scenario());
+  EXPECT_TRUE(core.on_tick(0, Vector(), 0).empty());
+  EXPECT_TRUE(core.on_sample(1, 0, v1(0.8), 0, 1 * kMs).empty());
+  auto out = core.on_sample(2, 0, v1(1.4), 0, 2 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  const Scalar expect = fuse({0.0, 1.0}, {{0.8, 0.5}, {1.4, 1.0}});
+  EXPECT_EQ(out[0].k, 0u);
+  EXPECT_EQ(out[0].fused, (std::vector<int>{1, 2}));
+  EXPECT_NEAR(out[0].x_hat(0), expect.x, 1e-12);
+  EXPECT_NEAR(out[0].P(0, 0), expect.P, 1e-12);
+  EXPECT_EQ(out[0].fused_at_ns, 2 * kMs);
+  EXPECT_FALSE(core.pending_deadline_ns().has_value());
+  // Nothing left to fuse at the deadline: fused exactly once.
+  EXPECT_TRUE(core.on_deadline(100 * kMs).empty());
+}
+
+TEST(EstimatorLogic, DeadlineFusesWhatArrived) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 10 * kMs);
+  ASSERT_EQ(core.pending_deadline_ns().value(), 18 * kMs);  // tick receipt + deadline_ms
+  core.on_sample(1, 0, v1(0.8), 0, 11 * kMs);
+  EXPECT_TRUE(core.on_deadline(17 * kMs).empty());
+  auto out = core.on_deadline(18 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  const Scalar expect = fuse({0.0, 1.0}, {{0.8, 0.5}});
+  EXPECT_EQ(out[0].fused, std::vector<int>{1});
+  EXPECT_NEAR(out[0].x_hat(0), expect.x, 1e-12);
+  EXPECT_NEAR(out[0].P(0, 0), expect.P, 1e-12);
+}
+
+TEST(EstimatorLogic, LateSamplesAreCountedNotFused) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  core.on_sample(1, 0, v1(0.8), 0, 1 * kMs);
+  auto first = core.on_deadline(8 * kMs);
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(first[0].late, 0u);
+  // Sensor 2's sample for period 0 arrives after period 0 was fused.
+  EXPECT_TRUE(core.on_sample(2, 0, v1(1.4), 0, 9 * kMs).empty());
+  EXPECT_EQ(core.late_total(), 1u);
+  core.on_tick(1, Vector(), 10 * kMs);
+  auto second = core.on_deadline(18 * kMs);
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_EQ(second[0].late, 1u);
+  EXPECT_EQ(second[0].late_total, 1u);
+  EXPECT_TRUE(second[0].fused.empty());
+  // The late sample did not enter period 1: pure open-loop prediction of period 0's posterior.
+  const Scalar p0 = fuse({0.0, 1.0}, {{0.8, 0.5}});
+  const Scalar p1 = predict(p0, 1.2, 1.0);
+  EXPECT_NEAR(second[0].x_hat(0), p1.x, 1e-12);
+  EXPECT_NEAR(second[0].P(0, 0), p1.P, 1e-12);
+}
+
+TEST(EstimatorLogic, FutureSamplesWaitForTheirTick) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  // Both samples of period 1 arrive while period 0 is still open.
+  EXPECT_TRUE(core.on_sample(1, 1, v1(2.0), 0, 1 * kMs).empty());
+  EXPECT_TRUE(core.on_sample(2, 1, v1(2.2), 0, 2 * kMs).empty());
+  EXPECT_EQ(core.buffered_samples(), 2u);
+  // Tick 1 closes period 0 (nothing arrived) and period 1 is complete on opening.
+  auto out = core.on_tick(1, Vector(), 5 * kMs);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].k, 0u);
+  EXPECT_TRUE(out[0].fused.empty());
+  EXPECT_EQ(out[1].k, 1u);
+  EXPECT_EQ(out[1].fused, (std::vector<int>{1, 2}));
+  const Scalar expect = fuse(predict({0.0, 1.0}, 1.2, 1.0), {{2.0, 0.5}, {2.2, 1.0}});
+  EXPECT_NEAR(out[1].x_hat(0), expect.x, 1e-12);
+  EXPECT_NEAR(out[1].P(0, 0), expect.P, 1e-12);
+  EXPECT_EQ(core.buffered_samples(), 0u);
+}
+
+TEST(EstimatorLogic, FarFutureSamplesAreBoundedAndRejected) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  core.on_sample(1, EstimatorCore::kMaxFuturePeriods + 5, v1(1.0), 0, 1);
+  EXPECT_EQ(core.rejected(SampleRejection::buffer_full), 1u);
+  EXPECT_EQ(core.buffered_samples(), 0u);
+}
+
+TEST(EstimatorLogic, InvalidSamplesAreRejectedAndCounted) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  core.on_sample(9, 0, v1(1.0), 0, 1);                                      // unknown sensor
+  core.on_sample(1, 0, Vector::Zero(2), 0, 1);                              // wrong size
+  core.on_sample(1, 0, v1(std::numeric_limits<double>::quiet_NaN()), 0, 1);  // NaN
+  core.on_sample(1, 0, v1(0.8), 0, 1);
+  core.on_sample(1, 0, v1(5.0), 0, 1);  // duplicate: the first one stays
+  EXPECT_EQ(core.rejected(SampleRejection::unknown_sensor), 1u);
+  EXPECT_EQ(core.rejected(SampleRejection::wrong_size), 1u);
+  EXPECT_EQ(core.rejected(SampleRejection::non_finite), 1u);
+  EXPECT_EQ(core.rejected(SampleRejection::duplicate), 1u);
+  auto out = core.on_deadline(8 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].rejected_total, 4u);
+  const Scalar expect = fuse({0.0, 1.0}, {{0.8, 0.5}});
+  EXPECT_NEAR(out[0].x_hat(0), expect.x, 1e-12);
+  EXPECT_TRUE(out[0].x_hat.allFinite());
+}
+
+TEST(EstimatorLogic, PeriodWithNothingDeliveredAdvancesOpenLoop) {
+  EstimatorCore core(scalar_scenario());
+  Scalar s{0.0, 1.0};
+  for (std::uint64_t k = 0; k < 5; ++k) {
+    const std::int64_t t0 = static_cast<std::int64_t>(k) * 10 * kMs;
+    core.on_tick(k, Vector(), t0);
+    auto out = core.on_deadline(t0 + 8 * kMs);
+    ASSERT_EQ(out.size(), 1u);
+    if (k > 0) s = predict(s, 1.2, 1.0);
+    EXPECT_EQ(out[0].k, k);
+    EXPECT_TRUE(out[0].fused.empty());
+    EXPECT_NEAR(out[0].P(0, 0), s.P, 1e-9 * s.P);
+  }
+}
+
+TEST(EstimatorLogic, LostTicksStillGiveEveryPeriodAnEstimate) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  core.on_sample(1, 0, v1(0.8), 0, 1);
+  core.on_sample(2, 0, v1(1.4), 0, 2);
+  // Tick 1 is lost; sensor 1's sample for period 1 arrived and is fused with the inferred period.
+  core.on_sample(1, 1, v1(1.1), 0, 12 * kMs);
+  auto out = core.on_tick(2, Vector(), 20 * kMs);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].k, 1u);
+  EXPECT_TRUE(out[0].skipped_tick);
+  EXPECT_EQ(out[0].fused, std::vector<int>{1});
+  const Scalar p0 = fuse({0.0, 1.0}, {{0.8, 0.5}, {1.4, 1.0}});
+  const Scalar p1 = fuse(predict(p0, 1.2, 1.0), {{1.1, 0.5}});
+  EXPECT_NEAR(out[0].x_hat(0), p1.x, 1e-12);
+  EXPECT_NEAR(out[0].P(0, 0), p1.P, 1e-12);
+  EXPECT_EQ(core.open_period().value(), 2u);
+}
+
+TEST(EstimatorLogic, StaleOrDuplicateTicksAreIgnored) {
+  EstimatorCore core(scalar_scenario());
+  core.on_tick(0, Vector(), 0);
+  EXPECT_TRUE(core.on_tick(0, Vector(), 1).empty());
+  core.on_deadline(8 * kMs);
+  EXPECT_TRUE(core.on_tick(0, Vector(), 9 * kMs).empty());
+  EXPECT_EQ(core.rejected(SampleRejection::stale_tick), 2u);
+}
+
+TEST(EstimatorLogic, KilledSensorLeavesDeadlineFusionRunning) {
+  // Sensor 2 dies after period 9: every later period is fused at the deadline with sensor 1
+  // alone, and P follows the one-sensor Riccati recursion (written out here).
+  EstimatorCore core(scalar_scenario());
+  Scalar s{0.0, 1.0};
+  for (std::uint64_t k = 0; k < 200; ++k) {
+    const std::int64_t t0 = static_cast<std::int64_t>(k) * 10 * kMs;
+    core.on_tick(k, Vector(), t0);
+    if (k > 0) s = predict(s, 1.2, 1.0);
+    core.on_sample(1, k, v1(0.5), 0, t0 + 1 * kMs);
+    std::vector<netkf::nodes::PeriodEstimate> out;
+    if (k < 10) {
+      out = core.on_sample(2, k, v1(0.5), 0, t0 + 2 * kMs);
+      s = fuse(s, {{0.5, 0.5}, {0.5, 1.0}});
+    } else {
+      out = core.on_deadline(t0 + 8 * kMs);
+      s = fuse(s, {{0.5, 0.5}});
+    }
+    ASSERT_EQ(out.size(), 1u) << "period " << k;
+    EXPECT_EQ(out[0].fused.size(), k < 10 ? 2u : 1u);
+    EXPECT_NEAR(out[0].P(0, 0), s.P, 1e-9);
+    EXPECT_NEAR(out[0].x_hat(0), s.x, 1e-9);
+  }
+}
+
+TEST(EstimatorLogic, ClosedLoopSendsMinusLxAndPredictsWithTheAcknowledgedInput) {
+  netkf::Scenario sc = scalar_scenario();
+  sc.plant.B = m1(1.0);
+  netkf::ControlSpec control;
+  control.gain = m1(0.9);
+  sc.plant.control = control;
+  EstimatorCore core(sc);
+  core.on_tick(0, v1(0.0), 0);
+  core.on_sample(1, 0, v1(0.8), 0, 1);
+  auto out = core.on_sample(2, 0, v1(1.4), 0, 2);
+  ASSERT_EQ(out.size(), 1u);
+  ASSERT_TRUE(out[0].control.has_value());
+  const Scalar p0 = fuse({0.0, 1.0}, {{0.8, 0.5}, {1.4, 1.0}});
+  EXPECT_NEAR((*out[0].control)(0), -0.9 * p0.x, 1e-12);
+  // The plant acknowledges it applied u_0 = 0.25 (not what we sent): predict with that.
+  core.on_tick(1, v1(0.25), 10 * kMs);
+  auto out1 = core.on_deadline(18 * kMs);
+  ASSERT_EQ(out1.size(), 1u);
+  const Scalar p1 = predict(p0, 1.2, 1.0, 0.25);
+  EXPECT_NEAR(out1[0].x_hat(0), p1.x, 1e-12);
+  EXPECT_NEAR((*out1[0].control)(0), -0.9 * p1.x, 1e-12);
+}
+
+TEST(EstimatorLogic, BelowCriticalRateReportsDivergingAndStaysFinite) {
+  netkf::Scenario sc = scalar_scenario(1);
+  sc.plant.A = m1(2.0);
+  sc.estimator.divergence_trace_bound = 1e6;
+  EstimatorCore core(sc);
+  bool diverging = false;
+  for (std::uint64_t k = 0; k < 2000; ++k) {  // nothing ever arrives: P grows like 4^k
+    const std::int64_t t0 = static_cast<std::int64_t>(k) * 10 * kMs;
+    core.on_tick(k, Vector(), t0);
+    auto out = core.on_deadline(t0 + 8 * kMs);
+    ASSERT_EQ(out.size(), 1u);
+    ASSERT_TRUE(out[0].x_hat.allFinite());
+    ASSERT_TRUE(out[0].P.allFinite()) << "period " << k;
+    diverging = out[0].state == netkf::FilterState::diverging;
+  }
+  EXPECT_TRUE(diverging);
+}
+
+}  // namespace
