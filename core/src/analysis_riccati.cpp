@@ -171,7 +171,7 @@ UpperBound expected_covariance_upper_bound(const Matrix& A, const Matrix& Q,
   Matrix V = Matrix::Zero(n, n);
   bool certified = false;
   // Certificate checks cost an n²×n² eigenproblem: every iteration for small n, else sparser.
-  const int check_every = n <= 6 ? 1 : 8;
+  const int check_every = n <= 3 ? 1 : 8;
   for (int it = 1; it <= options.max_iterations; ++it) {
     V = expected_riccati_map(A, Q, patterns, V);
     result.iterations = it;

@@ -124,7 +124,6 @@ IntermittentKalmanFilter::IntermittentKalmanFilter(FilterModel model, Vector x0,
       options_.covariance_ceiling > 1e300)
     fail("covariance_ceiling must be positive and at most 1e300");
 
-  Eigen::Index max_m = 0;
   terms_.reserve(model_.sensors.size());
   for (auto& sensor : model_.sensors) {
     const std::string name = "sensor " + std::to_string(sensor.id);
@@ -148,7 +147,6 @@ IntermittentKalmanFilter::IntermittentKalmanFilter(FilterModel model, Vector x0,
     t.Lambda = G.transpose() * G;
     t.H = llt.matrixU().solve(G).transpose();
     terms_.push_back(std::move(t));
-    max_m = std::max(max_m, m);
   }
   id_index_.reserve(model_.sensors.size());
   for (std::size_t i = 0; i < model_.sensors.size(); ++i)
@@ -162,7 +160,6 @@ IntermittentKalmanFilter::IntermittentKalmanFilter(FilterModel model, Vector x0,
   taken_.assign(model_.sensors.size(), -1);
   lambda_sum_.resize(dim, dim);
   info_vector_.resize(dim);
-  residual_.resize(max_m);
   work_x_.resize(dim);
   factor_.resize(dim, dim);
   work_a_.resize(dim, dim);
@@ -214,18 +211,15 @@ FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample>
 
   if (!accepted_.empty()) {
     // Information terms of the received sensors: Lambda = Σ C_i'R_i^-1 C_i,
-    // b = Σ C_i'R_i^-1 (y_i - C_i x̂)   (the received rows of the stacked update).
+    // h = Σ C_i'R_i^-1 y_i   (the received rows of the stacked update).
     lambda_sum_.setZero();
     info_vector_.setZero();
     for (const int s : accepted_) {
       const auto si = static_cast<std::size_t>(s);
       const SensorModel& sensor = model_.sensors[si];
       const Vector& y = received[static_cast<std::size_t>(taken_[si])].y;
-      const Eigen::Index m = sensor.C.rows();
       lambda_sum_ += terms_[si].Lambda;
-      residual_.head(m) = y;
-      residual_.head(m).noalias() -= sensor.C * x_;
-      info_vector_.noalias() += terms_[si].H * residual_.head(m);
+      info_vector_.noalias() += terms_[si].H * y;
       result.fused_ids.push_back(sensor.id);
       taken_[si] = -1;
     }
@@ -261,16 +255,17 @@ FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample>
     P_.noalias() = work_a_.transpose() * work_a_;
     symmetrise(P_);
     if (prior_invertible) {
-      // Information form of the mean: x̂+ = P+ (P^-1 x̂ + Σ C_i'R_i^-1 y_i)
-      //   = W G^-1 (z + F' Σ H_i y_i)   with  Σ H_i y_i = b + Lambda x̂.
-      // Unlike x̂ + P+ b it does not subtract nearly equal numbers when the prior is
-      // huge (after a long outage, P ~ x̂^2 ~ ceiling): y then still counts.
-      info_vector_.noalias() += lambda_sum_ * x_;
+      // Information form of the mean: x̂+ = P+ (P^-1 x̂ + h) = W G^-1 (z + F' h).
+      // Unlike the innovation form x̂ + P+ Σ C_i'R_i^-1 (y_i - C_i x̂) it does not
+      // subtract nearly equal numbers when the prior is huge (after a long outage,
+      // P ~ x̂^2 ~ ceiling): y then still counts.
       work_x_.noalias() += factor_.transpose() * info_vector_;
       llt_.matrixL().solveInPlace(work_x_);
       x_.noalias() = work_a_.transpose() * work_x_;
     } else {
-      // Singular prior (some states known exactly): x̂+ = x̂ + P+ b  (K = P+ C' R^-1).
+      // Singular prior (some states known exactly): innovation form
+      // x̂+ = x̂ + P+ b,  b = Σ C_i'R_i^-1 (y_i - C_i x̂) = h - Lambda x̂  (K = P+ C' R^-1).
+      info_vector_.noalias() -= lambda_sum_ * x_;
       x_.noalias() += P_ * info_vector_;
     }
   }

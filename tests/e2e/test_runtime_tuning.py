@@ -30,6 +30,7 @@ with Launch(os.path.join(DATA, "tuning.yaml"), 120, out, samples=True) as run:
     time.sleep(3)
     t_on_sent = time.monotonic()
     on = netkf("ctl", "set-link", "2", "--bernoulli", "0.0")
+    t_on = time.monotonic()
     check(on.returncode == 0, "set-link 2 --bernoulli 0 succeeds")
     time.sleep(4)
     rc = run.interrupt()
@@ -50,9 +51,14 @@ if k_off is not None and k_on is not None:
     fused2 = [r["k"] for r in window if 2 in r["fused"]]
     check(len(window) > 50 and not fused2, "sensor 2 never fused from 2 periods after the change (%d periods, %d fused)"
           % (len(window), len(fused2)))
-    before = [r for r in rows if r["k"] < min((k for k, t in stamp_of_k.items() if t >= t_off_sent), default=0)]
-    check(before and sum(2 in r["fused"] for r in before) == len(before), "sensor 2 fused every period before")
-    after = [r for r in rows if r["k"] > k_on + 2 + int(1.5 / PERIOD)]
+    # Periods where nothing at all was fused are deadline misses of a loaded machine
+    # (counted by the estimator as late), not the link: judge the link on the others.
+    before = [r for r in rows if r["fused"] and
+              r["k"] < min((k for k, t in stamp_of_k.items() if t >= t_off_sent), default=0)]
+    check(before and sum(2 in r["fused"] for r in before) == len(before),
+          "sensor 2 fused in every period before the change (%d periods)" % len(before))
+    k_on_ack = min((k for k, t in stamp_of_k.items() if t >= t_on), default=10 ** 9)
+    after = [r for r in rows if r["fused"] and r["k"] >= k_on_ack + 2]
     check(after and sum(2 in r["fused"] for r in after) == len(after),
-          "sensor 2 fused again after the reset (%d periods)" % len(after))
+          "sensor 2 fused again after the reset (%d of %d periods)" % (sum(2 in r["fused"] for r in after), len(after)))
 finish()

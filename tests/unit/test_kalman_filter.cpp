@@ -103,6 +103,39 @@ TEST(FusedUpdate, AllFormsAgreeOnRandomSystems) {
   EXPECT_GT(compared, 150);
 }
 
+TEST(FusedUpdate, SingularPriorAgreesWithStackedForm) {
+  // Some directions of the state known exactly (rank-deficient P): the information
+  // form does not exist, the production update must still match the stacked one.
+  netkf::Rng rng(netkf::derive_seed(1, "test-singular-prior"));
+  for (int trial = 0; trial < 50; ++trial) {
+    const int n = 2 + trial % 5;
+    RandomSystem s = random_system(rng, n, 3);
+    if (trial % 2 == 0) {
+      const Matrix G = random_matrix(rng, n, n - 1);  // rank n-1, zero pivot only up to rounding
+      s.P = G * G.transpose();
+      s.P = 0.5 * (s.P + s.P.transpose()).eval();
+    } else {
+      const auto k = static_cast<Eigen::Index>(trial % n);  // state k known exactly: exact zero pivot
+      s.P.row(k).setZero();
+      s.P.col(k).setZero();
+    }
+    std::vector<SensorSample> samples;
+    std::vector<ReceivedBlock> blocks;
+    for (std::size_t i = 0; i < 3; ++i) {
+      samples.push_back({s.model.sensors[i].id, s.y[i]});
+      blocks.push_back({&s.model.sensors[i].C, &s.model.sensors[i].R, &s.y[i]});
+    }
+    const auto stacked = netkf::fused_update_stacked_inverse(s.x, s.P, blocks);
+    IntermittentKalmanFilter filter(s.model, s.x, s.P);
+    filter.update(samples);
+    EXPECT_LT(max_abs_diff(filter.x(), stacked.x), 1e-10) << "trial " << trial;
+    EXPECT_LT(max_abs_diff(filter.P(), stacked.P), 1e-10) << "trial " << trial;
+    // Directions with zero prior variance stay exactly known (up to rounding).
+    const Eigen::SelfAdjointEigenSolver<Matrix> es(filter.P());
+    EXPECT_GT(es.eigenvalues().minCoeff(), -1e-12);
+  }
+}
+
 TEST(FusedUpdate, ArrivalOrderDoesNotMatter) {
   netkf::Rng rng(netkf::derive_seed(1, "test-order"));
   RandomSystem s = random_system(rng, 5, 4);

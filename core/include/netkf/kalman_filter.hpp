@@ -115,8 +115,7 @@ class IntermittentKalmanFilter {
   std::vector<int> accepted_;     // indices of samples accepted in this update
   std::vector<int> taken_;        // sensor index -> sample index in this update, or -1
   Matrix lambda_sum_;             // Σ Lambda_i over the received sensors
-  Vector info_vector_;            // Σ H_i (y_i - C_i x̂)
-  Vector residual_;               // y_i - C_i x̂ (length max m_i)
+  Vector info_vector_;            // h = Σ H_i y_i
   Vector work_x_;
   Matrix factor_;                 // F with P = F F'
   Matrix work_a_;
