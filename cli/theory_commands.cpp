@@ -72,8 +72,9 @@ void print_report(const Scenario& s, const analysis::AnalysisReport& r) {
   std::cout << "scenario " << s.name << " (" << s.state_dim() << " states, " << s.sensors.size() << " sensors)\n";
   std::cout << "  spectral radius alpha      " << std::setprecision(6) << r.spectral_radius << "\n";
   std::cout << "  stable                     " << analysis::to_string(r.stable) << "\n";
-  std::cout << "  Tr S-bar (lower bound)     " << show(r.lower_trace) << "\n";
-  std::cout << "  Tr V-bar (upper bound)     " << show(r.upper_trace) << "\n";
+  const char* missing = r.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
+  std::cout << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
+  std::cout << "  Tr V-bar (upper bound)     " << show(r.upper_trace, missing) << "\n";
   std::cout << "  Markov criterion           " << show(r.markov_criterion, "n/a") << "\n";
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;

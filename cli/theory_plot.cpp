@@ -101,7 +101,7 @@ void plot_region(const analysis::AnalysisReport& report, const std::string& titl
   }
   s << "EOD\n";
   s << "set xlabel '{/Symbol l}_1 (arrival rate of sensor 1)'\nset ylabel '{/Symbol l}_2 (arrival rate of sensor 2)'\n";
-  s << "set xrange [0:1]\nset yrange [0:1]\nset key bottom left opaque\nset size ratio -1\n";
+  s << "set xrange [0:1]\nset yrange [0:1]\nset key top right opaque box\nset size ratio -1\n";
   s << "plot $region using 1:3:(1) with filledcurves lc rgb '#b8e6b8' title 'stable (above the upper bound)', \\\n"
        "     $region using 1:(0):2 with filledcurves lc rgb '#f4b6b6' title 'unstable (below the lower bound)', \\\n"
        "     $region using 1:3 with lines lw 2 lc rgb '#1a7f1a' title 'upper bound of {/Symbol l}_{2c} (LMI)', \\\n"
@@ -119,7 +119,7 @@ void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisRe
     s << p.step << " " << p.trace_P_pred.mean << " " << p.trace_P_pred.se << " " << p.sq_error_pred.mean << " "
       << p.sq_error_pred.se << "\n";
   s << "EOD\n";
-  s << "set xlabel 'step k'\nset ylabel 'E[Tr P_{k|k-1}] and E||x_k - x@^_{k|k-1}||^2'\n";
+  s << "set xlabel 'step k'\nset ylabel 'mean Tr P_{k|k-1} and mean squared error |x_k - xhat_{k|k-1}|^2' noenhanced\n";
   s << "set logscale y\n";
   s << "plot $mc using 1:($4-2*$5):($4+2*$5) with filledcurves lc rgb '#fdd0a2' title 'squared error: mean +/- 2 SE', \\\n"
        "     $mc using 1:4 with lines lc rgb '#e6550d' title 'mean squared error (" << result.runs << " runs)', \\\n"

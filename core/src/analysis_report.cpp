@@ -119,6 +119,7 @@ AnalysisReport analyze(const Scenario& scenario, const AnalyzeOptions& options) 
     const auto patterns = independent_arrival_patterns(sensors, rates);
     lower = lyapunov_lower_bound(A, Q, all_lost_probability(rates));
     upper = expected_covariance_upper_bound(A, Q, patterns);
+    report.iid_bounds = true;
     if (lower) report.lower_trace = lower->trace();
     if (upper.status == BoundStatus::bounded) report.upper_trace = upper.V.trace();
     if (upper.status == BoundStatus::undecided)

@@ -122,6 +122,22 @@ def main():
             exact = exact_rate_1d_blocks(A, sensors)
             if exact is not None:
                 compare("critical_rate.exact", out["critical_rate"]["exact"], exact, 1e-5)
+    # DESIGN.md contract: the keys exist; bad input gives a clear error and a non-zero status.
+    keys = {"spectral_radius", "stable", "expected_covariance", "critical_rate", "markov_criterion", "notes"}
+    for path in sorted(data.glob("*.yaml")):
+        out = json.loads(subprocess.run([netkf, "analyze", str(path), "--json", "--no-lmi"], check=True,
+                                        capture_output=True, text=True).stdout)
+        checked += 1
+        if not keys <= out.keys() or out["stable"] not in ("yes", "no", "unknown"):
+            print(f"FAIL {path.name}: analyze --json keys {sorted(out.keys())}")
+            failures += 1
+    for bad in (data / "does-not-exist.yaml", Path(__file__)):
+        for cmd in ("analyze", "simulate"):
+            r = subprocess.run([netkf, cmd, str(bad), "--json"], capture_output=True, text=True)
+            checked += 1
+            if r.returncode == 0 or "error" not in r.stderr or r.stdout.strip():
+                print(f"FAIL {cmd} {bad.name}: status {r.returncode}, stderr {r.stderr!r}")
+                failures += 1
     print(f"{checked} comparisons, {failures} failures")
     return 1 if failures or checked == 0 else 0
 

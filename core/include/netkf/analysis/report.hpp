@@ -31,6 +31,7 @@ struct AnalysisReport {
   Verdict stable = Verdict::unknown;
   std::optional<double> lower_trace;   // Tr S̄ for the configured links
   std::optional<double> upper_trace;   // Tr V̄
+  bool iid_bounds = false;             // S̄/V̄ were computed (every link Bernoulli); else not reported
   std::optional<CriticalRates> critical_rate;  // all links Bernoulli with one shared rate
   std::optional<double> markov_criterion;      // max_i α_i² limsup P(R_N(i))^{1/N}
   std::optional<double> second_order_criterion;  // Thm 12 closed form (cross-check), when it applies
