@@ -164,8 +164,10 @@ IntermittentKalmanFilter::IntermittentKalmanFilter(FilterModel model, Vector x0,
   factor_.resize(dim, dim);
   work_a_.resize(dim, dim);
   work_b_.resize(dim, dim);
-  ldlt_ = Eigen::LDLT<Matrix>(dim);
-  llt_ = Eigen::LLT<Matrix>(dim);
+  // Size the factorisations' storage now (first update then does not allocate).
+  // Not via LDLT(size) + assignment: that copies an uninitialised status field.
+  ldlt_.compute(Matrix::Identity(dim, dim));
+  llt_.compute(Matrix::Identity(dim, dim));
   saturate();
   refresh_state();
 }
