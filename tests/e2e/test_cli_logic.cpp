@@ -60,7 +60,7 @@ TEST(Supervisor, ReportsTheKillingSignal) {
   SupervisorOptions o;
   o.policy = RestartPolicy::fail;
   Supervisor s(o);
-  s.start(shell("sensor", "sleep 30"));
+  s.start(shell("sensor", "exec sleep 30"));
   const auto pid = s.pid_of("sensor");
   ASSERT_TRUE(pid);
   kill(*pid, SIGKILL);
@@ -83,7 +83,7 @@ TEST(Supervisor, CriticalChildIsNotRestarted) {
 TEST(Supervisor, CriticalChildEndingCleanlyFinishesTheRun) {
   Supervisor s;
   s.start(shell("plant", "exit 0", true));
-  s.start(shell("sensor", "sleep 30"));
+  s.start(shell("sensor", "exec sleep 30"));
   poll_until(s, [&] { return s.finished(); });
   EXPECT_TRUE(s.finished());
   EXPECT_FALSE(s.failed());
@@ -96,7 +96,7 @@ TEST(Supervisor, StopAllKillsAChildIgnoringSigterm) {
   o.stop_timeout = 300ms;
   Supervisor s(o);
   s.start(shell("stubborn", "trap '' TERM; while true; do sleep 0.05; done"));
-  s.start(shell("polite", "sleep 30"));
+  s.start(shell("polite", "exec sleep 30"));
   std::this_thread::sleep_for(100ms);  // let the shell install its trap
   auto ev = s.stop_all();
   EXPECT_EQ(s.running_count(), 0u);
