@@ -13,6 +13,7 @@ import csv
 import json
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -25,6 +26,7 @@ BIN = os.environ.get("NETKF_BIN_DIR", "")
 NETKF = os.path.join(BIN, "cli", "netkf")
 
 _failures = []
+_workdirs = []
 
 
 def check(condition, message):
@@ -38,9 +40,11 @@ def check(condition, message):
 
 def finish():
     if _failures:
-        print("%d expectation(s) failed" % len(_failures), flush=True)
+        print("%d expectation(s) failed; recordings kept in %s" % (len(_failures), ", ".join(_workdirs)), flush=True)
         sys.exit(1)
     print("all expectations met", flush=True)
+    for d in _workdirs:  # keep the recordings of a failed test for inspection
+        shutil.rmtree(d, ignore_errors=True)
     sys.exit(0)
 
 
@@ -52,6 +56,7 @@ def require_netns():
 
 def workdir(name):
     d = tempfile.mkdtemp(prefix="netkf-e2e-%s-" % name)
+    _workdirs.append(d)
     return d
 
 
