@@ -216,7 +216,12 @@ int run_launch(const LaunchOptions& o) {
     started.push_back(supervisor.start(
         {"sensor_node[" + std::to_string(sensor.id) + "]", node_executable("sensor_node"), args, false}));
   }
-  started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), common_args(), true}));
+  // The launch's own bus reads the truth too (status, recording): the plant waits for it as
+  // well as for the sensors, so the recording starts at k = 0.
+  auto plant_args = common_args();
+  plant_args.push_back("--truth-readers");
+  plant_args.push_back(std::to_string(scenario.sensors.size() + 1));
+  started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), plant_args, true}));
   report(started);
   if (supervisor.failed()) {
     supervisor.stop_all();

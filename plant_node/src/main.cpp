@@ -28,6 +28,7 @@ namespace wire = netkf::wire;
 struct PlantFlags {
   std::uint64_t max_periods = 0;
   int startup_wait_ms = 10000;
+  int truth_readers = -1;  // < 0: one per sensor
   int settle_ms = 500;
 };
 
@@ -49,7 +50,8 @@ class PlantNode {
 
   /// Wait (bounded) until the sensors and the estimator are matched, so period 0 is seen by all.
   void wait_for_subscribers() {
-    const int sensors = static_cast<int>(scenario_.sensors.size());
+    const int sensors =
+        flags_.truth_readers >= 0 ? flags_.truth_readers : static_cast<int>(scenario_.sensors.size());
     const auto wait = std::chrono::milliseconds(flags_.startup_wait_ms);
     const bool truth_ok = truth_.wait_for_matched(sensors, wait);
     const bool tick_ok = tick_.wait_for_matched(1, wait);
@@ -171,6 +173,9 @@ int main(int argc, char** argv) {
   app.add_option("--startup-wait-ms", flags.startup_wait_ms,
                  "Wait at most this long for the sensors and the estimator to match before period 0")
       ->capture_default_str();
+  app.add_option("--truth-readers", flags.truth_readers,
+                 "Truth readers to wait for before period 0 (default: one per sensor; a launcher that also "
+                 "records the truth passes sensors + 1)");
   CLI11_PARSE(app, argc, argv);
 
   try {
