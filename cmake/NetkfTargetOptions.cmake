@@ -15,3 +15,21 @@ function(netkf_target_sanitizers target)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
   endif()
 endfunction()
+
+# netkf_add_node(<name> LOGIC <lib> SOURCES <src...>): a node's DDS-free logic library
+# (registered for unit tests and benches) and, with DDS, its thin executable src/main.cpp.
+function(netkf_add_node name)
+  cmake_parse_arguments(ARG "" "LOGIC" "SOURCES;LOGIC_DEPS" ${ARGN})
+  add_library(${ARG_LOGIC} ${ARG_SOURCES})
+  target_include_directories(${ARG_LOGIC} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+  target_link_libraries(${ARG_LOGIC} PUBLIC ${ARG_LOGIC_DEPS} netkf::core)
+  netkf_target_options(${ARG_LOGIC})
+  set_property(GLOBAL APPEND PROPERTY NETKF_LOGIC_LIBS ${ARG_LOGIC})
+  if(NETKF_WITH_DDS)
+    add_executable(${name} src/main.cpp)
+    target_link_libraries(${name} PRIVATE ${ARG_LOGIC} netkf_dds)
+    netkf_target_options(${name})
+    # Boost 1.74 Asio's scheduler trips a false -Wnull-dereference when inlined (GCC 12).
+    target_compile_options(${name} PRIVATE -Wno-null-dereference)
+  endif()
+endfunction()
