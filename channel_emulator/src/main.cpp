@@ -5,7 +5,6 @@
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
 #include <string>
@@ -107,12 +106,7 @@ int main(int argc, char** argv) {
       };
       status_loop();
 
-      boost::asio::signal_set signals(io, SIGINT, SIGTERM);
-      signals.async_wait([&](const boost::system::error_code& ec, int sig) {
-        if (ec) return;
-        spdlog::info("signal {}: stopping", sig);
-        io.stop();
-      });
+      const netkf::dds::StopOnSignal stop_on_signal(io);
       io.run();
       publish_status();  // final counts for late joiners (transient-local)
       status.wait_for_acknowledgments(std::chrono::milliseconds(500));

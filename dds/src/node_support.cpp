@@ -3,6 +3,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <csignal>
+
 namespace netkf::dds {
 
 void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
@@ -30,6 +32,16 @@ ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const 
   o.profile_file = resolve_profile(flags.dds_profile);
   o.name = participant_name;
   return o;
+}
+
+StopOnSignal::StopOnSignal(boost::asio::io_context& io, std::function<void(int)> on_stop)
+    : signals_(io, SIGINT, SIGTERM) {
+  signals_.async_wait([&io, on_stop = std::move(on_stop)](const boost::system::error_code& ec, int sig) {
+    if (ec) return;
+    spdlog::info("signal {}: stopping", sig);
+    if (on_stop) on_stop(sig);
+    io.stop();
+  });
 }
 
 }  // namespace netkf::dds

@@ -5,7 +5,6 @@
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
 #include <functional>
@@ -180,13 +179,7 @@ int main(int argc, char** argv) {
                  scenario.plant.control ? "closed" : "open", participant.domain());
     {
       EstimatorNode node(io, scenario, participant, status_period_ms);
-      boost::asio::signal_set signals(io, SIGINT, SIGTERM);
-      signals.async_wait([&](const boost::system::error_code& ec, int sig) {
-        if (ec) return;
-        spdlog::info("signal {}: stopping", sig);
-        node.stop();
-        io.stop();
-      });
+      const netkf::dds::StopOnSignal stop_on_signal(io, [&](int) { node.stop(); });
       io.run();
       node.log_summary();
     }

@@ -5,7 +5,6 @@
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
 #include <cstdint>
@@ -186,17 +185,10 @@ int main(int argc, char** argv) {
     spdlog::info("scenario '{}' period {} ms, domain {}", scenario.name, scenario.period_ms, participant.domain());
     {
       PlantNode node(io, scenario, participant, flags);
-      boost::asio::signal_set signals(io, SIGINT, SIGTERM);
-      signals.async_wait([&](const boost::system::error_code& ec, int sig) {
-        if (ec) return;
-        spdlog::info("signal {}: stopping", sig);
-        node.stop();
-        io.stop();
-      });
+      const netkf::dds::StopOnSignal stop_on_signal(io, [&](int) { node.stop(); });
       node.wait_for_subscribers();
       node.start();
       io.run();
-      signals.cancel();
       node.log_summary();
     }
     spdlog::info("left DDS domain {}", participant.domain());

@@ -3,7 +3,6 @@
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -51,12 +50,8 @@ int main(int argc, char** argv) {
       };
       netkf::dds::Reader<wire::Truth> truth_reader(participant, netkf::dds::topics::truth,
                                                    netkf::dds::post_to<wire::Truth>(io.get_executor(), on_truth));
-      boost::asio::signal_set signals(io, SIGINT, SIGTERM);
-      signals.async_wait([&](const boost::system::error_code& ec, int sig) {
-        if (ec) return;
-        spdlog::info("signal {}: stopping after {} samples", sig, sensor.measured());
-        io.stop();
-      });
+      const netkf::dds::StopOnSignal stop_on_signal(
+          io, [&](int) { spdlog::info("{} samples measured", sensor.measured()); });
       io.run();
     }
     spdlog::info("left DDS domain {}", participant.domain());

@@ -1,6 +1,11 @@
 #pragma once
 // What every node main shares: the common flags (--scenario, --domain, --dds-profile,
 // --log-level), spdlog set-up on stderr, and the participant options they resolve to.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -25,5 +30,15 @@ void setup_node_logging(const std::string& node_name, const std::string& level);
 
 /// Resolve domain and profile (flag, then environment, then default). Throws DdsError.
 ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name);
+
+/// SIGINT/SIGTERM end the node cleanly: `on_stop(signal)` runs on the io thread, then `io`
+/// stops. Constructed before any blocking start-up wait so a signal then is not fatal.
+class StopOnSignal {
+ public:
+  StopOnSignal(boost::asio::io_context& io, std::function<void(int)> on_stop = {});
+
+ private:
+  boost::asio::signal_set signals_;
+};
 
 }  // namespace netkf::dds
