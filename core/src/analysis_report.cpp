@@ -8,6 +8,7 @@
 #include <variant>
 
 #include "netkf/analysis/markov.hpp"
+#include "netkf/gaussian.hpp"
 #include "netkf/analysis/riccati.hpp"
 
 namespace netkf::analysis {
@@ -53,10 +54,8 @@ bool detectable(const Matrix& A, const Matrix& C) {
 // (A, Q^{1/2}) controllable: rank [Q^{1/2}, A Q^{1/2}, ..., A^{n-1} Q^{1/2}] = n.
 bool noise_controllable(const Matrix& A, const Matrix& Q) {
   const Eigen::Index n = A.rows();
-  Eigen::SelfAdjointEigenSolver<Matrix> es(Q);
-  const Matrix root = es.eigenvectors() * es.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
   Matrix K(n, n * n);
-  Matrix block = root;
+  Matrix block = psd_square_root(Q);
   for (Eigen::Index k = 0; k < n; ++k) {
     K.middleCols(k * n, n) = block;
     block = A * block;

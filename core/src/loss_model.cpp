@@ -88,9 +88,7 @@ LinkLossProcess::LinkLossProcess(const LinkModel& model, std::uint64_t seed) : m
   validate_link_model(model_);
 }
 
-bool LinkLossProcess::next_dropped() {
-  if (const auto* b = std::get_if<BernoulliLink>(&model_)) return rng_.uniform() < b->loss;
-  const auto& g = std::get<GilbertElliottLink>(model_);
+bool LinkLossProcess::next_dropped_gilbert_elliott(const GilbertElliottLink& g) {
   // Order per sample: first the chain transition, then the drop decision in the
   // state just entered. (The stationary loss and burst statistics computed above
   // use the same order; the stationary loss does not depend on it.)

@@ -1,16 +1,14 @@
 // Seeded, portable random streams (netkf/random.hpp).
 // xoshiro256++ and splitmix64 are Blackman & Vigna's generators
-// (https://prng.di.unimi.it/); the normal draw is Marsaglia's polar method, which
-// needs only uniform(), log and sqrt, so every platform gives the same numbers
-// (std::normal_distribution is implementation-defined).
+// (https://prng.di.unimi.it/); the normal draw is Marsaglia & Tsang's ziggurat, whose
+// tables and slow paths need only exp, log and sqrt, so every platform gives the same
+// numbers (std::normal_distribution is implementation-defined).
 #include "netkf/random.hpp"
 
 #include <cmath>
 
 namespace netkf {
 namespace {
-
-constexpr std::uint64_t rotl(std::uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
 // FNV-1a (64 bit) of the stream name: a fixed, portable string hash
 // (std::hash is implementation-defined).
@@ -23,7 +21,35 @@ std::uint64_t fnv1a(std::string_view text) {
   return h;
 }
 
+// Marsaglia & Tsang (2000), 256 strips: r = start of the tail, chosen so that 256 strips of
+// equal area close at the top.
+constexpr double kTailStart = 3.6541528853610088;
+
+double density(double x) { return std::exp(-0.5 * x * x); }
+
+// Area of each strip: that of the base strip, the box [0, r] x [0, f(r)] plus the tail
+// integral sqrt(pi/2) erfc(r / sqrt 2) (the paper's 4.92867323399e-3, to full precision).
+double strip_area() {
+  return kTailStart * density(kTailStart) + std::sqrt(std::acos(-1.0) / 2.0) * std::erfc(kTailStart / std::sqrt(2.0));
+}
+
 }  // namespace
+
+namespace detail {
+
+NormalZiggurat::NormalZiggurat() {
+  const double v = strip_area();
+  x[0] = v / density(kTailStart);
+  x[1] = kTailStart;
+  // Strip i has area x[i] (f(x[i+1]) - f(x[i])) = v, solved for x[i+1].
+  for (int i = 1; i < kLayers - 1; ++i) x[i + 1] = std::sqrt(-2.0 * std::log(v / x[i] + density(x[i])));
+  x[kLayers] = 0.0;
+  for (int i = 0; i <= kLayers; ++i) f[i] = density(x[i]);
+  f[0] = 0.0;  // the base strip reaches down to the axis (only f[1] is read for it)
+  for (int i = 0; i < kLayers; ++i) ratio[i] = x[i + 1] / x[i];
+}
+
+}  // namespace detail
 
 std::uint64_t splitmix64(std::uint64_t& state) {
   state += 0x9e3779b97f4a7c15ULL;
@@ -49,40 +75,29 @@ Rng::Rng(std::uint64_t seed) {
   for (auto& word : s_) word = splitmix64(state);
 }
 
-std::uint64_t Rng::next_u64() {
-  const std::uint64_t result = rotl(s_[0] + s_[3], 23) + s_[0];
-  const std::uint64_t t = s_[1] << 17;
-  s_[2] ^= s_[0];
-  s_[3] ^= s_[1];
-  s_[1] ^= s_[2];
-  s_[0] ^= s_[3];
-  s_[2] ^= t;
-  s_[3] = rotl(s_[3], 45);
-  return result;
-}
-
-double Rng::uniform() {
-  // Top 53 bits -> a double in [0, 1) with uniform spacing 2^-53.
-  return static_cast<double>(next_u64() >> 11) * 0x1.0p-53;
-}
-
-double Rng::standard_normal() {
-  if (has_spare_) {
-    has_spare_ = false;
-    return spare_;
+double Rng::normal_slow_path(unsigned layer, double z, bool negative) {
+  const auto& zig = detail::normal_ziggurat();
+  for (;;) {
+    if (layer == 0) {
+      // Beyond the base box: the tail |z| > r (Marsaglia 1964). 1 - uniform() is in (0, 1].
+      double t = 0.0;
+      double e = 0.0;
+      do {
+        t = -std::log(1.0 - uniform()) / kTailStart;
+        e = -std::log(1.0 - uniform());
+      } while (e + e < t * t);
+      return negative ? -(kTailStart + t) : kTailStart + t;
+    }
+    // In the wedge between the inner box and the density: accept under exp(-z^2/2).
+    if (zig.f[layer] + uniform() * (zig.f[layer + 1] - zig.f[layer]) < density(z)) return negative ? -z : z;
+    // Rejected: a fresh draw, exactly as standard_normal() makes it.
+    const std::uint64_t bits = next_u64();
+    layer = static_cast<unsigned>(bits & 0xffu);
+    const double position = static_cast<double>(bits >> 11) * 0x1.0p-53;
+    z = position * zig.x[layer];
+    negative = (bits & 0x100u) != 0;
+    if (position < zig.ratio[layer]) return negative ? -z : z;
   }
-  double u = 0.0;
-  double v = 0.0;
-  double s = 0.0;
-  do {
-    u = 2.0 * uniform() - 1.0;
-    v = 2.0 * uniform() - 1.0;
-    s = u * u + v * v;
-  } while (s >= 1.0 || s == 0.0);
-  const double scale = std::sqrt(-2.0 * std::log(s) / s);
-  spare_ = v * scale;
-  has_spare_ = true;
-  return u * scale;
 }
 
 }  // namespace netkf

@@ -48,6 +48,39 @@ TEST(MonteCarlo, FixedSizeKernelMatchesTheCoreFilter) {
   }
 }
 
+TEST(MonteCarlo, FixedSizeKernelMatchesTheCoreFilterWithSeveralScalarLinks) {
+  // n = 1 takes the kernel's vectorised path; three sensors on Bernoulli and Gilbert-Elliott
+  // links, and a run count that fills neither a block of runs nor a chunk.
+  using netkf::testing::mat;
+  auto s = netkf::testing::system(
+      mat({{-1.25}}), mat({{1.0}}),
+      {netkf::testing::sensor(1, mat({{1.0}}), mat({{2.5}}), BernoulliLink{0.5}),
+       netkf::testing::sensor(2, mat({{0.5}}), mat({{1.0}}), GilbertElliottLink{0.1, 0.4, 0.0, 1.0}),
+       netkf::testing::sensor(3, mat({{2.0}}), mat({{4.0}}), BernoulliLink{0.7})});
+  MonteCarloOptions o;
+  o.runs = 45;
+  o.steps = 90;
+  o.record_series = true;
+  o.kernel = MonteCarloOptions::Kernel::reference;
+  const auto reference = run_monte_carlo(s, o);
+  o.kernel = MonteCarloOptions::Kernel::fixed_size;
+  const auto fast = run_monte_carlo(s, o);
+  expect_same(reference, fast, 1e-8);
+  ASSERT_EQ(fast.series.size(), reference.series.size());
+  for (std::size_t k = 0; k < fast.series.size(); ++k) {
+    EXPECT_NEAR(fast.series[k].trace_P_pred.mean, reference.series[k].trace_P_pred.mean,
+                1e-8 * (1 + reference.series[k].trace_P_pred.mean));
+    EXPECT_NEAR(fast.series[k].sq_error_pred.mean, reference.series[k].sq_error_pred.mean,
+                1e-8 * (1 + reference.series[k].sq_error_pred.mean));
+  }
+  o.threads = 1;
+  const auto one = run_monte_carlo(s, o);
+  o.threads = 2;
+  const auto two = run_monte_carlo(s, o);
+  expect_same(one, two, 0.0);
+  EXPECT_EQ(one.series.back().trace_P_pred.mean, two.series.back().trace_P_pred.mean);
+}
+
 TEST(MonteCarlo, RejectsEmptyRuns) {
   MonteCarloOptions o;
   o.runs = 0;

@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "netkf/nodes/gaussian.hpp"
+#include "netkf/gaussian.hpp"
 #include "netkf/nodes/plant_simulator.hpp"
 
 namespace {
@@ -117,7 +117,7 @@ TEST(PlantLogic, SameSeedSameRunDifferentSeedDifferentRun) {
 }
 
 TEST(PlantLogic, SingularCovarianceSamplesOnlyItsRange) {
-  netkf::nodes::GaussianSampler g(Matrix{{1.0, 1.0}, {1.0, 1.0}}, 5);
+  netkf::GaussianSampler g(Matrix{{1.0, 1.0}, {1.0, 1.0}}, 5);
   for (int i = 0; i < 100; ++i) {
     const Vector d = g.draw();
     EXPECT_NEAR(d(0), d(1), 1e-12);  // covariance of rank one along (1, 1)

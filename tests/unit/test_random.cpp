@@ -3,6 +3,7 @@
 // stream independence, and moments of the uniform and normal draws within 4 SE.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <set>
@@ -119,6 +120,75 @@ TEST(Random, NormalMomentsWithinFourStandardErrors) {
   // Tail: P(|Z| > 2) = erfc(2/sqrt 2).
   const double p2 = std::erfc(2.0 / std::sqrt(2.0));
   EXPECT_NEAR(static_cast<double>(beyond_two) / N, p2, 4.0 * std::sqrt(p2 * (1 - p2) / N));
+}
+
+// The ziggurat's tables against their definition (Marsaglia & Tsang 2000): every strip
+// has the same area v, the base strip being the box [0, r] x [0, f(r)] plus the tail,
+// whose area is the closed form sqrt(pi/2) erfc(r / sqrt 2).
+TEST(Random, ZigguratStripsHaveEqualArea) {
+  const auto& zig = netkf::detail::normal_ziggurat();
+  constexpr int L = netkf::detail::NormalZiggurat::kLayers;
+  const double r = zig.x[1];
+  const double pi = std::acos(-1.0);
+  const double v = r * std::exp(-0.5 * r * r) + std::sqrt(pi / 2.0) * std::erfc(r / std::sqrt(2.0));
+  EXPECT_NEAR(zig.x[0] * std::exp(-0.5 * r * r), v, 1e-12 * v);  // virtual width of the base strip
+  for (int i = 1; i < L; ++i) {
+    ASSERT_GT(zig.x[i], zig.x[i + 1]) << "strip " << i;
+    const double top = i + 1 == L ? 1.0 : std::exp(-0.5 * zig.x[i + 1] * zig.x[i + 1]);
+    EXPECT_NEAR(zig.x[i] * (top - std::exp(-0.5 * zig.x[i] * zig.x[i])), v, 1e-9 * v) << "strip " << i;
+    EXPECT_DOUBLE_EQ(zig.ratio[i], zig.x[i + 1] / zig.x[i]);
+  }
+  EXPECT_EQ(zig.x[L], 0.0);
+}
+
+// Standard normal CDF, independent of the generator.
+double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+TEST(Random, NormalMatchesTheNormalDistribution) {
+  // Phi(Z) is uniform: chi-square over 1000 equal-probability bins (a strip or wedge
+  // table error shows as a bias of some bins) and the Kolmogorov-Smirnov distance.
+  netkf::Rng rng(netkf::derive_seed(2026, "test-normal-cdf"));
+  const int N = 2000000;
+  const int bins = 1000;
+  std::vector<int> count(bins, 0);
+  std::vector<double> u(N);
+  for (int i = 0; i < N; ++i) {
+    u[static_cast<std::size_t>(i)] = normal_cdf(rng.standard_normal());
+    const int b = std::min(bins - 1, static_cast<int>(u[static_cast<std::size_t>(i)] * bins));
+    ++count[static_cast<std::size_t>(b)];
+  }
+  const double expected = static_cast<double>(N) / bins;
+  double chi2 = 0.0;
+  for (int c : count) chi2 += (c - expected) * (c - expected) / expected;
+  // chi2 with 999 degrees of freedom: mean 999, sd sqrt(2 * 999) = 44.7; 5 sd.
+  EXPECT_LT(chi2, 999.0 + 5.0 * std::sqrt(2.0 * 999.0));
+  std::sort(u.begin(), u.end());
+  double ks = 0.0;
+  for (int i = 0; i < N; ++i) {
+    const double ui = u[static_cast<std::size_t>(i)];
+    ks = std::max({ks, ui - static_cast<double>(i) / N, static_cast<double>(i + 1) / N - ui});
+  }
+  // P(sqrt(N) D > 1.95) = 0.001 (Kolmogorov distribution).
+  EXPECT_LT(std::sqrt(static_cast<double>(N)) * ks, 1.95);
+}
+
+TEST(Random, NormalTailBeyondTheZigguratBase) {
+  // Draws beyond r = 3.654 come only from the tail algorithm: their frequency, and that
+  // of |Z| > 4.2, must match erfc within 4 SE.
+  netkf::Rng rng(netkf::derive_seed(2026, "test-normal-tail"));
+  const int N = 4000000;
+  const double r = netkf::detail::normal_ziggurat().x[1];
+  int beyond_r = 0;
+  int beyond_42 = 0;
+  for (int i = 0; i < N; ++i) {
+    const double z = std::abs(rng.standard_normal());
+    beyond_r += z > r ? 1 : 0;
+    beyond_42 += z > 4.2 ? 1 : 0;
+  }
+  for (auto [threshold, hits] : {std::pair{r, beyond_r}, std::pair{4.2, beyond_42}}) {
+    const double p = std::erfc(threshold / std::sqrt(2.0));
+    EXPECT_NEAR(static_cast<double>(hits) / N, p, 4.0 * std::sqrt(p * (1 - p) / N)) << "|Z| > " << threshold;
+  }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #pragma once
 // Seeded packet-loss processes for one link (DESIGN.md, "Bernoulli" / "Gilbert-Elliott").
 #include <cstdint>
+#include <variant>
 
 #include "netkf/random.hpp"
 #include "netkf/scenario.hpp"
@@ -15,8 +16,12 @@ class LinkLossProcess {
 
   LinkLossProcess(const LinkModel& model, std::uint64_t seed);
 
-  /// Advance by one sample; true when this sample is dropped.
-  bool next_dropped();
+  /// Advance by one sample; true when this sample is dropped. Inline: the Monte Carlo
+  /// kernels call it once per link and step.
+  bool next_dropped() {
+    if (const auto* b = std::get_if<BernoulliLink>(&model_)) return rng_.uniform() < b->loss;
+    return next_dropped_gilbert_elliott(std::get<GilbertElliottLink>(model_));
+  }
 
   /// Replace the model from the next sample on. A Gilbert-Elliott chain keeps its state;
   /// switching from Bernoulli to Gilbert-Elliott starts in Good. Throws std::invalid_argument
@@ -29,6 +34,8 @@ class LinkLossProcess {
   double mean_burst_length() const { return netkf::mean_burst_length(model_); }
 
  private:
+  bool next_dropped_gilbert_elliott(const GilbertElliottLink& g);
+
   LinkModel model_;
   Rng rng_;
   ChainState state_ = ChainState::good;

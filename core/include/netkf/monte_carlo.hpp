@@ -23,8 +23,9 @@ struct MonteCarloOptions {
   int threads = 0;                     // 0: std::thread::hardware_concurrency()
   bool record_series = false;          // per-step means (for plots)
   /// Kernel: the real IntermittentKalmanFilter (reference), or the fixed-size kernel that runs
-  /// the same recursion with stack-allocated matrices (scalar-output sensors, n ≤ 6); `automatic`
-  /// takes the fast kernel where it applies. Both use the real LinkLossProcess.
+  /// the same recursion with stack-allocated matrices on blocks of runs in lockstep
+  /// (scalar-output sensors, n ≤ 6, at most 16 sensors); `automatic` takes the fast kernel where
+  /// it applies. Both use the real LinkLossProcess and draw the same numbers for a run.
   enum class Kernel { automatic, reference, fixed_size } kernel = Kernel::automatic;
 };
 

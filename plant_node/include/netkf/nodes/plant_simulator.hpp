@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "netkf/nodes/gaussian.hpp"
+#include "netkf/gaussian.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::nodes {

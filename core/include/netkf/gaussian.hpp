@@ -6,12 +6,15 @@
 #include "netkf/random.hpp"
 #include "netkf/types.hpp"
 
-namespace netkf::nodes {
+namespace netkf {
+
+/// A square root S with S S' = M of a symmetric positive semidefinite M: V sqrt(D) from the
+/// eigendecomposition, so singular covariances (noise on some states only) work, unlike Cholesky.
+Matrix psd_square_root(const Matrix& M);
 
 class GaussianSampler {
  public:
-  /// `covariance` must be symmetric positive semidefinite (checked by the scenario loader);
-  /// a PSD square root is used so singular Q (e.g. noise on some states only) works.
+  /// `covariance` must be symmetric positive semidefinite (checked by the scenario loader).
   GaussianSampler(const Matrix& covariance, std::uint64_t seed);
   /// One draw S z with z ~ N(0, I) and S S' = covariance.
   Vector draw();
@@ -22,4 +25,4 @@ class GaussianSampler {
   Rng rng_;
 };
 
-}  // namespace netkf::nodes
+}  // namespace netkf
