@@ -2,11 +2,16 @@
 // per sensor (Bernoulli or Gilbert-Elliott, seeded from the scenario), applies link changes
 // from netkf/link/control from the next sample on, and publishes link status about once a
 // second and after every change (transient-local, so late joiners see it).
+//
+// Threads: samples are decided and relayed on the DDS receive thread (one draw and a write:
+// cheaper than the context switch of a hand-off, see endpoints.hpp); link changes and status
+// run on the io thread. One mutex guards the links.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
+#include <mutex>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -44,16 +49,28 @@ int main(int argc, char** argv) {
       netkf::dds::Writer<wire::LinkStatus> status(participant, netkf::dds::topics::link_status);
       netkf::dds::Writer<wire::LinkControlReply> reply(participant, netkf::dds::topics::link_control_reply);
 
+      std::mutex links_mutex;
       auto publish_status = [&] {
         const auto now = netkf::dds::steady_now_ns();
-        for (const auto& r : links.reports()) {
+        const auto reports = [&] {
+          const std::lock_guard lock(links_mutex);
+          return links.reports();
+        }();
+        for (const auto& r : reports) {
           status.write(netkf::dds::make_link_status(r.sensor_id, r.model, r.stats, r.last_request_id,
                                                     r.last_request_rejected, r.reject_reason, now));
         }
       };
 
-      auto on_raw = [&](wire::Measurement m) {
-        switch (links.on_sample(m.sensor_id())) {
+      auto on_raw = [&](wire::Measurement&& m) {
+        std::uint64_t unknown_so_far = 0;
+        const auto verdict = [&] {
+          const std::lock_guard lock(links_mutex);
+          const auto v = links.on_sample(m.sensor_id());
+          unknown_so_far = links.unknown_sensor_samples();
+          return v;
+        }();
+        switch (verdict) {
           case netkf::nodes::ChannelLinks::Verdict::delivered:
             delivered.write(m);  // relayed unchanged (stamp is the sensor's publish time)
             break;
@@ -62,22 +79,26 @@ int main(int argc, char** argv) {
             break;
           case netkf::nodes::ChannelLinks::Verdict::unknown_sensor:
             spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far)", m.sensor_id(), m.k(),
-                         links.unknown_sensor_samples());
+                         unknown_so_far);
             break;
         }
       };
 
       auto on_control = [&](wire::LinkControl c) {
         netkf::nodes::LinkChangeResult result;
-        try {
-          result = links.apply(c.request_id(), c.sensor_id(), netkf::dds::to_link_model(c));
-        } catch (const std::exception& e) {
-          result = links.reject(c.request_id(), c.sensor_id(), e.what());
+        netkf::LinkModel applied_model;
+        {
+          const std::lock_guard lock(links_mutex);
+          try {
+            result = links.apply(c.request_id(), c.sensor_id(), netkf::dds::to_link_model(c));
+          } catch (const std::exception& e) {
+            result = links.reject(c.request_id(), c.sensor_id(), e.what());
+          }
+          if (result.applied) applied_model = links.report(c.sensor_id())->model;
         }
         if (result.applied) {
-          const auto* r = links.report(c.sensor_id());
           spdlog::info("request {}: link {} set to {} (stationary loss {:.4f})", c.request_id(), c.sensor_id(),
-                       netkf::link_model_name(r->model), netkf::stationary_loss(r->model));
+                       netkf::link_model_name(applied_model), netkf::stationary_loss(applied_model));
         } else {
           spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), c.sensor_id(), result.reason);
         }
@@ -86,9 +107,7 @@ int main(int argc, char** argv) {
         publish_status();
       };
 
-      // All callbacks run on the io_context thread: links needs no lock.
-      netkf::dds::Reader<wire::Measurement> raw(participant, netkf::dds::topics::raw_measurement,
-                                                netkf::dds::post_to<wire::Measurement>(io.get_executor(), on_raw));
+      netkf::dds::Reader<wire::Measurement> raw(participant, netkf::dds::topics::raw_measurement, on_raw);
       netkf::dds::Reader<wire::LinkControl> control(
           participant, netkf::dds::topics::link_control,
           netkf::dds::post_to<wire::LinkControl>(io.get_executor(), on_control));
@@ -110,6 +129,7 @@ int main(int argc, char** argv) {
       io.run();
       publish_status();  // final counts for late joiners (transient-local)
       status.wait_for_acknowledgments(std::chrono::milliseconds(500));
+      const std::lock_guard lock(links_mutex);  // the raw reader still delivers until it is gone
       for (const auto& r : links.reports()) {
         spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", r.sensor_id,
                      r.stats.samples(), r.stats.delivered(), r.stats.dropped(), r.stats.observed_loss(),

@@ -2,12 +2,18 @@
 // first), publishes x̂_{k|k}, P_{k|k} every period (never NaN), and in a closed-loop
 // scenario sends u_k = -L x̂_{k|k} to the plant. It never sees the truth: the plant's tick
 // (k, t_k, applied input) is its only clock. The deadline is a steady_timer.
+//
+// Threads: delivered samples are handled on the DDS receive thread (bookkeeping, and the fused
+// update when a sample completes its period: microseconds, and a hand-off would add a context
+// switch per sample to the latency; see endpoints.hpp). Ticks, the deadline and the status log
+// run on the io thread, which owns the timers. One mutex guards the estimator core.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <chrono>
 #include <functional>
+#include <mutex>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -36,8 +42,7 @@ class EstimatorNode {
         tick_(participant, netkf::dds::topics::tick,
               netkf::dds::post_to<wire::Tick>(io.get_executor(), [this](wire::Tick t) { on_tick(t); })),
         delivered_(participant, netkf::dds::topics::delivered_measurement,
-                   netkf::dds::post_to<wire::Measurement>(io.get_executor(),
-                                                          [this](wire::Measurement m) { on_sample(m); })) {
+                   [this](wire::Measurement&& m) { on_sample(m); }) {
     schedule_status();
   }
 
@@ -46,14 +51,17 @@ class EstimatorNode {
     status_timer_.cancel();
   }
 
-  void log_summary() const {
+  void log_summary() {
+    const std::lock_guard lock(mutex_);
     spdlog::info("published {} estimates (last period {}), late samples {}, rejected {}, state {}", published_,
                  core_.last_fused_period() ? std::to_string(*core_.last_fused_period()) : std::string("none"),
                  core_.late_total(), core_.rejected_total(), netkf::to_string(core_.filter().state()));
   }
 
  private:
+  // io thread
   void on_tick(const wire::Tick& tick) {
+    const std::lock_guard lock(mutex_);
     netkf::Vector applied;
     try {
       applied = netkf::dds::tick_applied_input(tick, input_dim_);
@@ -65,7 +73,9 @@ class EstimatorNode {
     arm_deadline();
   }
 
+  // DDS receive thread
   void on_sample(const wire::Measurement& m) {
+    const std::lock_guard lock(mutex_);
     netkf::SensorSample s;
     try {
       s = netkf::dds::to_sensor_sample(m);
@@ -83,9 +93,12 @@ class EstimatorNode {
     } else if (core_.late_total() != late_before) {
       spdlog::debug("late sample of sensor {} for period {} (period already fused)", m.sensor_id(), m.k());
     }
-    arm_deadline();
+    // No timer work here: a sample never opens a period (only a tick does), so the deadline
+    // armed by the tick stays right; when it fires after the period was fused it finds
+    // nothing to do.
   }
 
+  // io thread, with mutex_ held
   void arm_deadline() {
     const auto deadline = core_.pending_deadline_ns();
     if (!deadline || armed_for_ == deadline) return;
@@ -93,6 +106,7 @@ class EstimatorNode {
     deadline_timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(*deadline)));
     deadline_timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
+      const std::lock_guard lock(mutex_);
       armed_for_.reset();
       publish(core_.on_deadline(netkf::dds::steady_now_ns()));
       arm_deadline();
@@ -143,6 +157,7 @@ class EstimatorNode {
   }
 
   boost::asio::io_context& io_;
+  std::mutex mutex_;  // core_ and the publication state below
   netkf::nodes::EstimatorCore core_;
   int input_dim_;
   boost::asio::steady_timer deadline_timer_;

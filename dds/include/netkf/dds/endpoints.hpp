@@ -1,9 +1,13 @@
 #pragma once
 // Typed publish/subscribe helpers over a Participant.
 //
-// Reader callbacks run on a Fast DDS listener thread: they must be cheap. Hand the
-// sample to the node's io_context (boost::asio::post) and do the work there; never do
-// math or block in the callback. netkf::dds::post_to() does exactly that.
+// Reader callbacks run on a Fast DDS receive thread, which also serves the participant's
+// other readers: they must never block or take long. Short per-sample work may run there
+// directly — a sensor's y = C x + v, the channel's drop decision and relay, the estimator's
+// bookkeeping and fused update (microseconds) — because handing each sample to another
+// thread costs a context switch, which on a 2-core machine was half of a sensor's CPU time
+// per period and delayed every hop. Anything slower, or anything that owns timers, goes to
+// the node's io_context: netkf::dds::post_to() moves the sample there.
 #include <atomic>
 #include <chrono>
 #include <cstdint>
