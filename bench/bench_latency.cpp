@@ -148,7 +148,8 @@ struct RunResult {
   int launch_status = -1;
 };
 
-RunResult run(const std::string& netkf, int domain, int sensors, int rate_hz, double seconds, bool with_hop) {
+RunResult run(const std::string& netkf, int domain, int sensors, int per_process, int rate_hz, double seconds,
+              double warmup_s, bool with_hop) {
   RunResult result;
   const int period_ms = 1000 / rate_hz;
   const auto scenario = write_scenario(sensors, period_ms);
@@ -185,8 +186,9 @@ RunResult run(const std::string& netkf, int domain, int sensors, int rate_hz, do
       hop_writer = std::make_unique<dds::Writer<netkf::wire::Measurement>>(p, kHopTopic);
       hop_writer->wait_for_matched(1, std::chrono::seconds(10));
     }
-    const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds),
-                                "--domain", std::to_string(domain), "--status-interval", "0"});
+    const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds + warmup_s),
+                                "--domain", std::to_string(domain), "--status-interval", "0",
+                                "--sensors-per-process", std::to_string(per_process)});
     // The hop: d samples per period, like the sensors, paced by the same period.
     const auto start = Clock::now();
     auto next = start;
@@ -194,7 +196,7 @@ RunResult run(const std::string& netkf, int domain, int sensors, int rate_hz, do
     netkf::Vector y = netkf::Vector::Zero(1);
     int status = 0;
     while (waitpid(launch, &status, WNOHANG) == 0) {
-      if (hop_writer && Clock::now() - start < std::chrono::duration<double>(seconds)) {
+      if (hop_writer && Clock::now() - start < std::chrono::duration<double>(seconds + warmup_s)) {
         for (int i = 1; i <= sensors; ++i) hop_writer->write(dds::make_measurement(i, k, dds::steady_now_ns(), y));
         ++k;
       }
@@ -213,12 +215,15 @@ RunResult run(const std::string& netkf, int domain, int sensors, int rate_hz, do
     while (read(pipe_fds[0], &v, sizeof v) == static_cast<ssize_t>(sizeof v)) hop.push_back(v);
     close(pipe_fds[0]);
     waitpid(hop_pid, nullptr, 0);
+    const auto hop_warmup = static_cast<std::size_t>(warmup_s * rate_hz) * static_cast<std::size_t>(sensors);
+    if (hop.size() > 2 * hop_warmup) hop.erase(hop.begin(), hop.begin() + static_cast<std::ptrdiff_t>(hop_warmup));
     result.hop = stats_of(hop);
   }
   std::filesystem::remove(scenario);
 
-  // Skip the first second (discovery, process start) and the last periods (shutdown).
-  const std::size_t warmup = static_cast<std::size_t>(rate_hz);
+  // Skip the warm-up (process start, discovery: seconds with tens of participants) and the
+  // last periods (shutdown).
+  const std::size_t warmup = static_cast<std::size_t>(warmup_s * rate_hz);
   if (pipeline_us.size() > 2 * warmup) {
     pipeline_us.erase(pipeline_us.begin(), pipeline_us.begin() + static_cast<std::ptrdiff_t>(warmup));
     pipeline_rx_us.erase(pipeline_rx_us.begin(), pipeline_rx_us.begin() + static_cast<std::ptrdiff_t>(warmup));
@@ -244,8 +249,8 @@ void print(const char* what, const Stats& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128;
-  double seconds = 15.0;
+  int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128, per_process = 1;
+  double seconds = 15.0, warmup_s = 1.0;
   bool capacity = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -256,8 +261,11 @@ int main(int argc, char** argv) {
     else if (a == "--domain") domain = std::stoi(next());
     else if (a == "--capacity") capacity = true;
     else if (a == "--max-sensors") max_sensors = std::stoi(next());
+    else if (a == "--sensors-per-process") per_process = std::stoi(next());
+    else if (a == "--warmup") warmup_s = std::stod(next());
     else {
-      std::printf("usage: bench_latency [--sensors D] [--rate-hz R] [--seconds S] [--domain N] [--capacity [--max-sensors M]]\n");
+      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K] [--rate-hz R] [--seconds S] [--warmup S]\n"
+                  "                     [--domain N] [--capacity [--max-sensors M]]\n");
       return a == "--help" ? 0 : 2;
     }
   }
@@ -272,8 +280,9 @@ int main(int argc, char** argv) {
   std::printf("netkf: %s\n", netkf.c_str());
   try {
     if (!capacity) {
-      std::printf("latency: %d sensors at %d Hz for %.0f s (lossless links)\n", sensors, rate_hz, seconds);
-      const auto r = run(netkf, domain, sensors, rate_hz, seconds, true);
+      std::printf("latency: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up (lossless links)\n",
+                  sensors, per_process, rate_hz, seconds, warmup_s);
+      const auto r = run(netkf, domain, sensors, per_process, rate_hz, seconds, warmup_s, true);
       print("pipeline: sample publish -> estimate publish", r.pipeline);
       print("pipeline: sample publish -> estimate received", r.pipeline_rx);
       print("bare Fast DDS hop (same type, same load)", r.hop);
@@ -285,9 +294,10 @@ int main(int argc, char** argv) {
     } else {
       int best = 0;
       for (int d = sensors; d <= max_sensors; d *= 2) {
-        std::printf("capacity: %d sensors at %d Hz for %.0f s ...\n", d, rate_hz, seconds);
+        std::printf("capacity: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up ...\n", d,
+                    per_process, rate_hz, seconds, warmup_s);
         std::fflush(stdout);
-        const auto r = run(netkf, domain, d, rate_hz, seconds, false);
+        const auto r = run(netkf, domain, d, per_process, rate_hz, seconds, warmup_s, false);
         const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d => %s\n",

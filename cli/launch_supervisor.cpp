@@ -245,4 +245,20 @@ std::string node_executable(const std::string& name) {
   return (root / name / name).string();
 }
 
+std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sensor_ids, int per_process) {
+  if (per_process < 1) throw std::invalid_argument("sensors per process must be at least 1");
+  std::vector<std::vector<int>> groups;
+  for (std::size_t i = 0; i < sensor_ids.size(); ++i) {
+    if (i % static_cast<std::size_t>(per_process) == 0) groups.emplace_back();
+    groups.back().push_back(sensor_ids[i]);
+  }
+  return groups;
+}
+
+std::string sensor_process_name(const std::vector<int>& sensor_ids) {
+  std::string name = "sensor_node[";
+  for (std::size_t i = 0; i < sensor_ids.size(); ++i) name += (i ? "," : "") + std::to_string(sensor_ids[i]);
+  return name + "]";
+}
+
 }  // namespace netkf::cli

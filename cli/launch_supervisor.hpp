@@ -103,6 +103,12 @@ class Supervisor {
   std::string finished_reason_;
 };
 
+/// The sensor processes of a launch: the sensor ids in scenario order, `per_process` to a
+/// process (the last takes the rest). Throws std::invalid_argument for per_process < 1.
+std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sensor_ids, int per_process);
+/// The supervisor's name of a sensor process: "sensor_node[3]", "sensor_node[1,2,3]".
+std::string sensor_process_name(const std::vector<int>& sensor_ids);
+
 /// Directory holding the node executables: $NETKF_BIN_DIR if set, else the build
 /// tree's root found from /proc/self/exe (build/<preset>/cli/netkf -> build/<preset>).
 std::string node_binary_root();

@@ -154,6 +154,7 @@ struct LaunchOptions {
   std::string log_level = "warn";
   std::string restart_policy = "restart";
   int max_restarts = 3;
+  int sensors_per_process = 1;
   double status_interval = 1.0;
   std::optional<std::string> pid_file;
 };
@@ -209,18 +210,22 @@ int run_launch(const LaunchOptions& o) {
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
   started.push_back(supervisor.start({"channel_emulator", node_executable("channel_emulator"), common_args(), false}));
   started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), common_args(), true}));
-  for (const auto& sensor : scenario.sensors) {
+  std::vector<int> sensor_ids;
+  for (const auto& sensor : scenario.sensors) sensor_ids.push_back(sensor.id);
+  const auto sensor_groups = sensor_process_groups(sensor_ids, o.sensors_per_process);
+  for (const auto& group : sensor_groups) {
     auto args = common_args();
-    args.push_back("--sensor-id");
-    args.push_back(std::to_string(sensor.id));
-    started.push_back(supervisor.start(
-        {"sensor_node[" + std::to_string(sensor.id) + "]", node_executable("sensor_node"), args, false}));
+    for (int id : group) {
+      args.push_back("--sensor-id");
+      args.push_back(std::to_string(id));
+    }
+    started.push_back(supervisor.start({sensor_process_name(group), node_executable("sensor_node"), args, false}));
   }
   // The launch's own bus reads the truth too (status, recording): the plant waits for it as
-  // well as for the sensors, so the recording starts at k = 0.
+  // well as for every sensor process, so the recording starts at k = 0.
   auto plant_args = common_args();
   plant_args.push_back("--truth-readers");
-  plant_args.push_back(std::to_string(scenario.sensors.size() + 1));
+  plant_args.push_back(std::to_string(sensor_groups.size() + 1));
   started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), plant_args, true}));
   report(started);
   if (supervisor.failed()) {
@@ -233,7 +238,8 @@ int run_launch(const LaunchOptions& o) {
     for (const auto& e : started) pids << e.child << " " << e.pid << "\n";
   }
   std::cerr << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
-            << scenario.sensors.size() << " sensors, period " << scenario.period_ms << " ms"
+            << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes, period "
+            << scenario.period_ms << " ms"
             << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops") << "\n";
 
   enum class End { running, duration, signal, failed, finished } end = End::running;
@@ -516,6 +522,11 @@ void add_launch_command(CLI::App& app) {
       ->check(CLI::IsMember({"restart", "fail"}));
   cmd->add_option("--max-restarts", o->max_restarts, "Restarts per process before the launch fails")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--sensors-per-process", o->sensors_per_process,
+                  "Host this many sensors in each sensor_node process (one DDS participant each): for dense "
+                  "networks on a small machine")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--pid-file", o->pid_file, "Write 'name pid' of each started process to FILE");

@@ -41,6 +41,16 @@ int count(const std::vector<SupervisorEvent>& ev, SupervisorEvent::Kind kind) {
   return n;
 }
 
+TEST(LaunchPlan, SensorsAreGroupedInScenarioOrder) {
+  EXPECT_EQ(sensor_process_groups({4, 2, 9}, 1), (std::vector<std::vector<int>>{{4}, {2}, {9}}));
+  EXPECT_EQ(sensor_process_groups({1, 2, 3, 4, 5}, 2), (std::vector<std::vector<int>>{{1, 2}, {3, 4}, {5}}));
+  EXPECT_EQ(sensor_process_groups({1, 2, 3}, 8), (std::vector<std::vector<int>>{{1, 2, 3}}));
+  EXPECT_TRUE(sensor_process_groups({}, 3).empty());
+  EXPECT_THROW(sensor_process_groups({1}, 0), std::invalid_argument);
+  EXPECT_EQ(sensor_process_name({7}), "sensor_node[7]");
+  EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1,2,3]");
+}
+
 TEST(Supervisor, RestartsADyingChildThenGivesUp) {
   SupervisorOptions o;
   o.max_restarts = 2;
