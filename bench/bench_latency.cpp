@@ -150,8 +150,15 @@ struct RunResult {
   int launch_status = -1;
 };
 
-RunResult run(const std::string& netkf, int domain, int sensors, int per_process, int rate_hz, double seconds,
-              double warmup_s, bool with_hop) {
+/// This executable, for re-running it as the hop receiver (see run()).
+std::string self_path(const char* argv0) {
+  std::error_code ec;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string(argv0) : self.string();
+}
+
+RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, int per_process,
+              int rate_hz, double seconds, double warmup_s, bool with_hop) {
   RunResult result;
   const int period_ms = 1000 / rate_hz;
   const auto scenario = write_scenario(sensors, period_ms);
@@ -160,10 +167,14 @@ RunResult run(const std::string& netkf, int domain, int sensors, int per_process
   pid_t hop_pid = -1;
   if (with_hop) {
     if (pipe(pipe_fds) != 0) throw std::runtime_error("pipe");
+    // fork + exec, not fork alone: after a first run this process has Fast DDS threads, and
+    // a forked child of a multi-threaded process must not touch their locks.
     hop_pid = fork();
     if (hop_pid == 0) {
       close(pipe_fds[0]);
-      hop_receiver(domain, pipe_fds[1]);
+      const std::string domain_arg = std::to_string(domain), fd_arg = std::to_string(pipe_fds[1]);
+      execl(self.c_str(), self.c_str(), "--hop-receiver", domain_arg.c_str(), fd_arg.c_str(), nullptr);
+      _exit(127);
     }
     close(pipe_fds[1]);
   }
@@ -251,6 +262,7 @@ void print(const char* what, const Stats& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc == 4 && std::string(argv[1]) == "--hop-receiver") hop_receiver(std::stoi(argv[2]), std::stoi(argv[3]));
   int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128, per_process = 1, repeat = 1;
   double seconds = 15.0, warmup_s = 1.0;
   bool capacity = false;
@@ -275,6 +287,7 @@ int main(int argc, char** argv) {
   if (std::getenv("NETKF_IN_NETNS") == nullptr)
     std::fprintf(stderr, "warning: not inside scripts/in-netns.sh; DDS stays on localhost by the built-in profile\n");
   const std::string netkf = netkf_path(argv[0]);
+  const std::string self = self_path(argv[0]);
   if (std::ifstream load("/proc/loadavg"); load) {
     std::string line;
     std::getline(load, line);
@@ -290,7 +303,7 @@ int main(int argc, char** argv) {
         std::printf("latency run %d/%d: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up "
                     "(lossless links)\n",
                     rep, repeat, sensors, per_process, rate_hz, seconds, warmup_s);
-        const auto r = run(netkf, domain, sensors, per_process, rate_hz, seconds, warmup_s, true);
+        const auto r = run(netkf, self, domain, sensors, per_process, rate_hz, seconds, warmup_s, true);
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         print("pipeline: sample publish -> estimate received", r.pipeline_rx);
         print("bare Fast DDS hop (same type, same load)", r.hop);
@@ -314,7 +327,7 @@ int main(int argc, char** argv) {
         std::printf("capacity: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up ...\n", d,
                     per_process, rate_hz, seconds, warmup_s);
         std::fflush(stdout);
-        const auto r = run(netkf, domain, d, per_process, rate_hz, seconds, warmup_s, false);
+        const auto r = run(netkf, self, domain, d, per_process, rate_hz, seconds, warmup_s, false);
         const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d => %s\n",
