@@ -111,8 +111,8 @@ pid_t spawn(const std::vector<std::string>& args) {
   return pid;
 }
 
-// Bare hop: topic of the same Measurement type, private to the benchmark.
-constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", {true, false, 256}};
+// Bare hop: topic of the same Measurement type and QoS as the raw samples, private to the benchmark.
+constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", dds::topics::raw_measurement.qos};
 
 /// Forked child: receive hop samples, write latencies (µs) to `fd` when the writer says stop.
 [[noreturn]] void hop_receiver(int domain, int fd) {
@@ -157,7 +157,12 @@ std::string self_path(const char* argv0) {
   return ec ? std::string(argv0) : self.string();
 }
 
-RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, int per_process,
+struct LaunchShape {
+  int per_process = 1;  // sensors per sensor_node process
+  int sensor_nice = 0;  // nice value of the sensor processes
+};
+
+RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, LaunchShape shape,
               int rate_hz, double seconds, double warmup_s, bool with_hop) {
   RunResult result;
   const int period_ms = 1000 / rate_hz;
@@ -201,7 +206,8 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     }
     const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds + warmup_s),
                                 "--domain", std::to_string(domain), "--status-interval", "0",
-                                "--sensors-per-process", std::to_string(per_process)});
+                                "--sensors-per-process", std::to_string(shape.per_process), "--sensor-nice",
+                                std::to_string(shape.sensor_nice)});
     // The hop: d samples per period, like the sensors, paced by the same period.
     const auto start = Clock::now();
     auto next = start;
@@ -263,7 +269,8 @@ void print(const char* what, const Stats& s) {
 
 int main(int argc, char** argv) {
   if (argc == 4 && std::string(argv[1]) == "--hop-receiver") hop_receiver(std::stoi(argv[2]), std::stoi(argv[3]));
-  int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128, per_process = 1, repeat = 1;
+  int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128, repeat = 1;
+  LaunchShape shape;
   double seconds = 15.0, warmup_s = 1.0;
   bool capacity = false;
   for (int i = 1; i < argc; ++i) {
@@ -275,11 +282,12 @@ int main(int argc, char** argv) {
     else if (a == "--domain") domain = std::stoi(next());
     else if (a == "--capacity") capacity = true;
     else if (a == "--max-sensors") max_sensors = std::stoi(next());
-    else if (a == "--sensors-per-process") per_process = std::stoi(next());
+    else if (a == "--sensors-per-process") shape.per_process = std::stoi(next());
+    else if (a == "--sensor-nice") shape.sensor_nice = std::stoi(next());
     else if (a == "--warmup") warmup_s = std::stod(next());
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
     else {
-      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K] [--rate-hz R] [--seconds S] [--warmup S]\n"
+      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K] [--sensor-nice N] [--rate-hz R] [--seconds S] [--warmup S]\n"
                   "                     [--repeat N] [--domain N] [--capacity [--max-sensors M]]\n");
       return a == "--help" ? 0 : 2;
     }
@@ -300,10 +308,10 @@ int main(int argc, char** argv) {
       // 40-90 us on the same idle VM), so runs are repeated and the median ratio reported.
       std::vector<double> ratios;
       for (int rep = 1; rep <= repeat; ++rep) {
-        std::printf("latency run %d/%d: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up "
-                    "(lossless links)\n",
-                    rep, repeat, sensors, per_process, rate_hz, seconds, warmup_s);
-        const auto r = run(netkf, self, domain, sensors, per_process, rate_hz, seconds, warmup_s, true);
+        std::printf("latency run %d/%d: %d sensors (%d per process, nice %d) at %d Hz for %.0f s after %.0f s "
+                    "warm-up (lossless links)\n",
+                    rep, repeat, sensors, shape.per_process, shape.sensor_nice, rate_hz, seconds, warmup_s);
+        const auto r = run(netkf, self, domain, sensors, shape, rate_hz, seconds, warmup_s, true);
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         print("pipeline: sample publish -> estimate received", r.pipeline_rx);
         print("bare Fast DDS hop (same type, same load)", r.hop);
@@ -324,10 +332,10 @@ int main(int argc, char** argv) {
     } else {
       int best = 0;
       for (int d = sensors; d <= max_sensors; d *= 2) {
-        std::printf("capacity: %d sensors (%d per process) at %d Hz for %.0f s after %.0f s warm-up ...\n", d,
-                    per_process, rate_hz, seconds, warmup_s);
+        std::printf("capacity: %d sensors (%d per process, nice %d) at %d Hz for %.0f s after %.0f s warm-up ...\n",
+                    d, shape.per_process, shape.sensor_nice, rate_hz, seconds, warmup_s);
         std::fflush(stdout);
-        const auto r = run(netkf, self, domain, d, per_process, rate_hz, seconds, warmup_s, false);
+        const auto r = run(netkf, self, domain, d, shape, rate_hz, seconds, warmup_s, false);
         const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d => %s\n",

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -100,6 +101,10 @@ SupervisorEvent Supervisor::spawn(Child& child) {
     signal(SIGINT, SIG_DFL);
     signal(SIGTERM, SIG_DFL);
     signal(SIGPIPE, SIG_DFL);
+    // Before exec the child has one thread; the threads the program starts inherit its nice.
+    if (child.spec.nice != 0) {
+      [[maybe_unused]] const int r = setpriority(PRIO_PROCESS, 0, child.spec.nice);
+    }
     close(pipe_fds[0]);
     execv(argv[0], argv.data());
     const int err = errno;

@@ -21,6 +21,8 @@ struct ChildSpec {
   // Critical children (plant, estimator) are never restarted: the run's clock and
   // estimate would restart at k = 0, which would silently corrupt a recording.
   bool critical = false;
+  // CPU priority (nice value, 0..19) of the child and every thread it creates.
+  int nice = 0;
 };
 
 /// How a child ended, as waitpid reported it.

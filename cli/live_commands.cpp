@@ -155,6 +155,7 @@ struct LaunchOptions {
   std::string restart_policy = "restart";
   int max_restarts = 3;
   int sensors_per_process = 1;
+  int sensor_nice = 0;
   double status_interval = 1.0;
   std::optional<std::string> pid_file;
 };
@@ -219,7 +220,8 @@ int run_launch(const LaunchOptions& o) {
       args.push_back("--sensor-id");
       args.push_back(std::to_string(id));
     }
-    started.push_back(supervisor.start({sensor_process_name(group), node_executable("sensor_node"), args, false}));
+    started.push_back(supervisor.start(
+        {sensor_process_name(group), node_executable("sensor_node"), args, false, o.sensor_nice}));
   }
   // The launch's own bus reads the truth too (status, recording): the plant waits for it as
   // well as for every sensor process, so the recording starts at k = 0.
@@ -526,6 +528,11 @@ void add_launch_command(CLI::App& app) {
                   "Host this many sensors in each sensor_node process (one DDS participant each): for dense "
                   "networks on a small machine")
       ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--sensor-nice", o->sensor_nice,
+                  "CPU priority (nice) of the sensor processes: they stand in for separate devices, so a "
+                  "positive value keeps them from delaying the channel and estimator on a small machine")
+      ->check(CLI::Range(0, 19))
       ->capture_default_str();
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
       ->check(CLI::NonNegativeNumber);
