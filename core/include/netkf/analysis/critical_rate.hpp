@@ -39,9 +39,11 @@ std::optional<double> upper_rate_lmi(const Matrix& A, std::span<const SensorSpec
 std::optional<double> upper_rate_iteration(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
                                            const RateFamily& rates, double lo, double tolerance = 1e-5);
 /// Exact λ_c by bisection on the Markov criterion (Bernoulli links at the family's rates);
-/// nullopt when the criterion does not apply or nothing in [lo, 1] is stable.
+/// nullopt when the criterion does not apply or nothing in [lo, 1] is stable. The criterion
+/// is computed exactly (an eigenvalue of a small transition matrix), so the bisection is run
+/// to near machine precision: the scalar example gives 1 − 1/α² = 0.36 to 1e-12.
 std::optional<double> exact_rate_markov(const Matrix& A, std::span<const SensorSpec> sensors, const RateFamily& rates,
-                                        double lo, double tolerance = 1e-6);
+                                        double lo, double tolerance = 1e-12);
 
 struct RegionPoint {
   double lambda1 = 0.0;
