@@ -90,6 +90,20 @@ TEST(Supervisor, CriticalChildIsNotRestarted) {
   EXPECT_NE(s.failure_reason().find("critical"), std::string::npos);
 }
 
+TEST(Supervisor, ChildRunsAtItsNiceValue) {
+  // The nice value as the kernel reports it (field 19 of /proc/PID/stat), read by the child
+  // itself; a critical child ending with 0 finishes the run, anything else fails it.
+  for (int nice : {0, 7}) {
+    Supervisor s;
+    ChildSpec spec = shell("sensor", "[ \"$(cut -d' ' -f19 /proc/$$/stat)\" = " + std::to_string(nice) +
+                                         " ] && exit 0 || exit 3", true);
+    spec.nice = nice;
+    s.start(spec);
+    poll_until(s, [&] { return s.finished() || s.failed(); });
+    EXPECT_TRUE(s.finished()) << "nice " << nice << ": " << s.failure_reason();
+  }
+}
+
 TEST(Supervisor, CriticalChildEndingCleanlyFinishesTheRun) {
   Supervisor s;
   s.start(shell("plant", "exit 0", true));
