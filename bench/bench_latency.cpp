@@ -159,7 +159,7 @@ std::string self_path(const char* argv0) {
 
 struct LaunchShape {
   int per_process = 1;  // sensors per sensor_node process
-  int sensor_nice = 10;  // nice value of the sensor processes (netkf launch's default)
+  int sensor_nice = 0;   // nice value of the sensor processes (netkf launch's default)
 };
 
 RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, LaunchShape shape,

@@ -155,7 +155,7 @@ struct LaunchOptions {
   std::string restart_policy = "restart";
   int max_restarts = 3;
   int sensors_per_process = 1;
-  int sensor_nice = 10;  // the sensors stand in for other machines: they yield to the pipeline
+  int sensor_nice = 0;
   double status_interval = 1.0;
   std::optional<std::string> pid_file;
 };
@@ -530,8 +530,8 @@ void add_launch_command(CLI::App& app) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--sensor-nice", o->sensor_nice,
-                  "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices, "
-                  "so by default they yield the CPU to the channel and the estimator (0: equal priority)")
+                  "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices; a "
+                  "positive value lets the channel and the estimator go first on a small machine")
       ->check(CLI::Range(0, 19))
       ->capture_default_str();
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
