@@ -6,6 +6,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace netkf::analysis {
 namespace {
@@ -189,14 +190,16 @@ UpperBound expected_covariance_upper_bound(const Matrix& A, const Matrix& Q,
     result.V = V;
     return result;  // undecided
   }
+  // Replaces V by `next`; true once the relative change is below the tolerance.
+  auto settle = [&](Matrix next) {
+    const double change = (next - V).norm();
+    V = std::move(next);
+    return change <= options.tolerance * std::max(1.0, V.norm());
+  };
   if (n > 30) {
     // Too large for the Kronecker solve: plain iteration (converges, Sinopoli Thm 1).
-    for (int it = 0; it < options.max_iterations; ++it) {
-      Matrix next = expected_riccati_map(A, Q, patterns, V);
-      const double change = (next - V).norm();
-      V = next;
-      if (change <= options.tolerance * std::max(1.0, V.norm())) break;
-    }
+    for (int it = 0; it < options.max_iterations; ++it)
+      if (settle(expected_riccati_map(A, Q, patterns, V))) break;
     result.status = BoundStatus::bounded;
     result.V = V;
     return result;
@@ -220,10 +223,7 @@ UpperBound expected_covariance_upper_bound(const Matrix& A, const Matrix& Q,
     }
     const Vector x = (I - L).partialPivLu().solve(Eigen::Map<const Vector>(constant.data(), n * n));
     Matrix next = symmetrised(Eigen::Map<const Matrix>(x.data(), n, n));
-    if (!next.allFinite()) break;
-    const double change = (next - V).norm();
-    V = next;
-    if (change <= options.tolerance * std::max(1.0, V.norm())) break;
+    if (!next.allFinite() || settle(std::move(next))) break;
   }
   result.status = BoundStatus::bounded;
   result.V = V;
