@@ -8,8 +8,8 @@
 #include <variant>
 
 #include "netkf/analysis/markov.hpp"
-#include "netkf/gaussian.hpp"
 #include "netkf/analysis/riccati.hpp"
+#include "netkf/gaussian.hpp"
 
 namespace netkf::analysis {
 namespace {

@@ -1,7 +1,7 @@
 // Seeded, portable random streams (netkf/random.hpp).
 // xoshiro256++ and splitmix64 are Blackman & Vigna's generators
 // (https://prng.di.unimi.it/); the normal draw is Marsaglia & Tsang's ziggurat, whose
-// tables and slow paths need only exp, log and sqrt, so every platform gives the same
+// tables and slow paths need only exp, log, sqrt and erfc, so every platform gives the same
 // numbers (std::normal_distribution is implementation-defined).
 #include "netkf/random.hpp"
 
@@ -45,7 +45,7 @@ NormalZiggurat::NormalZiggurat() {
   for (int i = 1; i < kLayers - 1; ++i) x[i + 1] = std::sqrt(-2.0 * std::log(v / x[i] + density(x[i])));
   x[kLayers] = 0.0;
   for (int i = 0; i <= kLayers; ++i) f[i] = density(x[i]);
-  f[0] = 0.0;  // the base strip reaches down to the axis (only f[1] is read for it)
+  f[0] = 0.0;  // unused: a draw in layer 0 outside its box goes to the tail, not to a wedge
   for (int i = 0; i < kLayers; ++i) ratio[i] = x[i + 1] / x[i];
 }
 
