@@ -173,8 +173,8 @@ int main(int argc, char** argv) {
                  "Wait at most this long for the sensors and the estimator to match before period 0")
       ->capture_default_str();
   app.add_option("--truth-readers", flags.truth_readers,
-                 "Truth readers to wait for before period 0 (default: one per sensor; a launcher that also "
-                 "records the truth passes sensors + 1)");
+                 "Truth readers to wait for before period 0 (default: one per sensor; with sensors grouped "
+                 "in processes, one per sensor process; a launcher that also records the truth adds 1)");
   CLI11_PARSE(app, argc, argv);
 
   try {
