@@ -151,7 +151,7 @@ RunOutcome run_reference(const Setup& setup, int run, ChunkStats& stats) {
 // the numbers are those of running the runs one after the other. But one run's step is a chain of
 // dependent operations (P_k → gain → P_{k|k} → P_{k+1}, with a division in it); a step first makes
 // the random draws of the whole block, then runs the block's arithmetic as one loop of independent
-// recursions, which the CPU overlaps (and, for n = 1, the compiler vectorises).
+// recursions, which the CPU overlaps (for n = 1 as SIMD arithmetic on Eigen arrays).
 constexpr int kBlockRuns = 8;
 constexpr std::size_t kMaxFixedSensors = 16;
 
@@ -243,11 +243,10 @@ class FixedKernel {
   void update() {
     for (std::size_t i = 0; i < d_; ++i) {
       if constexpr (N == 1) {
-        // The same operations on doubles over the block, without a branch on the arrival (a 40 %
-        // drop rate is a coin the branch predictor cannot call): a lost sample has gain 0, and
-        // then P and z come out unchanged, bit for bit (x − 0·y = x for finite numbers; a run
-        // with non-finite numbers is counted as diverged either way).
-        // Eigen's packet (SIMD) arithmetic over the block's runs.
+        // The same operations over the block's runs as Eigen arrays (SIMD), without a branch on
+        // the arrival (a 40 % drop rate is a coin the branch predictor cannot call): a lost sample
+        // has gain 0, and then P and z come out unchanged, bit for bit (x − 0·y = x for finite
+        // numbers; a run with non-finite numbers is counted as diverged either way).
         using BlockArray = Eigen::Array<double, kBlockRuns, 1>;
         Eigen::Map<BlockArray> p(P_.data()), zb(z_.data());
         const Eigen::Map<const BlockArray> arrived(arrived_[i].data()), v(v_[i].data());

@@ -76,28 +76,22 @@ Rng::Rng(std::uint64_t seed) {
 }
 
 double Rng::normal_slow_path(unsigned layer, double z, bool negative) {
-  const auto& zig = detail::normal_ziggurat();
-  for (;;) {
-    if (layer == 0) {
-      // Beyond the base box: the tail |z| > r (Marsaglia 1964). 1 - uniform() is in (0, 1].
-      double t = 0.0;
-      double e = 0.0;
-      do {
-        t = -std::log(1.0 - uniform()) / kTailStart;
-        e = -std::log(1.0 - uniform());
-      } while (e + e < t * t);
-      return negative ? -(kTailStart + t) : kTailStart + t;
-    }
-    // In the wedge between the inner box and the density: accept under exp(-z^2/2).
-    if (zig.f[layer] + uniform() * (zig.f[layer + 1] - zig.f[layer]) < density(z)) return negative ? -z : z;
-    // Rejected: a fresh draw, exactly as standard_normal() makes it.
-    const std::uint64_t bits = next_u64();
-    layer = static_cast<unsigned>(bits & 0xffu);
-    const double position = static_cast<double>(bits >> 11) * 0x1.0p-53;
-    z = position * zig.x[layer];
-    negative = (bits & 0x100u) != 0;
-    if (position < zig.ratio[layer]) return negative ? -z : z;
+  if (layer == 0) {
+    // Beyond the base box: the tail |z| > r (Marsaglia 1964). 1 - uniform() is in (0, 1].
+    double t = 0.0;
+    double e = 0.0;
+    do {
+      t = -std::log(1.0 - uniform()) / kTailStart;
+      e = -std::log(1.0 - uniform());
+    } while (e + e < t * t);
+    return negative ? -(kTailStart + t) : kTailStart + t;
   }
+  // In the wedge between the inner box and the density: accept under exp(-z^2/2).
+  const auto& zig = detail::normal_ziggurat();
+  if (zig.f[layer] + uniform() * (zig.f[layer + 1] - zig.f[layer]) < density(z)) return negative ? -z : z;
+  // Rejected (about 1 draw in 100): a fresh draw. Another rejection in a row is as rare again,
+  // so the recursion stays shallow.
+  return standard_normal();
 }
 
 }  // namespace netkf
