@@ -3,7 +3,8 @@
 //
 //   scripts/in-netns.sh build/default/bench/bench_latency --repeat 5       # latency, 8 sensors @ 100 Hz
 //   scripts/in-netns.sh build/default/bench/bench_latency --capacity       # largest sensor count @ 100 Hz
-//   ... --sensors-per-process K    # K sensors share a sensor_node process (netkf launch's flag)
+//   ... --sensors-per-process K|auto  # sensors per sensor_node process (netkf launch's flag and
+//                                     # default: auto = at most 2 sensor processes per CPU)
 //
 // Latency: `netkf launch` runs a lossless scenario (plant, d sensors in d/K sensor processes,
 // channel, estimator); this process subscribes to the estimates. Each estimate carries the
@@ -145,6 +146,7 @@ constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", dds:
 struct RunResult {
   Stats pipeline;          // estimate publish − newest fused sample publish
   Stats pipeline_rx;       // estimate received here − newest fused sample publish
+  Stats to_fused;          // fused update done − newest fused sample publish (two hops + filter)
   Stats hop;               // bare one hop
   std::int64_t periods = 0, gaps = 0, short_periods = 0, late = 0;
   int launch_status = -1;
@@ -158,7 +160,7 @@ std::string self_path(const char* argv0) {
 }
 
 struct LaunchShape {
-  int per_process = 1;  // sensors per sensor_node process
+  std::string per_process = "auto";  // sensors per sensor_node process (netkf launch's default)
   int sensor_nice = 0;   // nice value of the sensor processes (netkf launch's default)
 };
 
@@ -184,7 +186,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     close(pipe_fds[1]);
   }
 
-  std::vector<double> pipeline_us, pipeline_rx_us;
+  std::vector<double> pipeline_us, pipeline_rx_us, to_fused_us;
   std::map<std::uint64_t, std::size_t> fused_count;
   std::mutex m;
   {
@@ -197,6 +199,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
       if (e.last_sample_stamp_ns() > 0) {
         pipeline_us.push_back(static_cast<double>(e.stamp_ns() - e.last_sample_stamp_ns()) / 1000.0);
         pipeline_rx_us.push_back(static_cast<double>(now - e.last_sample_stamp_ns()) / 1000.0);
+        to_fused_us.push_back(static_cast<double>(e.fused_at_ns() - e.last_sample_stamp_ns()) / 1000.0);
       }
     });
     std::unique_ptr<dds::Writer<netkf::wire::Measurement>> hop_writer;
@@ -206,7 +209,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     }
     const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds + warmup_s),
                                 "--domain", std::to_string(domain), "--status-interval", "0",
-                                "--sensors-per-process", std::to_string(shape.per_process), "--sensor-nice",
+                                "--sensors-per-process", shape.per_process, "--sensor-nice",
                                 std::to_string(shape.sensor_nice)});
     // The hop: d samples per period, like the sensors, paced by the same period.
     const auto start = Clock::now();
@@ -246,9 +249,11 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
   if (pipeline_us.size() > 2 * warmup) {
     pipeline_us.erase(pipeline_us.begin(), pipeline_us.begin() + static_cast<std::ptrdiff_t>(warmup));
     pipeline_rx_us.erase(pipeline_rx_us.begin(), pipeline_rx_us.begin() + static_cast<std::ptrdiff_t>(warmup));
+    to_fused_us.erase(to_fused_us.begin(), to_fused_us.begin() + static_cast<std::ptrdiff_t>(warmup));
   }
   result.pipeline = stats_of(pipeline_us);
   result.pipeline_rx = stats_of(pipeline_rx_us);
+  result.to_fused = stats_of(to_fused_us);
   if (!fused_count.empty()) {
     const auto first = fused_count.begin()->first + warmup, last = fused_count.rbegin()->first - 5;
     for (auto kk = first; kk <= last; ++kk) {
@@ -282,12 +287,12 @@ int main(int argc, char** argv) {
     else if (a == "--domain") domain = std::stoi(next());
     else if (a == "--capacity") capacity = true;
     else if (a == "--max-sensors") max_sensors = std::stoi(next());
-    else if (a == "--sensors-per-process") shape.per_process = std::stoi(next());
+    else if (a == "--sensors-per-process") shape.per_process = next();
     else if (a == "--sensor-nice") shape.sensor_nice = std::stoi(next());
     else if (a == "--warmup") warmup_s = std::stod(next());
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
     else {
-      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K] [--sensor-nice N] [--rate-hz R] [--seconds S] [--warmup S]\n"
+      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K|auto] [--sensor-nice N] [--rate-hz R] [--seconds S] [--warmup S]\n"
                   "                     [--repeat N] [--domain N] [--capacity [--max-sensors M]]\n");
       return a == "--help" ? 0 : 2;
     }
@@ -308,11 +313,12 @@ int main(int argc, char** argv) {
       // 40-90 us on the same idle VM), so runs are repeated and the median ratio reported.
       std::vector<double> ratios;
       for (int rep = 1; rep <= repeat; ++rep) {
-        std::printf("latency run %d/%d: %d sensors (%d per process, nice %d) at %d Hz for %.0f s after %.0f s "
+        std::printf("latency run %d/%d: %d sensors (%s per process, nice %d) at %d Hz for %.0f s after %.0f s "
                     "warm-up (lossless links)\n",
-                    rep, repeat, sensors, shape.per_process, shape.sensor_nice, rate_hz, seconds, warmup_s);
+                    rep, repeat, sensors, shape.per_process.c_str(), shape.sensor_nice, rate_hz, seconds, warmup_s);
         const auto r = run(netkf, self, domain, sensors, shape, rate_hz, seconds, warmup_s, true);
         print("pipeline: sample publish -> estimate publish", r.pipeline);
+        print("  of which sample publish -> fused update done", r.to_fused);
         print("pipeline: sample publish -> estimate received", r.pipeline_rx);
         print("bare Fast DDS hop (same type, same load)", r.hop);
         if (r.hop.p50_us > 0) {
@@ -332,8 +338,8 @@ int main(int argc, char** argv) {
     } else {
       int best = 0;
       for (int d = sensors; d <= max_sensors; d *= 2) {
-        std::printf("capacity: %d sensors (%d per process, nice %d) at %d Hz for %.0f s after %.0f s warm-up ...\n",
-                    d, shape.per_process, shape.sensor_nice, rate_hz, seconds, warmup_s);
+        std::printf("capacity: %d sensors (%s per process, nice %d) at %d Hz for %.0f s after %.0f s warm-up ...\n",
+                    d, shape.per_process.c_str(), shape.sensor_nice, rate_hz, seconds, warmup_s);
         std::fflush(stdout);
         const auto r = run(netkf, self, domain, d, shape, rate_hz, seconds, warmup_s, false);
         const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;

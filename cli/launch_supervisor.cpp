@@ -1,12 +1,14 @@
 #include "launch_supervisor.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -258,6 +260,19 @@ std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sens
     groups.back().push_back(sensor_ids[i]);
   }
   return groups;
+}
+
+int auto_sensors_per_process(std::size_t sensors, unsigned cpus) {
+  const std::size_t max_processes = 2 * static_cast<std::size_t>(std::max(1u, cpus));
+  if (sensors <= max_processes) return 1;
+  return static_cast<int>((sensors + max_processes - 1) / max_processes);
+}
+
+unsigned usable_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof set, &set) == 0) return static_cast<unsigned>(std::max(1, CPU_COUNT(&set)));
+  return std::max(1u, std::thread::hardware_concurrency());
 }
 
 std::string sensor_process_name(const std::vector<int>& sensor_ids) {

@@ -154,7 +154,7 @@ struct LaunchOptions {
   std::string log_level = "warn";
   std::string restart_policy = "restart";
   int max_restarts = 3;
-  int sensors_per_process = 1;
+  std::string sensors_per_process = "auto";  // "auto" or a positive integer
   int sensor_nice = 0;
   double status_interval = 1.0;
   std::optional<std::string> pid_file;
@@ -213,7 +213,11 @@ int run_launch(const LaunchOptions& o) {
   started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), common_args(), true}));
   std::vector<int> sensor_ids;
   for (const auto& sensor : scenario.sensors) sensor_ids.push_back(sensor.id);
-  const auto sensor_groups = sensor_process_groups(sensor_ids, o.sensors_per_process);
+  const bool auto_grouping = o.sensors_per_process == "auto";
+  const unsigned cpus = usable_cpus();
+  const int per_process =
+      auto_grouping ? auto_sensors_per_process(sensor_ids.size(), cpus) : std::stoi(o.sensors_per_process);
+  const auto sensor_groups = sensor_process_groups(sensor_ids, per_process);
   for (const auto& group : sensor_groups) {
     auto args = common_args();
     for (int id : group) {
@@ -240,7 +244,12 @@ int run_launch(const LaunchOptions& o) {
     for (const auto& e : started) pids << e.child << " " << e.pid << "\n";
   }
   std::cerr << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
-            << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes, period "
+            << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes"
+            << (auto_grouping && per_process > 1
+                    ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
+                          std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
+                    : std::string())
+            << ", period "
             << scenario.period_ms << " ms"
             << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops") << "\n";
 
@@ -525,9 +534,16 @@ void add_launch_command(CLI::App& app) {
   cmd->add_option("--max-restarts", o->max_restarts, "Restarts per process before the launch fails")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--sensors-per-process", o->sensors_per_process,
-                  "Host this many sensors in each sensor_node process (one DDS participant each): for dense "
-                  "networks on a small machine")
-      ->check(CLI::PositiveNumber)
+                  "Sensors hosted by each sensor_node process (one DDS participant each). auto: one each "
+                  "while there are at most 2 sensors per CPU, else grouped to keep 2 sensor processes per CPU")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v == "auto") return {};
+            const bool digits = !v.empty() && v.size() <= 6 && v.find_first_not_of("0123456789") == std::string::npos;
+            if (digits && std::stoi(v) >= 1) return {};
+            return "must be 'auto' or a whole number of sensors >= 1, got '" + v + "'";
+          },
+          "auto|K"))
       ->capture_default_str();
   cmd->add_option("--sensor-nice", o->sensor_nice,
                   "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices; a "

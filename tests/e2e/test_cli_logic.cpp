@@ -51,6 +51,31 @@ TEST(LaunchPlan, SensorsAreGroupedInScenarioOrder) {
   EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1,2,3]");
 }
 
+TEST(SensorGroups, AutoKeepsAtMostTwoSensorProcessesPerCpu) {
+  // One process per sensor up to 2 x CPUs sensors.
+  EXPECT_EQ(auto_sensors_per_process(0, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(3, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(4, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(8, 4), 1);
+  // Beyond that, the fewest per process that keep ceil(d / K) <= 2 x CPUs.
+  for (unsigned cpus : {1u, 2u, 3u, 8u}) {
+    for (std::size_t d = 1; d <= 300; ++d) {
+      const int k = auto_sensors_per_process(d, cpus);
+      std::vector<int> ids(d);
+      for (std::size_t i = 0; i < d; ++i) ids[i] = static_cast<int>(i + 1);
+      const auto groups = sensor_process_groups(ids, k);
+      EXPECT_LE(groups.size(), 2 * cpus) << d << " sensors, " << cpus << " CPUs";
+      if (k > 1) {
+        EXPECT_GT(sensor_process_groups(ids, k - 1).size(), 2 * cpus) << d << " sensors, " << cpus << " CPUs";
+      }
+    }
+  }
+  EXPECT_EQ(auto_sensors_per_process(8, 2), 2);
+  EXPECT_EQ(auto_sensors_per_process(64, 2), 16);
+  EXPECT_EQ(auto_sensors_per_process(5, 0), 3);  // an unknown CPU count counts as one
+  EXPECT_GE(usable_cpus(), 1u);
+}
+
 TEST(Supervisor, RestartsADyingChildThenGivesUp) {
   SupervisorOptions o;
   o.max_restarts = 2;
