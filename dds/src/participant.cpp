@@ -158,6 +158,10 @@ void apply_common(Q& q, const TopicQos& qos) {
 fdds::DataWriterQos writer_qos(const TopicQos& qos) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply_common(q, qos);
+  const auto period = std::chrono::duration_cast<std::chrono::nanoseconds>(kHeartbeatPeriod).count();
+  q.reliable_writer_qos().times.heartbeatPeriod =
+      eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(period / 1000000000),
+                                     static_cast<std::uint32_t>(period % 1000000000));
   return q;
 }
 
