@@ -45,7 +45,9 @@ int main(int argc, char** argv) {
                    netkf::stationary_loss(r.model));
     }
     {
-      netkf::dds::Writer<wire::Measurement> delivered(participant, netkf::dds::topics::delivered_measurement);
+      netkf::dds::Writer<wire::Measurement> delivered(
+          participant, netkf::dds::topics::delivered_measurement,
+          1000.0 * static_cast<double>(scenario.sensors.size()) / scenario.period_ms);
       netkf::dds::Writer<wire::LinkStatus> status(participant, netkf::dds::topics::link_status);
       netkf::dds::Writer<wire::LinkControlReply> reply(participant, netkf::dds::topics::link_control_reply);
 

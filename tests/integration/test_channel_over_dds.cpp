@@ -75,6 +75,11 @@ class Relay {
                  })),
         work_(io_.get_executor()),
         thread_([this] { io_.run(); }) {}
+  /// Both ends of a match must see it: a volatile writer sends nothing to a reader it has not
+  /// matched yet, even when the reader already matched the writer.
+  bool wait_for_delivered_readers(int n, std::chrono::milliseconds timeout) const {
+    return delivered_.wait_for_matched(n, timeout);
+  }
   ~Relay() {
     work_.reset();
     io_.stop();
@@ -123,6 +128,7 @@ TEST(ChannelOverDds, DropsExactlyAsTheSeededModelDecides) {
   dds::Writer<wire::Measurement> raw(ends, dds::topics::raw_measurement);
   ASSERT_TRUE(raw.wait_for_matched(1, 10s));
   ASSERT_TRUE(sink.wait_for_matched(1, 10s));
+  ASSERT_TRUE(relay.wait_for_delivered_readers(1, 10s));
 
   // Offline expectation from an identical, independently constructed set of links.
   netkf::nodes::ChannelLinks offline(sc);
@@ -170,6 +176,7 @@ TEST(ChannelOverDds, LinkControlChangesTheLinkAndRepliesAndRejectsBadRequests) {
   ASSERT_TRUE(replies.wait_for_matched(1, 10s));
   ASSERT_TRUE(raw.wait_for_matched(1, 10s));
   ASSERT_TRUE(sink.wait_for_matched(1, 10s));
+  ASSERT_TRUE(relay.wait_for_delivered_readers(1, 10s));
 
   control.write(dds::make_link_control(1, 1, netkf::BernoulliLink{1.0}));
   wire::LinkControl bad = dds::make_link_control(2, 1, netkf::BernoulliLink{0.0});

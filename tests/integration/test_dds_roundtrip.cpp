@@ -249,3 +249,25 @@ TEST(DdsParticipant, DomainAndProfileResolution) {
 }
 
 }  // namespace
+
+// Reliable writers heartbeat every 250 ms (Fast DDS's 3 s default let histories fill and
+// turned every write into a heartbeat + acknowledgement, topics.hpp), and a writer's history
+// holds three heartbeat periods of its rate, never less than the topic's depth.
+TEST(DdsQos, HeartbeatPeriodAndHistoryDepthFollowTheWriterRate) {
+  const auto q = netkf::dds::writer_qos(netkf::dds::topics::raw_measurement.qos);
+  EXPECT_EQ(q.reliable_writer_qos().times.heartbeatPeriod, eprosima::fastrtps::Duration_t(0, 250000000u));
+  EXPECT_EQ(q.history().depth, 256);
+  EXPECT_EQ(netkf::dds::history_depth_for_rate(0.0, 256), 256);
+  EXPECT_EQ(netkf::dds::history_depth_for_rate(100.0, 256), 256);    // one sensor at 100 Hz: 75 < 256
+  EXPECT_EQ(netkf::dds::history_depth_for_rate(1600.0, 256), 1200);  // 16 sensors in one process
+  EXPECT_EQ(netkf::dds::history_depth_for_rate(12800.0, 4096), 9600);  // the channel, 128 sensors
+  EXPECT_EQ(netkf::dds::history_depth_for_rate(333.3, 1), 250);      // rounds up
+
+  netkf::dds::Participant p(options("qos-test"));
+  netkf::dds::Writer<wire::Measurement> fast(p, netkf::dds::topics::raw_measurement, 3200.0);  // 32 sensors at 100 Hz
+  eprosima::fastdds::dds::DataWriterQos applied;
+  ASSERT_EQ(fast.get()->get_qos(applied), eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(applied.history().depth, 2400);
+  EXPECT_EQ(applied.resource_limits().max_samples, 2400);
+  EXPECT_EQ(applied.reliable_writer_qos().times.heartbeatPeriod, eprosima::fastrtps::Duration_t(0, 250000000u));
+}

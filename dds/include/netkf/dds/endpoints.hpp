@@ -48,9 +48,14 @@ bool wait_until(F count, int n, std::chrono::milliseconds timeout) {
 template <class T>
 class Writer : private eprosima::fastdds::dds::DataWriterListener {
  public:
-  /// Throws DdsError when the writer cannot be created.
-  Writer(Participant& participant, const Topic<T>& spec) : participant_(participant), topic_name_(spec.name) {
-    writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(spec.qos), this,
+  /// Throws DdsError when the writer cannot be created. `samples_per_second`: the rate this
+  /// writer will publish at, when it can exceed what the topic's depth was sized for (its
+  /// history then holds three heartbeat periods, see history_depth_for_rate).
+  Writer(Participant& participant, const Topic<T>& spec, double samples_per_second = 0.0)
+      : participant_(participant), topic_name_(spec.name) {
+    TopicQos qos = spec.qos;
+    qos.depth = history_depth_for_rate(samples_per_second, qos.depth);
+    writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(qos), this,
                                                           eprosima::fastdds::dds::StatusMask::publication_matched());
     if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_);
   }

@@ -11,13 +11,23 @@ namespace netkf::dds {
 
 /// Heartbeat period of every reliable writer (Fast DDS default: 3 s). Readers acknowledge
 /// samples when a heartbeat asks them to, and a volatile writer drops acknowledged samples
-/// from its history. With 3 s, a sensor writing at 100 Hz fills a 256-deep history before
-/// the first heartbeat; from then on Fast DDS adds a heartbeat to every write (its
-/// "piggyback" on a full history) and the reader answers each with an acknowledgement: two
-/// extra messages and wake-ups per sample. A heartbeat every 250 ms, with every history deep
-/// enough to hold more than 250 ms at its design rate (depths below), keeps the
-/// acknowledgements to 4 per second per writer and reader (BENCHMARKS.md, 2026-12-01 evening).
+/// from its history. With 3 s, a writer that fills its history between two heartbeats
+/// (a 256-deep history at 100 Hz takes 2.56 s; the channel's single writer for 128 sensors,
+/// 0.3 s) makes Fast DDS add a heartbeat to every write (its "piggyback" on a full history),
+/// and the reader answers each with an acknowledgement: two extra messages and wake-ups per
+/// sample. Hence a heartbeat every 250 ms and histories that hold a few heartbeat periods at
+/// the writer's rate (history_depth_for_rate) — but no deeper: a writer re-sends what a
+/// lagging reader reports missing, and a deep history made 64 sensor processes swamp the
+/// channel with repairs (BENCHMARKS.md, 2026-12-01 evening).
 inline constexpr std::chrono::milliseconds kHeartbeatPeriod{250};
+
+/// Keep-last depth for a writer publishing `samples_per_second`: three heartbeat periods of
+/// samples, and never less than `minimum` (the topic's depth).
+constexpr std::int32_t history_depth_for_rate(double samples_per_second, std::int32_t minimum) {
+  const double three_periods = samples_per_second * 3.0 * static_cast<double>(kHeartbeatPeriod.count()) / 1000.0;
+  const auto depth = static_cast<std::int32_t>(three_periods + 0.999999);
+  return depth > minimum ? depth : minimum;
+}
 
 /// How a topic's samples are kept and delivered.
 struct TopicQos {
@@ -25,9 +35,8 @@ struct TopicQos {
   bool reliable = true;
   /// Transient-local: late joiners receive the last `depth` samples (link status).
   bool transient_local = false;
-  /// Keep-last history depth (per writer). Sized so that a writer at its design rate takes
-  /// several heartbeat periods (kHeartbeatPeriod) to fill it: a full history makes Fast DDS
-  /// add a heartbeat to every write, and the reader answers each with an acknowledgement.
+  /// Keep-last history depth (per writer; a writer may ask for more, see
+  /// history_depth_for_rate).
   std::int32_t depth = 64;
 };
 
@@ -55,12 +64,12 @@ namespace topics {
 inline constexpr Topic<wire::Truth> truth{"netkf/truth", {true, false, 256}};
 // plant -> estimator: sample clock k, t_k and the input the plant applied.
 inline constexpr Topic<wire::Tick> tick{"netkf/tick", {true, false, 256}};
-// sensors -> channel emulator: every sample a sensor produced (one writer per sensor process:
-// depth for 64 sensors in one process x 100 Hz over 0.64 s).
-inline constexpr Topic<wire::Measurement> raw_measurement{"netkf/measurement/raw", {true, false, 4096}};
-// channel emulator -> estimator: the samples the lossy links delivered (one writer for
-// all sensors: depth for 256 sensors x 100 Hz over 0.32 s).
-inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measurement/delivered", {true, false, 8192}};
+// sensors -> channel emulator: every sample a sensor produced (one writer per sensor process;
+// a process hosting many sensors asks for a deeper history, history_depth_for_rate).
+inline constexpr Topic<wire::Measurement> raw_measurement{"netkf/measurement/raw", {true, false, 256}};
+// channel emulator -> estimator: the samples the lossy links delivered (one writer for all
+// sensors: at least 4096, and deeper above 5461 samples/s, see history_depth_for_rate).
+inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measurement/delivered", {true, false, 4096}};
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
 inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
 // estimator -> plant: u_k = -L x̂_{k|k}.
