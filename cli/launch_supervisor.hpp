@@ -112,8 +112,9 @@ std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sens
 /// one process per sensor while there are at most 2 x `cpus` sensors, else the fewest per
 /// process that keep the sensor processes within 2 x `cpus`. Every sensor process wakes on
 /// the same tick; more simultaneous wake-ups than cores queue up in front of the channel and
-/// the estimator (BENCHMARKS.md: 8 sensor processes on 2 cores put the pipeline at 3-4 bare
-/// hops, 4 processes at 2.3). Grouping changes no sample and no estimate (e2e sensor_groups).
+/// the estimator (BENCHMARKS.md: with 8 sensors on 2 cores the pipeline's p50 was 3.4 bare
+/// hops as 8 processes, 2.0 as 4 processes of 2). Grouping changes no sample and no estimate
+/// (e2e sensor_groups).
 int auto_sensors_per_process(std::size_t sensors, unsigned cpus);
 /// CPUs this process may run on (its affinity mask; at least 1).
 unsigned usable_cpus();

@@ -249,8 +249,7 @@ int run_launch(const LaunchOptions& o) {
                     ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
                           std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
                     : std::string())
-            << ", period "
-            << scenario.period_ms << " ms"
+            << ", period " << scenario.period_ms << " ms"
             << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops") << "\n";
 
   enum class End { running, duration, signal, failed, finished } end = End::running;

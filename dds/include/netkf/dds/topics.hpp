@@ -25,7 +25,8 @@ inline constexpr std::chrono::milliseconds kHeartbeatPeriod{250};
 /// samples, and never less than `minimum` (the topic's depth).
 constexpr std::int32_t history_depth_for_rate(double samples_per_second, std::int32_t minimum) {
   const double three_periods = samples_per_second * 3.0 * static_cast<double>(kHeartbeatPeriod.count()) / 1000.0;
-  const auto depth = static_cast<std::int32_t>(three_periods + 0.999999);
+  const auto whole = static_cast<std::int32_t>(three_periods);
+  const std::int32_t depth = whole + (three_periods > static_cast<double>(whole) ? 1 : 0);  // rounded up
   return depth > minimum ? depth : minimum;
 }
 
