@@ -142,6 +142,11 @@ fdds::Topic* Participant::topic_impl(const std::string& name, fdds::TypeSupport 
 }
 
 namespace {
+eprosima::fastrtps::Duration_t to_dds_duration(std::chrono::nanoseconds d) {
+  return eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(d.count() / 1000000000),
+                                        static_cast<std::uint32_t>(d.count() % 1000000000));
+}
+
 template <class Q>
 void apply_common(Q& q, const TopicQos& qos) {
   q.reliability().kind = qos.reliable ? fdds::RELIABLE_RELIABILITY_QOS : fdds::BEST_EFFORT_RELIABILITY_QOS;
@@ -158,10 +163,8 @@ void apply_common(Q& q, const TopicQos& qos) {
 fdds::DataWriterQos writer_qos(const TopicQos& qos) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply_common(q, qos);
-  const auto period = std::chrono::duration_cast<std::chrono::nanoseconds>(kHeartbeatPeriod).count();
-  q.reliable_writer_qos().times.heartbeatPeriod =
-      eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(period / 1000000000),
-                                     static_cast<std::uint32_t>(period % 1000000000));
+  q.reliable_writer_qos().times.heartbeatPeriod = to_dds_duration(kHeartbeatPeriod);
+  q.reliable_writer_qos().times.nackSupressionDuration = to_dds_duration(kNackSuppression);
   return q;
 }
 

@@ -256,6 +256,7 @@ TEST(DdsParticipant, DomainAndProfileResolution) {
 TEST(DdsQos, HeartbeatPeriodAndHistoryDepthFollowTheWriterRate) {
   const auto q = netkf::dds::writer_qos(netkf::dds::topics::raw_measurement.qos);
   EXPECT_EQ(q.reliable_writer_qos().times.heartbeatPeriod, eprosima::fastrtps::Duration_t(0, 250000000u));
+  EXPECT_EQ(q.reliable_writer_qos().times.nackSupressionDuration, eprosima::fastrtps::Duration_t(0, 50000000u));
   EXPECT_EQ(q.history().depth, 256);
   EXPECT_EQ(netkf::dds::history_depth_for_rate(0.0, 256), 256);
   EXPECT_EQ(netkf::dds::history_depth_for_rate(100.0, 256), 256);    // one sensor at 100 Hz: 75 < 256

@@ -21,6 +21,15 @@ namespace netkf::dds {
 /// channel with repairs (BENCHMARKS.md, 2026-12-01 evening).
 inline constexpr std::chrono::milliseconds kHeartbeatPeriod{250};
 
+/// How long a reliable writer ignores requests to re-send a sample it has just sent (Fast DDS
+/// default: 0). Fast DDS runs this as a timer per matched reader, restarted by every write
+/// once it has fired: with 0 it fires at once, so every write woke the writer's event thread,
+/// which then waited for the writer's lock (perf sched:sched_wakeup on the channel). With
+/// 50 ms the timer stays armed across writes and fires at most 20 times a second. Repairs are
+/// unaffected in practice: a sample sent through shared memory arrives in microseconds, and a
+/// lost one is re-sent after the next heartbeat (kHeartbeatPeriod) anyway.
+inline constexpr std::chrono::milliseconds kNackSuppression{50};
+
 /// Keep-last depth for a writer publishing `samples_per_second`: three heartbeat periods of
 /// samples, and never less than `minimum` (the topic's depth).
 constexpr std::int32_t history_depth_for_rate(double samples_per_second, std::int32_t minimum) {
