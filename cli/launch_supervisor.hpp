@@ -112,9 +112,9 @@ std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sens
 /// one process per sensor while there are at most 2 x `cpus` sensors, else the fewest per
 /// process that keep the sensor processes within 2 x `cpus`. Every sensor process wakes on
 /// the same tick; more simultaneous wake-ups than cores queue up in front of the channel and
-/// the estimator (BENCHMARKS.md: with 8 sensors on 2 cores the pipeline's p50 was 3.4 bare
-/// hops as 8 processes, 2.0 as 4 processes of 2). Grouping changes no sample and no estimate
-/// (e2e sensor_groups).
+/// the estimator (BENCHMARKS.md, 2 cores: 8 sensors as 8 processes had a pipeline p50 of
+/// 300-400 µs, as 4 processes of 2, 240-310 µs; 64 sensors as 64 processes fell behind for
+/// good, as 4 of 16 they kept up). Grouping changes no sample and no estimate (e2e sensor_groups).
 int auto_sensors_per_process(std::size_t sensors, unsigned cpus);
 /// CPUs this process may run on (its affinity mask; at least 1).
 unsigned usable_cpus();
