@@ -210,17 +210,14 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
       }
     });
     std::unique_ptr<dds::Writer<netkf::wire::Measurement>> hop_writer;
-    std::unique_ptr<dds::Reader<netkf::wire::Truth>> hop_clock;
-    std::atomic<bool> hop_on_truth{false};
+    std::unique_ptr<dds::Reader<netkf::wire::Truth>> hop_trigger;  // --hop-clock truth
     netkf::Vector y = netkf::Vector::Zero(1);
     if (with_hop) {
       hop_writer = std::make_unique<dds::Writer<netkf::wire::Measurement>>(p, kHopTopic);
       hop_writer->wait_for_matched(1, std::chrono::seconds(10));
       if (shape.hop_clock == "truth") {
-        hop_on_truth = true;
-        hop_clock = std::make_unique<dds::Reader<netkf::wire::Truth>>(
+        hop_trigger = std::make_unique<dds::Reader<netkf::wire::Truth>>(
             p, dds::topics::truth, [&, writer = hop_writer.get()](netkf::wire::Truth&& t) {
-              if (!hop_on_truth) return;
               for (int i = 1; i <= sensors; ++i) writer->write(dds::make_measurement(i, t.k(), dds::steady_now_ns(), y));
             });
       }
@@ -235,7 +232,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     std::uint64_t k = 0;
     int status = 0;
     while (waitpid(launch, &status, WNOHANG) == 0) {
-      if (hop_writer && !hop_clock && Clock::now() - start < std::chrono::duration<double>(seconds + warmup_s)) {
+      if (hop_writer && !hop_trigger && Clock::now() - start < std::chrono::duration<double>(seconds + warmup_s)) {
         for (int i = 1; i <= sensors; ++i) hop_writer->write(dds::make_measurement(i, k, dds::steady_now_ns(), y));
         ++k;
       }
@@ -243,8 +240,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
       std::this_thread::sleep_until(next);
     }
     result.launch_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    hop_on_truth = false;
-    hop_clock.reset();
+    hop_trigger.reset();  // no hop sample after the stop marker below
     if (hop_writer) {
       hop_writer->write(dds::make_measurement(-1, k, dds::steady_now_ns(), y));
       hop_writer->wait_for_acknowledgments(std::chrono::seconds(2));

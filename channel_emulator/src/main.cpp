@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
     {
       netkf::dds::Writer<wire::Measurement> delivered(
           participant, netkf::dds::topics::delivered_measurement,
-          1000.0 * static_cast<double>(scenario.sensors.size()) / scenario.period_ms);
+          static_cast<double>(scenario.sensors.size()) / scenario.period_s());
       netkf::dds::Writer<wire::LinkStatus> status(participant, netkf::dds::topics::link_status);
       netkf::dds::Writer<wire::LinkControlReply> reply(participant, netkf::dds::topics::link_control_reply);
 

@@ -42,7 +42,7 @@ FilterOptions filter_options(const Scenario& s) {
 
 EstimatorCore::EstimatorCore(const Scenario& scenario)
     : filter_(filter_model(scenario), prior_mean(scenario), prior_covariance(scenario), filter_options(scenario)),
-      period_s_(scenario.period_ms / 1000.0),
+      period_s_(scenario.period_s()),
       deadline_ns_(static_cast<std::int64_t>(scenario.deadline_ms()) * 1000000) {
   for (const auto& s : scenario.sensors) sensor_dims_[s.id] = static_cast<int>(s.C.rows());
   if (scenario.plant.B) input_dim_ = static_cast<int>(scenario.plant.B->cols());

@@ -5,7 +5,7 @@ namespace netkf::nodes {
 PlantSimulator::PlantSimulator(const Scenario& scenario)
     : A_(scenario.plant.A),
       B_(scenario.plant.B),
-      period_s_(scenario.period_ms / 1000.0),
+      period_s_(scenario.period_s()),
       state_bound_(scenario.plant.state_bound),
       initial_(scenario.plant.P0, derive_seed(scenario.seed, "initial-state")),
       process_noise_(scenario.plant.Q, derive_seed(scenario.seed, "process-noise")) {

@@ -50,8 +50,8 @@ int main(int argc, char** argv) {
     netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-sensor-" + ids));
     spdlog::info("sensor {} of scenario '{}', domain {}", ids, scenario.name, participant.domain());
     {
-      const double samples_per_second = 1000.0 * static_cast<double>(sensors.size()) / scenario.period_ms;
-      netkf::dds::Writer<wire::Measurement> raw(participant, netkf::dds::topics::raw_measurement, samples_per_second);
+      netkf::dds::Writer<wire::Measurement> raw(participant, netkf::dds::topics::raw_measurement,
+                                                static_cast<double>(sensors.size()) / scenario.period_s());
       // Runs on the DDS receive thread: a few multiply-adds and a write per sensor, cheaper than
       // the context switch a hand-off to the io thread would cost (endpoints.hpp).
       auto on_truth = [&](wire::Truth&& truth) {

@@ -81,6 +81,8 @@ struct Scenario {
   EstimatorSpec estimator;
 
   int state_dim() const { return static_cast<int>(plant.A.rows()); }
+  /// The sampling period in seconds.
+  double period_s() const { return period_ms / 1000.0; }
   const SensorSpec* find_sensor(int id) const;
   int deadline_ms() const;
 };
