@@ -222,6 +222,12 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
   return events;
 }
 
+std::vector<Supervisor::ChildStatus> Supervisor::children() const {
+  std::vector<ChildStatus> out;
+  for (const auto& child : children_) out.push_back({child.spec.name, child.pid, child.pid > 0, child.restarts});
+  return out;
+}
+
 std::optional<pid_t> Supervisor::pid_of(const std::string& name) const {
   for (const auto& child : children_)
     if (child.spec.name == name && child.pid > 0) return child.pid;

@@ -81,6 +81,15 @@ class Supervisor {
   /// reap them. Returns the exits observed during the stop (for reporting).
   std::vector<SupervisorEvent> stop_all();
 
+  struct ChildStatus {
+    std::string name;
+    pid_t pid = -1;  // -1 when not running
+    bool running = false;
+    int restarts = 0;
+  };
+  /// Every child started so far, in start order.
+  std::vector<ChildStatus> children() const;
+
   /// pid of the running child with that name (nullopt when not running).
   std::optional<pid_t> pid_of(const std::string& name) const;
   std::size_t running_count() const;

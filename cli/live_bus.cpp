@@ -15,11 +15,14 @@ EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) 
   r.xhat.assign(e.x_hat.data(), e.x_hat.data() + e.x_hat.size());
   r.P = dds::to_wire_row_major(e.P);
   r.trace_P = w.trace_P();
+  r.trace_P_pred = e.trace_P_pred;
   r.fused = e.fused;
   r.late = e.late;
+  r.late_total = e.late_total;
   r.rejected = static_cast<std::uint32_t>(e.rejected_total);
   r.state = to_string(e.state);
   r.publish_stamp = ns_to_s(e.stamp_ns);
+  r.last_sample_stamp = ns_to_s(e.last_sample_stamp_ns);
   return r;
 }
 
@@ -91,15 +94,9 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
         dds::post_to<wire::LinkStatus>(ex, [cb = h.link_status, invalid](wire::LinkStatus w) {
           LinkStatusRecord r;
           r.sensor_id = w.sensor_id();
-          r.model = w.model();
           try {
-            const auto model = dds::link_model_of(w);
-            if (auto* b = std::get_if<BernoulliLink>(&model)) {
-              r.params = {b->loss};
-            } else {
-              const auto& g = std::get<GilbertElliottLink>(model);
-              r.params = {g.p, g.r, g.loss_good, g.loss_bad};
-            }
+            r.model = dds::link_model_of(w);
+            validate_link_model(r.model);
           } catch (const std::exception& e) {
             return invalid(std::string("link status rejected: ") + e.what());
           }
@@ -108,6 +105,9 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
           r.dropped = w.dropped();
           r.observed_loss = w.observed_loss();
           r.mean_burst_length = w.mean_burst_length();
+          r.samples_total = w.samples_total();
+          r.delivered_total = w.delivered_total();
+          r.dropped_total = w.dropped_total();
           r.last_request_id = w.last_request_id();
           r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
           cb(std::move(r));

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -19,12 +20,16 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <random>
+#include <sstream>
 #include <unistd.h>
+
+#include <CLI/CLI.hpp>
 
 #include "commands.hpp"
 #include "launch_supervisor.hpp"
 #include "live_bus.hpp"
 #include "live_status.hpp"
+#include "live_views.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
 
@@ -104,34 +109,29 @@ class Recording {
   std::ofstream samples_out_;
 };
 
-/// State shared by launch and record: a bus feeding a recording and a status view.
-struct Observer {
-  LiveStatus status;
-  Recording recording;
-  std::uint64_t non_finite = 0;
-  Observer(const Scenario& scenario, const std::optional<std::string>& record,
-           const std::optional<std::string>& record_samples)
-      : status(scenario), recording(record, record_samples, scenario) {}
-
-  BusHandlers handlers() {
-    BusHandlers h;
-    h.truth = [this](TruthRecord&& t) {
-      status.add_truth(t);
-      recording.truth(t);
-    };
-    h.estimate = [this](EstimateRecord&& e) {
-      status.add_estimate(e);
-      recording.estimate(e);
-    };
-    h.link_status = [this](LinkStatusRecord&& l) { status.add_link_status(l); };
-    if (recording.wants_samples()) h.delivered = [this](DeliveredRecord&& d) { recording.delivered(d); };
-    h.invalid = [this](const std::string& what) {
-      ++non_finite;
-      std::cerr << "netkf: rejected a sample: " << what << "\n";
-    };
-    return h;
+/// Handlers that feed a recording and, when given, the launch's live views.
+BusHandlers recording_handlers(Recording& recording, LiveViews* views, std::uint64_t& invalid) {
+  BusHandlers h;
+  h.truth = [&recording, views](TruthRecord&& t) {
+    recording.truth(t);
+    if (views) views->truth(t);
+  };
+  h.estimate = [&recording, views](EstimateRecord&& e) {
+    recording.estimate(e);
+    if (views) views->estimate(e);
+  };
+  if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
+  if (views) {
+    h.link_status = [views](LinkStatusRecord&& l) { views->link_status(l); };
+    h.link_reply = [views](LinkReplyRecord&& r) { views->link_reply(r); };
   }
-};
+  h.invalid = [views, &invalid](const std::string& what) {
+    ++invalid;
+    if (views) views->invalid_sample(what);
+    else std::cerr << "netkf: rejected a sample: " << what << "\n";
+  };
+  return h;
+}
 
 Scenario load_or_default(const std::optional<std::string>& file) {
   if (!file) return default_scenario();
@@ -158,7 +158,18 @@ struct LaunchOptions {
   int sensor_nice = 0;
   double status_interval = 1.0;
   std::optional<std::string> pid_file;
+  std::string dashboard = "8470";  // port, or "off"
+  std::optional<std::string> dashboard_bind;
+  std::vector<std::string> dashboard_allow_origins;
 };
+
+/// 128 random bits as hex: the dashboard's token when it listens beyond 127.0.0.1.
+std::string random_token() {
+  std::random_device rd;  // the kernel's random source
+  char buf[33];
+  std::snprintf(buf, sizeof buf, "%08x%08x%08x%08x", rd(), rd(), rd(), rd());
+  return buf;
+}
 
 int run_launch(const LaunchOptions& o) {
   const Scenario scenario = load_or_default(o.scenario);
@@ -181,10 +192,39 @@ int run_launch(const LaunchOptions& o) {
   } remove_scenario{scenario_path};
 
   boost::asio::io_context io;
-  Observer observer(scenario, o.record, o.record_samples);
+  Recording recording(o.record, o.record_samples, scenario);
   std::unique_ptr<LiveBus> bus;
+
+  // The views first: a dashboard port that is taken fails the launch before anything starts.
+  LiveViewsOptions view_options;
+  view_options.status_interval = o.status_interval;
+  const char* term = std::getenv("TERM");
+  view_options.status_screen = o.status_interval > 0 && isatty(STDERR_FILENO) == 1 && term &&
+                               std::string(term) != "dumb";
+  if (o.dashboard != "off") {
+    DashboardOptions d;
+    d.port = static_cast<unsigned short>(std::stoi(o.dashboard));
+    if (o.dashboard_bind) {
+      d.bind = *o.dashboard_bind;
+      d.token = random_token();  // listening beyond 127.0.0.1: every request needs it
+    }
+    d.allowed_origins = o.dashboard_allow_origins;
+    view_options.dashboard = d;
+  }
+  std::unique_ptr<LiveViews> views;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"), observer.handlers(), false);
+    views = std::make_unique<LiveViews>(io, scenario, view_options,
+                                        [&bus](std::uint64_t id, int sensor_id, const LinkModel& model) {
+                                          return bus && bus->send_link_control(id, sensor_id, model);
+                                        });
+  } catch (const std::exception& e) {
+    fail(2, e.what());
+  }
+  std::uint64_t invalid_samples = 0;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"),
+                                    recording_handlers(recording, views.get(), invalid_samples),
+                                    /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -204,8 +244,17 @@ int run_launch(const LaunchOptions& o) {
   so.policy = policy;
   so.max_restarts = o.max_restarts;
   Supervisor supervisor(so);
-  auto report = [](const std::vector<SupervisorEvent>& events) {
-    for (const auto& e : events) std::cerr << "netkf launch: " << e.message() << "\n";
+  auto report = [&](const std::vector<SupervisorEvent>& events) {
+    for (const auto& e : events) {
+      const bool trouble = e.kind != SupervisorEvent::Kind::started;
+      views->announce(trouble ? LiveEvent::Level::warning : LiveEvent::Level::info, e.message());
+      if (e.kind == SupervisorEvent::Kind::restart_scheduled) views->count_restart(e.child);
+    }
+    if (!events.empty()) {
+      std::vector<ProcessView> processes;
+      for (const auto& c : supervisor.children()) processes.push_back({c.name, c.pid, c.running, c.restarts});
+      views->set_processes(std::move(processes));
+    }
   };
   std::vector<SupervisorEvent> started;
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
@@ -243,14 +292,18 @@ int run_launch(const LaunchOptions& o) {
     std::ofstream pids(*o.pid_file);
     for (const auto& e : started) pids << e.child << " " << e.pid << "\n";
   }
-  std::cerr << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
-            << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes"
-            << (auto_grouping && per_process > 1
-                    ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
-                          std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
-                    : std::string())
-            << ", period " << scenario.period_ms << " ms"
-            << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops") << "\n";
+  std::ostringstream launch_line;
+  launch_line << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
+              << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes"
+              << (auto_grouping && per_process > 1
+                      ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
+                            std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
+                      : std::string())
+              << ", period " << scenario.period_ms << " ms"
+              << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops");
+  if (const auto url = views->dashboard_url()) launch_line << "\nnetkf launch: dashboard: " << *url;
+  std::cerr << launch_line.str() << "\n" << std::flush;
+  views->set_header(launch_line.str());
 
   enum class End { running, duration, signal, failed, finished } end = End::running;
   boost::asio::signal_set signals(io, SIGINT, SIGTERM);
@@ -258,23 +311,17 @@ int run_launch(const LaunchOptions& o) {
     if (!ec && end == End::running) end = End::signal;
   });
   const auto start = Clock::now();
-  auto next_status = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.status_interval));
   boost::asio::steady_timer timer(io);
   std::function<void()> tick = [&] {
     report(supervisor.poll());
-    observer.recording.flush();
+    recording.flush();
     const auto now = Clock::now();
     if (end == End::running) {
       if (supervisor.failed()) end = End::failed;
       else if (supervisor.finished()) end = End::finished;
       else if (o.duration > 0 && now - start >= std::chrono::duration<double>(o.duration)) end = End::duration;
     }
-    if (o.status_interval > 0 && now >= next_status) {
-      next_status += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(o.status_interval));
-      std::cerr << observer.status.render(true);
-      for (const auto& w : observer.status.take_warnings()) std::cerr << "netkf launch: WARNING: " << w << "\n";
-      std::cerr << std::flush;
-    }
+    views->tick(now);
     if (end != End::running) {
       io.stop();
       return;
@@ -289,21 +336,25 @@ int run_launch(const LaunchOptions& o) {
 
   // Stop: the children get SIGTERM (SIGKILL after the timeout); then take what DDS
   // still delivered so the recording ends with the last complete period.
+  views->set_screen(false);  // from here on, plain lines
   report(supervisor.stop_all());
   io.restart();
   io.run_for(std::chrono::milliseconds(300));
-  observer.recording.flush();
+  recording.flush();
+  views->stop();
+  io.restart();
+  io.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
   signals.cancel();
   bus.reset();
 
   std::cerr << "netkf launch: stopped (" <<
       (end == End::duration ? "duration reached" : end == End::signal ? "signal" :
        end == End::finished ? supervisor.finished_reason() : "failure") << "); "
-            << observer.status.estimates_seen() << " estimates seen";
-  if (o.record) std::cerr << ", " << observer.recording.rows() << " rows in " << *o.record;
+            << views->model().snapshot().estimates << " estimates seen";
+  if (o.record) std::cerr << ", " << recording.rows() << " rows in " << *o.record;
   std::cerr << "\n";
-  if (observer.status.saw_non_finite() || observer.non_finite > 0)
-    std::cerr << "netkf launch: WARNING: " << observer.non_finite << " invalid samples were rejected\n";
+  if (views->model().saw_non_finite() || invalid_samples > 0)
+    std::cerr << "netkf launch: WARNING: " << invalid_samples << " invalid samples were rejected\n";
   if (end == End::failed) fail(1, supervisor.failure_reason());
   return 0;
 }
@@ -321,10 +372,12 @@ struct RecordOptions {
 int run_record(const RecordOptions& o) {
   const Scenario scenario = load_or_default(o.scenario);
   boost::asio::io_context io;
-  Observer observer(scenario, o.out, o.samples);
+  Recording recording(o.out, o.samples, scenario);
+  std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"), observer.handlers(), false);
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"),
+                                    recording_handlers(recording, nullptr, invalid_samples), false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -334,7 +387,7 @@ int run_record(const RecordOptions& o) {
   const auto start = Clock::now();
   boost::asio::steady_timer timer(io);
   std::function<void()> tick = [&] {
-    observer.recording.flush();
+    recording.flush();
     if (stop || (o.duration > 0 && Clock::now() - start >= std::chrono::duration<double>(o.duration))) {
       io.stop();
       return;
@@ -346,10 +399,10 @@ int run_record(const RecordOptions& o) {
   };
   tick();
   io.run();
-  observer.recording.flush();
+  recording.flush();
   signals.cancel();
   bus.reset();
-  std::cerr << "netkf record: " << observer.recording.rows() << " rows written to " << o.out << "\n";
+  std::cerr << "netkf record: " << recording.rows() << " rows written to " << o.out << "\n";
   return 0;
 }
 
@@ -374,25 +427,19 @@ bool run_until(boost::asio::io_context& io, const std::function<bool()>& done, s
 
 nlohmann::json link_json(const LinkStatusRecord& l) {
   nlohmann::json j{{"sensor_id", l.sensor_id},
-                   {"model", l.model},
+                   {"model", link_model_name(l.model)},
                    {"samples_in", l.samples_in},
                    {"delivered", l.delivered},
                    {"dropped", l.dropped},
                    {"observed_loss", l.observed_loss},
                    {"mean_burst_length", l.mean_burst_length},
+                   {"samples_total", l.samples_total},
+                   {"delivered_total", l.delivered_total},
+                   {"dropped_total", l.dropped_total},
                    {"last_request_id", l.last_request_id}};
-  if (l.model == "bernoulli" && !l.params.empty()) {
-    j["loss"] = l.params[0];
-  } else if (l.params.size() >= 4) {
-    j["p"] = l.params[0];
-    j["r"] = l.params[1];
-    j["loss_good"] = l.params[2];
-    j["loss_bad"] = l.params[3];
-  }
-  if (auto m = link_model_from_status(l)) {
-    j["stationary_loss"] = stationary_loss(*m);
-    j["arrival_rate"] = 1.0 - stationary_loss(*m);
-  }
+  for (const auto& [name, value] : link_parameters(l.model)) j[name] = value;
+  j["stationary_loss"] = stationary_loss(l.model);
+  j["arrival_rate"] = 1.0 - stationary_loss(l.model);
   if (!l.rejection_reason.empty()) j["last_rejection"] = l.rejection_reason;
   return j;
 }
@@ -501,14 +548,8 @@ int run_ctl_set_link(const CtlOptions& o) {
   if (!reply->applied) fail(4, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
-  std::cout << "link " << o.sensor_id << ": applied "
-            << describe_link(link_model_name(model), std::holds_alternative<BernoulliLink>(model)
-                                                         ? std::vector<double>{std::get<BernoulliLink>(model).loss}
-                                                         : std::vector<double>{std::get<GilbertElliottLink>(model).p,
-                                                                               std::get<GilbertElliottLink>(model).r,
-                                                                               std::get<GilbertElliottLink>(model).loss_good,
-                                                                               std::get<GilbertElliottLink>(model).loss_bad})
-            << " (request " << request_id << ", arrival rate " << 1.0 - stationary_loss(model) << ")\n";
+  std::cout << "link " << o.sensor_id << ": applied " << describe_link_model(model) << " (request " << request_id
+            << ", arrival rate " << 1.0 - stationary_loss(model) << ")\n";
   if (acknowledged) std::cout << render_link_table({*acknowledged});
   return 0;
 }
@@ -552,6 +593,22 @@ void add_launch_command(CLI::App& app) {
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--pid-file", o->pid_file, "Write 'name pid' of each started process to FILE");
+  cmd->add_option("--dashboard", o->dashboard,
+                  "Port of the live dashboard (page, Foxglove WebSocket, /metrics), or 'off' for none")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            if (v == "off") return {};
+            const bool digits = !v.empty() && v.size() <= 5 && v.find_first_not_of("0123456789") == std::string::npos;
+            if (digits && std::stoi(v) <= 65535) return {};
+            return "must be a port number (0-65535) or 'off', got '" + v + "'";
+          },
+          "PORT|off"))
+      ->capture_default_str();
+  cmd->add_option("--dashboard-bind", o->dashboard_bind,
+                  "Address the dashboard listens on (default 127.0.0.1); any other binding requires the token "
+                  "printed at start");
+  cmd->add_option("--dashboard-allow-origin", o->dashboard_allow_origins,
+                  "Also accept WebSocket connections from pages of this origin (e.g. a Foxglove web app); repeatable");
   cmd->callback([o] {
     if (const int rc = run_launch(*o); rc != 0) throw CLI::RuntimeError(rc);
   });

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "netkf/scenario.hpp"
+
 namespace netkf::cli {
 
 /// Ground truth x_k of period k at time t_k (from the plant).
@@ -21,12 +23,15 @@ struct EstimateRecord {
   double t = 0.0;
   std::vector<double> xhat;
   std::vector<double> P;       // n*n, row-major (may be empty if not carried)
-  double trace_P = 0.0;
+  double trace_P = 0.0;        // Tr P_{k|k}
+  double trace_P_pred = 0.0;   // Tr P_{k|k-1} (what the theory's S̄, V̄ bound)
   std::vector<int> fused;      // sensor ids fused for k (sorted)
   std::uint32_t late = 0;      // samples that arrived during k for periods already fused
+  std::uint64_t late_total = 0;
   std::uint32_t rejected = 0;
   std::string state;           // "ok" / "diverging"
   double publish_stamp = 0.0;  // seconds (clock of the estimator)
+  double last_sample_stamp = 0.0;  // publish stamp of the newest sample fused for k, seconds (0: none)
 };
 
 /// A measurement the channel delivered to the estimator.
@@ -40,13 +45,17 @@ struct DeliveredRecord {
 /// One link of the channel emulator, as it last reported itself.
 struct LinkStatusRecord {
   int sensor_id = 0;
-  std::string model;           // "bernoulli" / "gilbert_elliott"
-  std::vector<double> params;  // bernoulli: {loss}; GE: {p, r, loss_good, loss_bad}
+  LinkModel model;
+  // Since the current model was set (they describe the model shown):
   std::uint64_t samples_in = 0;
   std::uint64_t delivered = 0;
   std::uint64_t dropped = 0;
   double observed_loss = 0.0;
   double mean_burst_length = 0.0;
+  // Since the channel started (not reset by a change):
+  std::uint64_t samples_total = 0;
+  std::uint64_t delivered_total = 0;
+  std::uint64_t dropped_total = 0;
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;  // empty when the last request was applied
 };

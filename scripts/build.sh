@@ -3,6 +3,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset=${1:-default}
+# ccache: paths under the checkout are hashed relative to it, and the working directory
+# not at all, so a fresh clone (as CI makes) hits the cache of an earlier one.
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true
 if [ ! -f "build/$preset/build.ninja" ]; then
   cmake --preset "$preset" >/dev/null
 fi

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install the Debian 12 packages netkf needs, only those that are missing
-# (fast no-op when everything is there).
+# (fast no-op when everything is there), then the page's npm packages from
+# package-lock.json (npm ci, again only when the lockfile changed).
 set -euo pipefail
 packages=(
   build-essential cmake ninja-build ccache pkg-config
@@ -10,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libsdp-dev gnuplot-nox python3-numpy
   iproute2 util-linux tcpdump procps
+  prometheus-cpp-dev prometheus chromium
 )
 missing=()
 for p in "${packages[@]}"; do
@@ -23,4 +25,24 @@ if [ ${#missing[@]} -gt 0 ]; then
   if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
   "${sudo_cmd[@]}" apt-get update -q
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+# Node.js with its bundled npm: Debian's nodejs package when no node is installed (never
+# Debian's separate npm package, which conflicts with it).
+if ! command -v node >/dev/null 2>&1 || ! command -v npm >/dev/null 2>&1; then
+  echo "netkf: installing nodejs" >&2
+  sudo_cmd=()
+  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+  "${sudo_cmd[@]}" apt-get update -q
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends nodejs
+fi
+
+# The dashboard's uPlot (embedded at build time) and the tests' browser driver and
+# Foxglove client, exactly as locked.
+cd "$(dirname "$0")/.."
+lock_hash=$(sha256sum package-lock.json | cut -d' ' -f1)
+if [ "$(cat node_modules/.netkf-lock-hash 2>/dev/null)" != "$lock_hash" ]; then
+  echo "netkf: npm ci" >&2
+  npm ci --no-audit --no-fund --loglevel=error
+  echo "$lock_hash" > node_modules/.netkf-lock-hash
 fi

@@ -22,6 +22,7 @@ ChannelLinks::Verdict ChannelLinks::on_sample(int sensor_id) {
   }
   const bool dropped = it->second.process.next_dropped();
   it->second.report.stats.record(dropped);
+  it->second.report.lifetime.record(dropped);
   return dropped ? Verdict::dropped : Verdict::delivered;
 }
 

@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
           return links.reports();
         }();
         for (const auto& r : reports) {
-          status.write(netkf::dds::make_link_status(r.sensor_id, r.model, r.stats, r.last_request_id,
+          status.write(netkf::dds::make_link_status(r.sensor_id, r.model, r.stats, r.lifetime, r.last_request_id,
                                                     r.last_request_rejected, r.reject_reason, now));
         }
       };

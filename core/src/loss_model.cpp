@@ -3,6 +3,7 @@
 #include "netkf/loss_model.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -80,6 +81,22 @@ void validate_link_model(const LinkModel& model) {
   check_probability("loss_bad", g.loss_bad);
   // p = r = 0 is allowed at run time (a frozen chain: it stays where it is);
   // the scenario loader is stricter for files.
+}
+
+std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model) {
+  if (const auto* b = std::get_if<BernoulliLink>(&model)) return {{"loss", b->loss}};
+  const auto& g = std::get<GilbertElliottLink>(model);
+  return {{"p", g.p}, {"r", g.r}, {"loss_good", g.loss_good}, {"loss_bad", g.loss_bad}};
+}
+
+std::string describe_link_model(const LinkModel& model) {
+  std::string text = link_model_name(model);
+  for (const auto& [name, value] : link_parameters(model)) {
+    char number[32];
+    std::snprintf(number, sizeof number, "%.4g", value);
+    text += " " + name + "=" + number;
+  }
+  return text;
 }
 
 // ---- LinkLossProcess ----------------------------------------------------------------

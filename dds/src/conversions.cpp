@@ -123,6 +123,8 @@ wire::Estimate to_wire(const EstimateRecord& e) {
   w.rejected_total(e.rejected_total);
   w.state(to_string(e.state));
   w.trace_P(e.P.trace());
+  if (!std::isfinite(e.trace_P_pred)) throw ConversionError("estimate: non-finite Tr P_{k|k-1}");
+  w.trace_P_pred(e.trace_P_pred);
   w.fused_at_ns(e.fused_at_ns);
   w.stamp_ns(e.stamp_ns);
   w.last_sample_stamp_ns(e.last_sample_stamp_ns);
@@ -136,6 +138,8 @@ EstimateRecord from_wire(const wire::Estimate& e, int state_dim) {
   r.x_hat = to_vector(e.x_hat(), state_dim, "estimate x_hat");
   const int n = static_cast<int>(r.x_hat.size());
   r.P = to_matrix(e.P(), n, n, "estimate P");
+  if (!std::isfinite(e.trace_P_pred())) throw ConversionError("estimate: non-finite trace_P_pred");
+  r.trace_P_pred = e.trace_P_pred();
   r.fused.assign(e.fused().begin(), e.fused().end());
   r.late = e.late();
   r.late_total = e.late_total();
@@ -207,7 +211,7 @@ void set_link_model(wire::LinkStatus& status, const LinkModel& model) {
 }
 
 wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
-                                  std::uint64_t last_request_id, bool last_request_rejected,
+                                  const LinkStatistics& lifetime, std::uint64_t last_request_id, bool last_request_rejected,
                                   const std::string& reject_reason, std::int64_t stamp_ns) {
   wire::LinkStatus s;
   s.sensor_id(sensor_id);
@@ -217,6 +221,9 @@ wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const L
   s.dropped(stats.dropped());
   s.observed_loss(stats.observed_loss());
   s.mean_burst_length(stats.mean_burst_length());
+  s.samples_total(lifetime.samples());
+  s.delivered_total(lifetime.delivered());
+  s.dropped_total(lifetime.dropped());
   s.last_request_id(last_request_id);
   s.last_request_rejected(last_request_rejected);
   s.reject_reason(reject_reason);

@@ -118,6 +118,7 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   std::vector<SensorSample> samples;
   samples.reserve(open_->samples.size());
   for (auto& [id, s] : open_->samples) samples.push_back(s);
+  const double trace_P_pred = filter_.P().trace();  // Tr P_{k|k-1}, before the fused update
   const FusedUpdateResult result = filter_.update(samples);
   for (const auto& [id, reason] : result.rejected) {
     switch (reason) {
@@ -132,6 +133,7 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   e.t = open_->t;
   e.x_hat = filter_.x();
   e.P = filter_.P();
+  e.trace_P_pred = trace_P_pred;
   e.fused = result.fused_ids;
   e.late = late_since_publish_;
   late_since_publish_ = 0;

@@ -120,6 +120,7 @@ class EstimatorNode {
       r.t = e.t;
       r.x_hat = e.x_hat;
       r.P = e.P;
+      r.trace_P_pred = e.trace_P_pred;
       r.fused = e.fused;
       r.late = e.late;
       r.late_total = e.late_total;

@@ -70,7 +70,7 @@ class Relay {
                    }
                    reply_.write(dds::make_link_control_reply(r.request_id, r.sensor_id, r.applied, r.reason));
                    for (const auto& rep : links_.reports())
-                     status_.write(dds::make_link_status(rep.sensor_id, rep.model, rep.stats, rep.last_request_id,
+                     status_.write(dds::make_link_status(rep.sensor_id, rep.model, rep.stats, rep.lifetime, rep.last_request_id,
                                                          rep.last_request_rejected, rep.reject_reason, 0));
                  })),
         work_(io_.get_executor()),

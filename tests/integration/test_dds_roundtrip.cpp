@@ -3,6 +3,8 @@
 // bad one is a clear error. Runs inside scripts/in-netns.sh (see tests/CMakeLists.txt),
 // on a domain derived from the process id so parallel tests do not see each other.
 #include <gtest/gtest.h>
+
+#include "test_paths.hpp"
 #include <unistd.h>
 
 #include <chrono>
@@ -140,7 +142,7 @@ TEST(DdsRoundTrip, LinkStatusReachesLateJoiners) {
   dds::Writer<wire::LinkStatus> writer(a, dds::topics::link_status);
   netkf::LinkStatistics stats;
   for (bool d : {true, true, false, true, false}) stats.record(d);
-  const auto sent = dds::make_link_status(2, netkf::BernoulliLink{0.3}, stats, 4, false, "", 1);
+  const auto sent = dds::make_link_status(2, netkf::BernoulliLink{0.3}, stats, stats, 4, false, "", 1);
   ASSERT_TRUE(writer.write(sent));
   dds::Participant b(options("status-late-joiner"));
   Inbox<wire::LinkStatus> inbox;
@@ -182,7 +184,7 @@ TEST(DdsParticipant, DefaultQosIsLocalhostOnly) {
 
 TEST(DdsParticipant, ShippedLocalhostProfileDiscovers) {
   auto o = options("profile-a");
-  o.profile_file = std::filesystem::path(NETKF_SOURCE_DIR) / "deploy/dds/localhost.xml";
+  o.profile_file = netkf::test::source_dir() / "deploy/dds/localhost.xml";
   dds::Participant a(o);
   o.name = "profile-b";
   dds::Participant b(o);
@@ -199,7 +201,7 @@ TEST(DdsParticipant, ShippedLocalhostProfileDiscovers) {
 TEST(DdsParticipant, ShippedDiscoveryServerProfileLoads) {
   // No server runs here: the participant is created as a Discovery Server client.
   auto o = options("ds-client");
-  o.profile_file = std::filesystem::path(NETKF_SOURCE_DIR) / "deploy/dds/discovery-server.xml";
+  o.profile_file = netkf::test::source_dir() / "deploy/dds/discovery-server.xml";
   dds::Participant p(o);
   const auto qos = p.get()->get_qos();
   EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.discoveryProtocol,

@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_paths.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -167,7 +169,7 @@ Vector vector_from_json(const nlohmann::json& j) {
 }
 
 TEST(FusedUpdate, MatchesReferenceVector) {
-  std::ifstream in(std::string(NETKF_TEST_DATA_DIR) + "/fusion_vector.json");
+  std::ifstream in(netkf::test::test_data_dir() / "fusion_vector.json");
   ASSERT_TRUE(in) << "tests/data/fusion_vector.json missing";
   const auto doc = nlohmann::json::parse(in);
   const auto& tv = doc.at("test_vector");

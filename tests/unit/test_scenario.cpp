@@ -3,6 +3,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "test_paths.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -22,8 +24,8 @@ using ::testing::StartsWith;
 
 namespace {
 
-const fs::path kData = fs::path(NETKF_TEST_DATA_DIR) / "scenarios";
-const fs::path kDeploy = fs::path(NETKF_SOURCE_DIR) / "deploy" / "scenarios";
+const fs::path kData = netkf::test::test_data_dir() / "scenarios";
+const fs::path kDeploy = netkf::test::source_dir() / "deploy" / "scenarios";
 
 std::string error_of(const std::function<void()>& f) {
   try {

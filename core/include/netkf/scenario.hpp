@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -41,6 +42,11 @@ double mean_burst_length(const LinkModel& model);
 std::string link_model_name(const LinkModel& model);
 /// Throws std::invalid_argument naming the offending parameter when a probability is outside [0,1].
 void validate_link_model(const LinkModel& model);
+/// The model's parameters by name, as in a scenario file: {loss} for Bernoulli;
+/// {p, r, loss_good, loss_bad} for Gilbert-Elliott.
+std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model);
+/// One line: "bernoulli loss=0.3", "gilbert_elliott p=0.05 r=0.5 loss_good=0 loss_bad=1".
+std::string describe_link_model(const LinkModel& model);
 
 struct SensorSpec {
   int id = 0;

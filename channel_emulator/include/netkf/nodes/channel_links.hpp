@@ -15,7 +15,8 @@ namespace netkf::nodes {
 struct LinkReport {
   int sensor_id = 0;
   LinkModel model;
-  LinkStatistics stats;
+  LinkStatistics stats;     // since the current model was set
+  LinkStatistics lifetime;  // since the channel started (not reset by a change)
   std::uint64_t last_request_id = 0;
   bool last_request_rejected = false;
   std::string reject_reason;

@@ -58,6 +58,7 @@ struct EstimateRecord {
   double t = 0.0;
   Vector x_hat;                 // x̂_{k|k}
   Matrix P;                     // P_{k|k}
+  double trace_P_pred = 0.0;    // Tr P_{k|k-1}
   std::vector<int> fused;       // sensor ids fused for k (sorted)
   std::uint32_t late = 0;       // samples that arrived during period k for periods already fused
   std::uint64_t late_total = 0;
@@ -83,9 +84,10 @@ wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, con
 LinkModel to_link_model(const wire::LinkControl& c);
 /// Fill model name + parameters of a status (unused parameters are 0).
 void set_link_model(wire::LinkStatus& status, const LinkModel& model);
-/// A full link status: model, theory, and what the link did since the model was set.
+/// A full link status: model, theory, what the link did since the model was set (`stats`)
+/// and since the channel started (`lifetime`).
 wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
-                                  std::uint64_t last_request_id, bool last_request_rejected,
+                                  const LinkStatistics& lifetime, std::uint64_t last_request_id, bool last_request_rejected,
                                   const std::string& reject_reason, std::int64_t stamp_ns);
 /// The answer to one link change request.
 wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,

@@ -27,6 +27,7 @@ struct PeriodEstimate {
   double t = 0.0;
   Vector x_hat;                        // x̂_{k|k}
   Matrix P;                            // P_{k|k}
+  double trace_P_pred = 0.0;           // Tr P_{k|k-1} (what the theory's bounds S̄, V̄ bound)
   std::vector<int> fused;              // sensor ids fused for k (sorted)
   std::uint32_t late = 0;              // late samples counted since the previous published estimate
   std::uint64_t late_total = 0;

@@ -222,32 +222,5 @@ TEST(SampleCsv, MarksFusedAndUnfusedSamples) {
   EXPECT_EQ(out.str(), "7,1,1.5,1,0.25,0.5\n7,2,1.5,0,0.75,\n7,3,1.6000000000000001,0,1,\n");
 }
 
-TEST(LiveStatus, JoinsTruthAndEstimateAndShowsLinks) {
-  Scenario s = default_scenario();
-  LiveStatus status(s);
-  status.add_truth({3, 0.03, {1.0, 2.0}});
-  EstimateRecord e;
-  e.k = 3;
-  e.xhat = {1.0, 2.0 + 3.0};  // error 3
-  e.trace_P = 0.5;
-  e.fused = {1, 2};
-  e.state = "ok";
-  status.add_estimate(e);
-  LinkStatusRecord l;
-  l.sensor_id = 2;
-  l.model = "bernoulli";
-  l.params = {1.0};
-  l.samples_in = 100;
-  l.delivered = 0;
-  l.dropped = 100;
-  l.observed_loss = 1.0;
-  status.add_link_status(l);
-  const std::string text = status.render(false);
-  EXPECT_NE(text.find("period 3"), std::string::npos) << text;
-  EXPECT_NE(text.find("|x-x̂|=3"), std::string::npos) << text;
-  EXPECT_NE(text.find("bernoulli loss=1"), std::string::npos) << text;
-  EXPECT_NE(text.find("0.000"), std::string::npos) << text;  // observed arrival rate of link 2
-}
-
 }  // namespace
 }  // namespace netkf::cli

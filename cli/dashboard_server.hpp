@@ -1,0 +1,79 @@
+#pragma once
+// The dashboard's HTTP + WebSocket server (Boost.Beast) on one port: GET / serves the page
+// and its assets (embedded at build time), GET /metrics the Prometheus text, and a
+// WebSocket upgrade speaks foxglove.websocket.v1 (dashboard_protocol.hpp). Runs on the
+// caller's io_context (one thread: no locks); nothing here blocks. docs/dashboard.md
+// describes what users see; the safety rules (bind, token, Origin, sizes) are enforced here.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "dashboard_protocol.hpp"
+
+namespace netkf::cli {
+
+struct DashboardOptions {
+  std::string bind = "127.0.0.1";
+  unsigned short port = 8470;                 // 0: any free port (tests)
+  std::vector<std::string> allowed_origins;   // besides the dashboard's own
+  std::string token;                          // required on every request when not empty
+  std::size_t max_message_bytes = 64 * 1024;  // a larger client message closes the connection
+  std::size_t max_queued_frames = 4096;       // per client; older data frames are dropped beyond it
+  std::chrono::milliseconds flush_interval{50};  // data frames go out in batches (20 a second)
+};
+
+class DashboardServer {
+ public:
+  using ClientId = std::uint64_t;
+  struct Hooks {
+    /// A client's setParameters (the caller applies it through the link-control path).
+    std::function<void(ClientId, const dashboard::SetParameters&)> set_parameters;
+    /// The answer to getParameters.
+    std::function<nlohmann::json(const dashboard::GetParameters&)> get_parameters;
+    /// GET /metrics body.
+    std::function<std::string()> metrics;
+  };
+
+  /// Binds and listens at once. Throws std::runtime_error with a clear message when the
+  /// address cannot be used (e.g. the port is taken).
+  DashboardServer(boost::asio::io_context& io, DashboardOptions options, nlohmann::json server_info, Hooks hooks);
+  ~DashboardServer();
+  DashboardServer(const DashboardServer&) = delete;
+  DashboardServer& operator=(const DashboardServer&) = delete;
+
+  unsigned short port() const;
+  /// The page's URL (with the token when one is required).
+  std::string url() const;
+
+  /// Send a channel message to its subscribers (in the next batch) and keep it as the
+  /// channel's latest value for new subscribers; `latch_key` separates values kept side by
+  /// side on one channel (the link id on netkf/link/status).
+  void publish(dashboard::ChannelId channel, const nlohmann::json& message, std::uint64_t timestamp_ns,
+               int latch_key = 0);
+  /// A status message to every client (sent at once).
+  void broadcast_status(LiveEvent::Level level, const std::string& message);
+  /// A JSON message to one client (sent at once); ignored when it has gone.
+  void send_to(ClientId client, const nlohmann::json& message);
+  /// New parameter values to every client subscribed to any of them.
+  void broadcast_parameter_values(const nlohmann::json& parameter_values);
+
+  std::size_t client_count() const;
+  std::uint64_t dropped_frames() const;
+  /// Close every connection and stop listening.
+  void stop();
+
+  struct Impl;
+
+ private:
+  std::shared_ptr<Impl> impl_;
+};
+
+}  // namespace netkf::cli

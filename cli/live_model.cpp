@@ -1,0 +1,175 @@
+#include "live_model.hpp"
+
+#include <cmath>
+
+namespace netkf::cli {
+
+namespace {
+constexpr std::int64_t kScoreWindow = 500;  // periods kept for joining truth and estimates
+
+bool all_finite(const std::vector<double>& v) {
+  for (double x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+}  // namespace
+
+LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
+  for (const auto& sensor : scenario_.sensors) {
+    LinkView view;
+    view.sensor_id = sensor.id;
+    view.model = sensor.link;
+    view.configured_arrival_rate = 1.0 - stationary_loss(sensor.link);
+    snapshot_.links.push_back(view);
+  }
+}
+
+LinkView* LiveModel::link(int sensor_id) {
+  for (auto& l : snapshot_.links)
+    if (l.sensor_id == sensor_id) return &l;
+  return nullptr;
+}
+
+void LiveModel::add_truth(const TruthRecord& truth) {
+  if (snapshot_.period && snapshot_.period->k == truth.k) snapshot_.period->truth = truth.x;
+  truth_[truth.k] = truth.x;
+  score(truth.k);
+}
+
+void LiveModel::add_estimate(const EstimateRecord& e) {
+  if (!std::isfinite(e.trace_P) || !std::isfinite(e.trace_P_pred) || !all_finite(e.xhat) || !all_finite(e.P)) {
+    // The bus validates estimates; this is the views' own last gate.
+    saw_non_finite_ = true;
+    ++snapshot_.invalid_samples;
+    return;
+  }
+  auto& s = snapshot_;
+  ++s.estimates;
+  sum_trace_ += e.trace_P;
+  sum_trace_pred_ += e.trace_P_pred;
+  s.mean_trace_P = sum_trace_ / static_cast<double>(s.estimates);
+  s.mean_trace_P_pred = sum_trace_pred_ / static_cast<double>(s.estimates);
+  s.late_total = std::max(s.late_total, e.late_total);
+  s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected);
+  if (!s.period || e.k >= s.period->k) {
+    PeriodView p;
+    p.k = e.k;
+    p.t = e.t;
+    if (auto t = truth_.find(e.k); t != truth_.end()) p.truth = t->second;
+    p.x_hat = e.xhat;
+    p.P = e.P;
+    p.trace_P = e.trace_P;
+    p.trace_P_pred = e.trace_P_pred;
+    p.fused = e.fused;
+    p.late = e.late;
+    p.rejected_total = e.rejected;
+    p.state = e.state;
+    s.period = std::move(p);
+  }
+  xhat_[e.k] = e.xhat;
+  score(e.k);
+}
+
+void LiveModel::score(std::int64_t k) {
+  auto t = truth_.find(k);
+  auto e = xhat_.find(k);
+  if (t != truth_.end() && e != xhat_.end() && t->second.size() == e->second.size()) {
+    double sq = 0.0;
+    for (std::size_t i = 0; i < t->second.size(); ++i) {
+      const double d = t->second[i] - e->second[i];
+      sq += d * d;
+    }
+    snapshot_.error_norm = std::sqrt(sq);
+    sum_sq_error_ += sq;
+    ++scored_;
+    snapshot_.rms_error = std::sqrt(sum_sq_error_ / static_cast<double>(scored_));
+    xhat_.erase(e);
+    // The truth stays until the window passes: the newest period's view may still need it.
+  }
+  while (!truth_.empty() && truth_.begin()->first < k - kScoreWindow) truth_.erase(truth_.begin());
+  while (!xhat_.empty() && xhat_.begin()->first < k - kScoreWindow) xhat_.erase(xhat_.begin());
+}
+
+void LiveModel::note_own_request(std::uint64_t request_id, std::string source) {
+  own_requests_[request_id] = std::move(source);
+  while (own_requests_.size() > 1000) own_requests_.erase(own_requests_.begin());
+}
+
+void LiveModel::add_link_status(const LinkStatusRecord& status) {
+  LinkView* view = link(status.sensor_id);
+  if (!view) {
+    raise(LiveEvent::Level::warning,
+          "link status for sensor " + std::to_string(status.sensor_id) + ", which is not in the scenario (ignored)");
+    return;
+  }
+  const bool changed = view->reported && status.last_request_id != view->last_request_id;
+  if (changed) {
+    auto own = own_requests_.find(status.last_request_id);
+    const std::string source = own != own_requests_.end() ? own->second : "netkf ctl or another client";
+    if (status.rejection_reason.empty())
+      raise(LiveEvent::Level::info, "link " + std::to_string(status.sensor_id) + ": " +
+                                        describe_link_model(status.model) + " (from " + source + ")");
+    else
+      raise(LiveEvent::Level::error, "link " + std::to_string(status.sensor_id) + ": change refused by the channel (" +
+                                         status.rejection_reason + ", from " + source + ")");
+  }
+  const bool same_model = view->reported && status.last_request_id == view->last_request_id;
+  if (same_model && status.samples_in > view->samples_in && status.delivered >= view->delivered) {
+    // Rate over the last report interval: follows a runtime change within one report.
+    view->observed_arrival_rate = static_cast<double>(status.delivered - view->delivered) /
+                                  static_cast<double>(status.samples_in - view->samples_in);
+  } else if (status.samples_in > 0 && (!same_model || !view->observed_arrival_rate)) {
+    view->observed_arrival_rate = 1.0 - status.observed_loss;
+  }
+  view->model = status.model;
+  view->reported = true;
+  view->samples_in = status.samples_in;
+  view->delivered = status.delivered;
+  view->dropped = status.dropped;
+  view->observed_loss = status.observed_loss;
+  view->mean_burst_length = status.mean_burst_length;
+  view->samples_total = status.samples_total;
+  view->delivered_total = status.delivered_total;
+  view->dropped_total = status.dropped_total;
+  view->configured_arrival_rate = 1.0 - stationary_loss(status.model);
+  view->last_request_id = status.last_request_id;
+  view->rejection_reason = status.rejection_reason;
+}
+
+Scenario LiveModel::configured_scenario() const {
+  Scenario s = scenario_;
+  for (auto& sensor : s.sensors)
+    for (const auto& l : snapshot_.links)
+      if (l.sensor_id == sensor.id) sensor.link = l.model;
+  return s;
+}
+
+std::optional<std::vector<double>> LiveModel::observed_rates() const {
+  std::vector<double> rates;
+  for (const auto& l : snapshot_.links) {
+    if (!l.observed_arrival_rate) return std::nullopt;
+    rates.push_back(*l.observed_arrival_rate);
+  }
+  if (rates.empty()) return std::nullopt;
+  return rates;
+}
+
+void LiveModel::set_theory(TheoryView theory) {
+  const auto before = snapshot_.theory.ready ? snapshot_.theory.configured.result.stable : analysis::Verdict::unknown;
+  const auto now = theory.configured.result.stable;
+  if (before == analysis::Verdict::yes && now == analysis::Verdict::no)
+    raise(LiveEvent::Level::warning,
+          "link change moved the network below the critical arrival rate: " + theory.configured.result.reason);
+  if (before == analysis::Verdict::no && now == analysis::Verdict::yes)
+    raise(LiveEvent::Level::warning, "links are back above the critical arrival rate");
+  if (theory.region.empty()) theory.region = std::move(snapshot_.theory.region);
+  snapshot_.theory = std::move(theory);
+}
+
+std::vector<LiveEvent> LiveModel::take_events() {
+  auto out = std::move(events_);
+  events_.clear();
+  return out;
+}
+
+}  // namespace netkf::cli

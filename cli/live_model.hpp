@@ -1,0 +1,65 @@
+#pragma once
+// The live model of `netkf launch`: fed the bus's records, it keeps the one snapshot that
+// every view reads (LiveSnapshot) and raises events (link changes, boundary crossings).
+// Pure bookkeeping: no DDS, no threads, no theory computation (the caller computes the
+// theory off its loop, see TheoryWorker, and hands the result back with set_theory).
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "live_records.hpp"
+#include "live_snapshot.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli {
+
+class LiveModel {
+ public:
+  explicit LiveModel(Scenario scenario);
+
+  void add_truth(const TruthRecord& truth);
+  void add_estimate(const EstimateRecord& estimate);
+  void add_link_status(const LinkStatusRecord& status);
+  void count_invalid() { ++snapshot_.invalid_samples; }
+
+  /// Request ids that this process sent itself, so that a change can name its source.
+  void note_own_request(std::uint64_t request_id, std::string source);
+
+  /// The scenario with each link as the channel last reported it.
+  Scenario configured_scenario() const;
+  /// Observed arrival rates per sensor (scenario order), once every link has one.
+  std::optional<std::vector<double>> observed_rates() const;
+
+  /// A finished theory computation; raises a warning when the configured verdict crosses
+  /// the critical boundary.
+  void set_theory(TheoryView theory);
+  void set_processes(std::vector<ProcessView> processes) { snapshot_.processes = std::move(processes); }
+
+  const LiveSnapshot& snapshot() const { return snapshot_; }
+  const Scenario& scenario() const { return scenario_; }
+  /// Events raised since the last call.
+  std::vector<LiveEvent> take_events();
+  void raise(LiveEvent::Level level, std::string text) { events_.push_back({level, std::move(text)}); }
+
+  bool saw_non_finite() const { return saw_non_finite_; }
+
+ private:
+  void score(std::int64_t k);
+  LinkView* link(int sensor_id);
+
+  Scenario scenario_;
+  LiveSnapshot snapshot_;
+  std::map<std::int64_t, std::vector<double>> truth_;  // recent truth by k, waiting for its estimate
+  std::map<std::int64_t, std::vector<double>> xhat_;   // recent x̂ by k, waiting for its truth
+  double sum_trace_ = 0.0;
+  double sum_trace_pred_ = 0.0;
+  double sum_sq_error_ = 0.0;
+  std::uint64_t scored_ = 0;
+  bool saw_non_finite_ = false;
+  std::map<std::uint64_t, std::string> own_requests_;  // request id -> source ("dashboard")
+  std::vector<LiveEvent> events_;
+};
+
+}  // namespace netkf::cli

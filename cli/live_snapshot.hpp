@@ -1,0 +1,92 @@
+#pragma once
+// One typed snapshot of the running network: what the terminal status, the dashboard and
+// /metrics all read (built by LiveModel from the records of the live bus). Plain data.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "netkf/analysis/critical_rate.hpp"
+#include "netkf/analysis/operating_point.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli {
+
+/// The newest estimate, joined with the truth of the same period when it is known.
+struct PeriodView {
+  std::int64_t k = 0;
+  double t = 0.0;
+  std::vector<double> truth;   // x_k (empty until the plant's sample for k arrived)
+  std::vector<double> x_hat;   // x̂_{k|k}
+  std::vector<double> P;       // P_{k|k}, row-major
+  double trace_P = 0.0;        // Tr P_{k|k}
+  double trace_P_pred = 0.0;   // Tr P_{k|k-1}
+  std::vector<int> fused;
+  std::uint32_t late = 0;
+  std::uint32_t rejected_total = 0;
+  std::string state;           // "ok" / "diverging"
+};
+
+/// One link as the channel last reported it, with the rates the theory needs.
+struct LinkView {
+  int sensor_id = 0;
+  LinkModel model;                 // as reported by the channel (the scenario's until then)
+  bool reported = false;           // a status from the channel has arrived
+  std::uint64_t samples_in = 0;    // since the model was set
+  std::uint64_t delivered = 0;
+  std::uint64_t dropped = 0;
+  double observed_loss = 0.0;
+  double mean_burst_length = 0.0;
+  std::uint64_t samples_total = 0;  // since the channel started
+  std::uint64_t delivered_total = 0;
+  std::uint64_t dropped_total = 0;
+  double configured_arrival_rate = 1.0;          // λ_i = 1 − stationary loss of `model`
+  std::optional<double> observed_arrival_rate;   // delivered / samples over the last report interval
+  std::uint64_t last_request_id = 0;
+  std::string rejection_reason;                  // of the last request (empty: applied)
+};
+
+/// The theory for one set of arrival rates.
+struct AssessmentView {
+  std::vector<double> arrival_rates;  // per sensor, scenario order
+  analysis::OperatingPointAssessment result;
+};
+
+struct TheoryView {
+  bool ready = false;                        // false until the first assessment is computed
+  std::int64_t k = -1;                       // newest period when it was requested
+  AssessmentView configured;                 // the links as configured (Markov criterion for GE links)
+  std::optional<AssessmentView> observed;    // i.i.d. at the observed rates, once every link reported
+  std::vector<analysis::RegionPoint> region; // two-sensor scenarios: Liu-Goldsmith (λ1, λ2) region
+};
+
+/// A process of the launch, for the views.
+struct ProcessView {
+  std::string name;
+  int pid = -1;
+  bool running = false;
+  int restarts = 0;
+};
+
+struct LiveSnapshot {
+  std::optional<PeriodView> period;  // nullopt until the first estimate
+  std::uint64_t estimates = 0;
+  double mean_trace_P = 0.0;
+  double mean_trace_P_pred = 0.0;
+  std::optional<double> error_norm;  // |x_k − x̂_{k|k}| of the newest period scored
+  std::optional<double> rms_error;   // over every period scored
+  std::uint64_t late_total = 0;
+  std::uint64_t rejected_total = 0;
+  std::uint64_t invalid_samples = 0;  // failed validation at the bus (never used)
+  std::vector<LinkView> links;        // scenario order
+  TheoryView theory;
+  std::vector<ProcessView> processes;
+};
+
+/// Something the views show in their event log.
+struct LiveEvent {
+  enum class Level { info = 0, warning = 1, error = 2 } level = Level::info;
+  std::string text;
+};
+
+}  // namespace netkf::cli

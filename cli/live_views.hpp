@@ -1,0 +1,99 @@
+#pragma once
+// What `netkf launch` shows of its running network, and the steering that comes back: the
+// live model (one snapshot), the theory computed off the loop, the terminal status, the
+// dashboard (page + Foxglove WebSocket) and /metrics. Everything runs on the launch's
+// io_context thread except the theory (TheoryWorker); link changes from the page go out
+// through `send_link_control`, the same control path as `netkf ctl`.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <chrono>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dashboard_server.hpp"
+#include "live_metrics.hpp"
+#include "live_model.hpp"
+#include "live_records.hpp"
+#include "theory_worker.hpp"
+
+namespace netkf::cli {
+
+struct LiveViewsOptions {
+  std::optional<DashboardOptions> dashboard;  // nullopt: no dashboard, no port opened
+  double status_interval = 1.0;               // seconds between terminal status updates (0: none)
+  bool status_screen = false;                 // redraw in place (a terminal) instead of printing lines
+  std::string header;                         // first line of the in-place screen
+};
+
+class LiveViews {
+ public:
+  using SendLinkControl = std::function<bool(std::uint64_t request_id, int sensor_id, const LinkModel& model)>;
+  using Clock = std::chrono::steady_clock;
+
+  /// Throws std::runtime_error when the dashboard cannot listen (e.g. its port is taken).
+  LiveViews(boost::asio::io_context& io, const Scenario& scenario, LiveViewsOptions options,
+            SendLinkControl send_link_control);
+  ~LiveViews();
+
+  void truth(const TruthRecord& truth);
+  void estimate(const EstimateRecord& estimate);
+  void link_status(const LinkStatusRecord& status);
+  void link_reply(const LinkReplyRecord& reply);
+  void invalid_sample(const std::string& what);
+
+  /// A line of the launch's own log (supervisor events): printed, or kept on the screen.
+  void log(LiveEvent::Level level, const std::string& line);
+  /// log() and a status message to every dashboard client (e.g. a process restarted).
+  void announce(LiveEvent::Level level, const std::string& line);
+  void set_processes(std::vector<ProcessView> processes);
+  void count_restart(const std::string& process);
+
+  /// Called by the launch's loop (every few tens of ms): theory requests, status, timeouts.
+  void tick(Clock::time_point now = Clock::now());
+  void set_header(std::string header) { options_.header = std::move(header); }
+  /// In-place screen on or off (off at the end of a run: the final lines stay readable).
+  void set_screen(bool on) { options_.status_screen = on; }
+  /// Close the dashboard's connections (end of run).
+  void stop();
+
+  std::optional<std::string> dashboard_url() const;
+  const LiveModel& model() const { return model_; }
+
+ private:
+  void on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request);
+  void request_theory(bool with_region);
+  void on_theory(TheoryView view);
+  void emit_events();
+  std::string render_metrics();
+  static std::uint64_t wall_ns();
+
+  boost::asio::io_context& io_;
+  LiveViewsOptions options_;
+  SendLinkControl send_link_control_;
+  LiveModel model_;
+  LiveMetrics metrics_;
+  std::unique_ptr<DashboardServer> dashboard_;
+  std::deque<std::string> screen_events_;
+  struct PendingChange {
+    DashboardServer::ClientId client;
+    std::optional<std::string> id;
+    int sensor_id;
+    LinkModel model;
+    Clock::time_point deadline;
+  };
+  std::map<std::uint64_t, PendingChange> pending_;
+  std::uint64_t next_request_id_;
+  Clock::time_point next_status_;
+  Clock::time_point next_refresh_;
+  bool region_requested_ = false;
+  bool theory_due_ = true;
+  std::unique_ptr<TheoryWorker> theory_;  // last: stopped first
+};
+
+}  // namespace netkf::cli

@@ -1,0 +1,93 @@
+#include "theory_worker.hpp"
+
+#include <exception>
+
+#include "netkf/analysis/operating_point.hpp"
+
+namespace netkf::cli {
+
+TheoryView compute_theory(const TheoryRequest& request) {
+  TheoryView view;
+  view.ready = true;
+  view.k = request.k;
+  view.configured.arrival_rates = analysis::configured_arrival_rates(request.configured);
+  try {
+    view.configured.result = analysis::assess_configured_links(request.configured);
+  } catch (const std::exception& e) {
+    view.configured.result.stable = analysis::Verdict::unknown;
+    view.configured.result.reason = std::string("theory unavailable: ") + e.what();
+  }
+  if (request.observed_rates) {
+    AssessmentView observed;
+    observed.arrival_rates = *request.observed_rates;
+    try {
+      observed.result = analysis::assess_operating_point(request.configured, *request.observed_rates);
+    } catch (const std::exception& e) {
+      observed.result.stable = analysis::Verdict::unknown;
+      observed.result.reason = std::string("theory unavailable: ") + e.what();
+    }
+    view.observed = std::move(observed);
+  }
+  if (request.with_region && request.configured.sensors.size() == 2) {
+    try {
+      const auto& s = request.configured;
+      view.region = analysis::stability_region(s.plant.A, s.plant.Q, s.sensors);
+    } catch (const std::exception&) {
+      view.region.clear();  // the page then shows no region; the verdict above still stands
+    }
+  }
+  return view;
+}
+
+TheoryWorker::TheoryWorker(Done done) : state_(std::make_shared<State>()) {
+  state_->done = std::move(done);
+  thread_ = std::thread(run, state_);
+}
+
+TheoryWorker::~TheoryWorker() {
+  bool running = false;
+  {
+    const std::lock_guard lock(state_->mutex);
+    state_->stop = true;
+    state_->waiting.reset();
+    running = state_->running;
+  }
+  state_->wake.notify_all();
+  // A computation in progress cannot be interrupted; the thread owns its state through
+  // the shared pointer and ends when it is done, reporting nothing.
+  if (running) thread_.detach();
+  else thread_.join();
+}
+
+void TheoryWorker::request(TheoryRequest request) {
+  {
+    const std::lock_guard lock(state_->mutex);
+    state_->waiting = std::move(request);
+  }
+  state_->wake.notify_one();
+}
+
+bool TheoryWorker::busy() const {
+  const std::lock_guard lock(state_->mutex);
+  return state_->running || state_->waiting.has_value();
+}
+
+void TheoryWorker::run(std::shared_ptr<State> state) {
+  std::unique_lock lock(state->mutex);
+  while (true) {
+    state->wake.wait(lock, [&] { return state->stop || state->waiting.has_value(); });
+    if (state->stop) return;
+    TheoryRequest request = std::move(*state->waiting);
+    state->waiting.reset();
+    state->running = true;
+    lock.unlock();
+    TheoryView view = compute_theory(request);
+    lock.lock();
+    state->running = false;
+    // Under the lock: once the destructor has set `stop`, `done` is never called again.
+    if (state->stop) return;
+    state->done(std::move(view));
+  }
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,1390 @@
+// netkf live dashboard: one foxglove.websocket.v1 client of `netkf launch`
+// (docs/dashboard.md is the contract: channels, fields, parameters, status messages).
+// Plain ES2020, no build step; uPlot is loaded before this file as the global `uPlot`.
+'use strict';
+
+(function () {
+  const SUBPROTOCOL = 'foxglove.websocket.v1';
+  const WINDOW_CHOICES_S = [10, 30, 120];
+  const MAX_WINDOW_S = Math.max(...WINDOW_CHOICES_S);
+  const MAX_PERIODS = 30000;        // ring bound even for very short periods
+  const LINK_SAMPLES = 600;         // link status ~1/s: 10 min of arrival-rate history
+  const THEORY_SAMPLES = 600;       // theory ~1/s
+  const EVENT_LOG_CAP = 500;
+  const REGION_TRAIL = 60;          // last observed operating points drawn as a trail
+  const MIN_REDRAW_MS = 50;         // charts redraw at most ~20 times a second
+  const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
+  const RESTART_GAP = 50;           // k going back by more than this: the run restarted
+  const MODEL_PARAMS = {
+    bernoulli: ['loss'],
+    gilbert_elliott: ['p', 'r', 'loss_good', 'loss_bad'],
+  };
+  const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
+  // Used when the user switches a link to a model it has no values for yet.
+  const DEFAULT_PARAMS = { loss: 0, p: 0.1, r: 0.5, loss_good: 0, loss_bad: 1 };
+  const PARAM_LABEL = { loss: 'loss', p: 'p (good→bad)', r: 'r (bad→good)', loss_good: 'loss good', loss_bad: 'loss bad' };
+  // Burst lengths in power-of-two bins: short bursts one by one, long ones grouped.
+  const BURST_BINS = [
+    { lo: 1, hi: 1, label: '1' }, { lo: 2, hi: 2, label: '2' }, { lo: 3, hi: 4, label: '3–4' },
+    { lo: 5, hi: 8, label: '5–8' }, { lo: 9, hi: 16, label: '9–16' }, { lo: 17, hi: 32, label: '17–32' },
+    { lo: 33, hi: 64, label: '33–64' }, { lo: 65, hi: Infinity, label: '≥65' },
+  ];
+  const COLOR = {
+    truth: '#1d232b',
+    estimate: '#1f6fd1',
+    sigmaBand: 'rgba(31, 111, 209, 0.16)',
+    sigmaEdge: 'rgba(31, 111, 209, 0.35)',
+    tracePred: '#6b3fb8',
+    traceFiltered: 'rgba(107, 63, 184, 0.35)',
+    configured: '#1e8a4c',
+    configuredBand: 'rgba(30, 138, 76, 0.12)',
+    observed: '#d9731a',
+    observedBand: 'rgba(217, 115, 26, 0.08)',
+    diverging: 'rgba(214, 48, 49, 0.10)',
+    axis: '#4a5563',
+    grid: 'rgba(0, 0, 0, 0.07)',
+    stable: 'rgba(30, 138, 76, 0.20)',
+    undecided: 'rgba(230, 170, 40, 0.22)',
+    unstable: 'rgba(214, 48, 49, 0.20)',
+    lowerCurve: '#b8322f',
+    upperCurve: '#1e8a4c',
+  };
+
+  // What a test (tests/e2e/dashboard_browser.mjs) reads; updated as messages arrive.
+  const dash = {
+    estimatesReceived: 0,
+    truthReceived: 0,
+    lastK: null,
+    messagesReceived: 0,
+    decodeErrors: 0,
+    eventCount: 0,
+    pointsPlotted: 0,          // estimate points in the first state chart
+    plotLengths: {},           // uPlot data lengths per chart, after the last redraw
+    setParametersSent: 0,
+    connected: false,
+  };
+  window.netkfDashboard = dash;
+
+  // ---------------------------------------------------------------- helpers
+  const $ = (id) => document.getElementById(id);
+  function el(tag, attrs, children) {
+    const node = document.createElement(tag);
+    for (const [key, value] of Object.entries(attrs || {})) {
+      if (key === 'text') node.textContent = value;
+      else if (key === 'class') node.className = value;
+      else node.setAttribute(key, value);
+    }
+    for (const child of children || []) node.appendChild(child);
+    return node;
+  }
+  function isNum(v) { return typeof v === 'number' && Number.isFinite(v); }
+  function fmt(v, digits) {
+    if (v === null || v === undefined) return '—';
+    if (!isNum(v)) return String(v);
+    const a = Math.abs(v);
+    if (a !== 0 && (a >= 1e5 || a < 1e-3)) return v.toExponential(2);
+    return v.toFixed(digits === undefined ? 3 : digits);
+  }
+  function fmtTrace(v, unboundedText) { return v === null || v === undefined ? unboundedText : fmt(v, 3); }
+  function clockTime(date) {
+    return date.toTimeString().slice(0, 8);
+  }
+
+  // ------------------------------------------------------------ data store
+  // One slot per period, indexed by k modulo the capacity; estimate and truth of the same
+  // period may arrive in either order and meet in the slot.
+  class PeriodRing {
+    constructor(capacity, stateDim, sensorCount) {
+      this.cap = capacity;
+      this.n = stateDim;
+      this.m = sensorCount;
+      this.k = new Float64Array(capacity);
+      this.t = new Float64Array(capacity);
+      this.hasEstimate = new Uint8Array(capacity);
+      this.hasTruth = new Uint8Array(capacity);
+      this.diverging = new Uint8Array(capacity);
+      this.tracePred = new Float64Array(capacity);
+      this.trace = new Float64Array(capacity);
+      this.xHat = [];
+      this.sigma = [];
+      this.truth = [];
+      for (let i = 0; i < stateDim; i++) {
+        this.xHat.push(new Float64Array(capacity));
+        this.sigma.push(new Float64Array(capacity));
+        this.truth.push(new Float64Array(capacity));
+      }
+      this.fused = [];   // per sensor index: 1 fused, 0 not fused in that period
+      for (let s = 0; s < sensorCount; s++) this.fused.push(new Uint8Array(capacity));
+      this.clear();
+    }
+    clear() {
+      this.k.fill(-1);
+      this.hasEstimate.fill(0);
+      this.hasTruth.fill(0);
+      this.maxK = -1;
+      this.firstK = Infinity;   // oldest period received since the last clear
+    }
+    // Slot of period k, or -1 when k is older than what the ring holds.
+    slot(k) {
+      if (this.maxK >= 0 && k <= this.maxK - this.cap) return -1;
+      const i = k % this.cap;
+      if (this.k[i] !== k) {
+        if (this.k[i] > k) return -1;
+        this.k[i] = k;
+        this.hasEstimate[i] = 0;
+        this.hasTruth[i] = 0;
+      }
+      if (k > this.maxK) this.maxK = k;
+      if (k < this.firstK) this.firstK = k;
+      return i;
+    }
+    // Index of period k if the ring holds it, else -1.
+    find(k) {
+      const i = k % this.cap;
+      return this.k[i] === k ? i : -1;
+    }
+  }
+
+  // Fixed-size ring of plain records (theory, link status samples, region trail).
+  class RecordRing {
+    constructor(capacity) { this.cap = capacity; this.items = []; this.start = 0; }
+    push(item) {
+      if (this.items.length < this.cap) this.items.push(item);
+      else { this.items[this.start] = item; this.start = (this.start + 1) % this.cap; }
+    }
+    clear() { this.items = []; this.start = 0; }
+    get length() { return this.items.length; }
+    at(i) { return this.items[(this.start + i) % this.items.length]; }
+    last() { return this.items.length ? this.at(this.items.length - 1) : null; }
+    forEach(fn) { for (let i = 0; i < this.items.length; i++) fn(this.at(i), i); }
+  }
+
+  const store = {
+    scenario: null,
+    scenarioKey: '',
+    periodS: 0.02,
+    sensorIds: [],
+    sensorIndex: new Map(),
+    ring: null,
+    theory: new RecordRing(THEORY_SAMPLES),   // {k, confLower, confUpper, obsLower, obsUpper}
+    latestEstimate: null,
+    latestTheory: null,
+    latestNetwork: null,
+    links: new Map(),                         // sensor id -> link view (below)
+    regionTrail: new RecordRing(REGION_TRAIL),
+  };
+
+  const view = {
+    windowS: 30,
+    paused: false,
+    tLo: 0,
+    tHi: 30,
+    dirty: { data: true, header: true, theory: true, region: true, links: true, network: true },
+  };
+
+  // ------------------------------------------------------------- connection
+  const conn = {
+    ws: null,
+    attempt: 0,
+    reconnectTimer: null,
+    nextSubscriptionId: 1,
+    channels: new Map(),        // channel id -> channel
+    subscriptions: new Map(),   // subscription id -> topic
+    subscribedChannels: new Set(),
+    capabilities: [],
+    paramUpdatesFor: '',        // scenario key the parameter subscription was made for
+    serverName: '',
+    nextRequest: 1,
+  };
+
+  function wsUrl() {
+    const token = new URLSearchParams(window.location.search).get('token');
+    const scheme = window.location.protocol === 'https:' ? 'wss:' : 'ws:';
+    return scheme + '//' + window.location.host + '/' + (token ? '?token=' + encodeURIComponent(token) : '');
+  }
+
+  function setConnState(state, text) {
+    const node = $('conn-state');
+    node.dataset.state = state;
+    node.textContent = text;
+    dash.connected = state === 'connected';
+  }
+
+  function connect() {
+    conn.reconnectTimer = null;
+    setConnState('connecting', conn.attempt ? 'reconnecting…' : 'connecting…');
+    let ws;
+    try {
+      ws = new WebSocket(wsUrl(), [SUBPROTOCOL]);
+    } catch (err) {
+      scheduleReconnect();
+      return;
+    }
+    ws.binaryType = 'arraybuffer';
+    conn.ws = ws;
+    conn.subscriptions.clear();
+    conn.subscribedChannels.clear();
+    conn.channels.clear();
+    conn.paramUpdatesFor = '';
+    ws.onopen = () => {
+      conn.attempt = 0;
+      setConnState('connected', 'connected');
+      addEvent({ level: 'page', message: 'connected to ' + window.location.host });
+    };
+    ws.onmessage = (event) => {
+      dash.messagesReceived++;
+      if (typeof event.data === 'string') handleText(event.data);
+      else handleBinary(event.data);
+    };
+    ws.onerror = () => { /* a close event follows; it schedules the reconnect */ };
+    ws.onclose = (event) => {
+      if (conn.ws !== ws) return;
+      const wasOpen = dash.connected;
+      conn.ws = null;
+      if (wasOpen) addEvent({ level: 'page', message: 'connection closed' + (event.code ? ' (code ' + event.code + ')' : '') });
+      for (const link of store.links.values()) link.clearPending();
+      scheduleReconnect();
+    };
+  }
+
+  function scheduleReconnect() {
+    // Exponential backoff with jitter, 0.5 s .. 10 s, so a restarting server is not hammered.
+    const delay = Math.min(10000, 500 * Math.pow(2, conn.attempt)) * (0.75 + 0.5 * Math.random());
+    conn.attempt++;
+    setConnState('disconnected', 'disconnected — retry in ' + (delay / 1000).toFixed(1) + ' s');
+    conn.reconnectTimer = setTimeout(connect, delay);
+  }
+
+  function send(message) {
+    if (!conn.ws || conn.ws.readyState !== WebSocket.OPEN) return false;
+    conn.ws.send(JSON.stringify(message));
+    return true;
+  }
+
+  function handleText(text) {
+    let msg;
+    try {
+      msg = JSON.parse(text);
+    } catch (err) {
+      dash.decodeErrors++;
+      return;
+    }
+    switch (msg.op) {
+      case 'serverInfo': onServerInfo(msg); break;
+      case 'advertise': onAdvertise(msg.channels || []); break;
+      case 'unadvertise': onUnadvertise(msg.channelIds || []); break;
+      case 'status': onStatus(msg); break;
+      case 'parameterValues': onParameterValues(msg); break;
+      default: break;   // removeStatus, services, ...: nothing to show
+    }
+  }
+
+  const textDecoder = new TextDecoder('utf-8');
+
+  // messageData: opcode 0x01, uint32 LE subscription id, uint64 LE timestamp, payload.
+  function handleBinary(buffer) {
+    if (buffer.byteLength < 13) { dash.decodeErrors++; return; }
+    const dv = new DataView(buffer);
+    if (dv.getUint8(0) !== 0x01) return;   // 0x02 time etc.: not used
+    const topic = conn.subscriptions.get(dv.getUint32(1, true));
+    if (!topic) return;
+    let payload;
+    try {
+      payload = JSON.parse(textDecoder.decode(new Uint8Array(buffer, 13)));
+    } catch (err) {
+      dash.decodeErrors++;
+      return;
+    }
+    switch (topic) {
+      case 'netkf/scenario': onScenario(payload); break;
+      case 'netkf/estimate': onEstimate(payload); break;
+      case 'netkf/truth': onTruth(payload); break;
+      case 'netkf/link/status': onLinkStatus(payload); break;
+      case 'netkf/theory': onTheory(payload); break;
+      case 'netkf/network': onNetwork(payload); break;
+      default: break;
+    }
+  }
+
+  function onServerInfo(msg) {
+    conn.capabilities = msg.capabilities || [];
+    conn.serverName = msg.name || '';
+    if (conn.capabilities.includes('parameters')) {
+      // An empty name list asks for every parameter the server has.
+      send({ op: 'getParameters', parameterNames: [], id: 'netkf-dashboard-initial' });
+    }
+    subscribeParameterUpdates();
+  }
+
+  function onAdvertise(channels) {
+    const subscriptions = [];
+    for (const channel of channels) {
+      conn.channels.set(channel.id, channel);
+      if (!String(channel.topic).startsWith('netkf/')) continue;
+      if (channel.encoding !== 'json' || conn.subscribedChannels.has(channel.id)) continue;
+      const id = conn.nextSubscriptionId++;
+      conn.subscriptions.set(id, channel.topic);
+      conn.subscribedChannels.add(channel.id);
+      subscriptions.push({ id, channelId: channel.id });
+    }
+    if (subscriptions.length) send({ op: 'subscribe', subscriptions });
+  }
+
+  function onUnadvertise(channelIds) {
+    const gone = new Set(channelIds);
+    for (const [subId, topic] of conn.subscriptions) {
+      for (const id of gone) {
+        const channel = conn.channels.get(id);
+        if (channel && channel.topic === topic) conn.subscriptions.delete(subId);
+      }
+    }
+    for (const id of gone) { conn.channels.delete(id); conn.subscribedChannels.delete(id); }
+  }
+
+  // Every parameter a link can have, whatever its current model, so a model switch made
+  // elsewhere still reaches this page.
+  function subscribeParameterUpdates() {
+    if (!conn.capabilities.includes('parametersSubscribe') || !store.scenario) return;
+    if (conn.paramUpdatesFor === store.scenarioKey) return;
+    const names = [];
+    for (const id of store.sensorIds) {
+      names.push('link.' + id + '.model');
+      for (const p of Object.keys(DEFAULT_PARAMS)) names.push('link.' + id + '.' + p);
+    }
+    if (send({ op: 'subscribeParameterUpdates', parameterNames: names })) conn.paramUpdatesFor = store.scenarioKey;
+  }
+
+  // --------------------------------------------------------------- messages
+  function onScenario(s) {
+    const sensors = Array.isArray(s.sensors) ? s.sensors : [];
+    const key = JSON.stringify([s.name, s.period_ms, s.state_dim, s.seed, sensors.map((x) => [x.id, x.measurement_dim])]);
+    store.scenario = s;
+    if (key === store.scenarioKey) return;
+    store.scenarioKey = key;
+    store.periodS = isNum(s.period_ms) && s.period_ms > 0 ? s.period_ms / 1000 : 0.02;
+    store.sensorIds = sensors.map((x) => x.id);
+    store.sensorIndex = new Map(store.sensorIds.map((id, i) => [id, i]));
+    const capacity = Math.min(MAX_PERIODS, Math.ceil(MAX_WINDOW_S / store.periodS) + 16);
+    store.ring = new PeriodRing(capacity, Math.max(1, s.state_dim | 0), sensors.length);
+    store.theory.clear();
+    store.regionTrail.clear();
+    store.latestTheory = null;
+    $('scenario-name').textContent = s.name || '(unnamed scenario)';
+    $('scenario-name').title = 'scenario ' + (s.name || '') + ', period ' + s.period_ms + ' ms, seed ' + s.seed +
+      ', ' + s.state_dim + ' states, ' + sensors.length + ' sensors';
+    buildStateCharts(store.ring.n);
+    buildLinkCards(sensors);
+    const twoSensors = sensors.length === 2;
+    $('region-box').hidden = !twoSensors;
+    $('region-none').hidden = twoSensors;
+    document.querySelector('main.grid').classList.toggle('no-region', !twoSensors);
+    subscribeParameterUpdates();
+    markAllDirty();
+  }
+
+  function onEstimate(e) {
+    dash.estimatesReceived++;
+    dash.lastK = e.k;
+    store.latestEstimate = e;
+    view.dirty.header = true;
+    const ring = store.ring;
+    if (!ring || !isNum(e.k)) return;
+    if (ring.maxK >= 0 && e.k + RESTART_GAP < ring.maxK) {
+      const previous = ring.maxK;
+      clearData();
+      addEvent({ level: 'page', message: 'period went back from ' + previous + ' to ' + e.k + ': plots restarted' });
+    }
+    const i = ring.slot(e.k);
+    if (i < 0) return;
+    ring.hasEstimate[i] = 1;
+    ring.t[i] = isNum(e.t) ? e.t : e.k * store.periodS;
+    ring.tracePred[i] = isNum(e.trace_P_pred) ? e.trace_P_pred : NaN;
+    ring.trace[i] = isNum(e.trace_P) ? e.trace_P : NaN;
+    ring.diverging[i] = e.state === 'diverging' ? 1 : 0;
+    const n = ring.n;
+    const xHat = e.x_hat || [];
+    const P = e.P || [];
+    for (let c = 0; c < n; c++) {
+      ring.xHat[c][i] = isNum(xHat[c]) ? xHat[c] : NaN;
+      const variance = P[c * n + c];
+      ring.sigma[c][i] = isNum(variance) ? Math.sqrt(Math.max(0, variance)) : NaN;
+    }
+    for (let s = 0; s < ring.m; s++) ring.fused[s][i] = 0;
+    for (const id of e.fused || []) {
+      const s = store.sensorIndex.get(id);
+      if (s !== undefined) ring.fused[s][i] = 1;
+    }
+    view.dirty.data = true;
+    requestRender();
+  }
+
+  function onTruth(m) {
+    dash.truthReceived++;
+    const ring = store.ring;
+    if (!ring || !isNum(m.k)) return;
+    const i = ring.slot(m.k);
+    if (i < 0) return;
+    ring.hasTruth[i] = 1;
+    if (!ring.hasEstimate[i]) ring.t[i] = isNum(m.t) ? m.t : m.k * store.periodS;
+    const x = m.x || [];
+    for (let c = 0; c < ring.n; c++) ring.truth[c][i] = isNum(x[c]) ? x[c] : NaN;
+    view.dirty.data = true;
+    requestRender();
+  }
+
+  function onTheory(th) {
+    store.latestTheory = th;
+    const conf = th.configured || null;
+    const obs = th.observed || null;
+    store.theory.push({
+      k: isNum(th.k) ? th.k : (store.ring ? store.ring.maxK : 0),
+      confLower: conf ? conf.lower_trace : null,
+      confUpper: conf ? conf.upper_trace : null,
+      confValid: !!conf,
+      obsLower: obs ? obs.lower_trace : null,
+      obsUpper: obs ? obs.upper_trace : null,
+      obsValid: !!obs,
+    });
+    view.dirty.theory = true;
+    view.dirty.region = true;
+    view.dirty.data = true;
+    requestRender();
+  }
+
+  function onNetwork(nw) {
+    store.latestNetwork = nw;
+    view.dirty.network = true;
+    view.dirty.header = true;
+    requestRender();
+  }
+
+  function onLinkStatus(st) {
+    const link = store.links.get(st.sensor_id);
+    if (!link) return;
+    link.onStatus(st);
+    view.dirty.links = true;
+    view.dirty.region = true;
+    requestRender();
+  }
+
+  function onParameterValues(msg) {
+    // Group name link.ID.param by link; a reply to our own request carries its id.
+    const perLink = new Map();
+    for (const p of msg.parameters || []) {
+      const match = /^link\.(\d+)\.(model|loss|p|r|loss_good|loss_bad)$/.exec(String(p.name));
+      if (!match) continue;
+      const id = Number(match[1]);
+      if (!perLink.has(id)) perLink.set(id, {});
+      perLink.get(id)[match[2]] = match[2] === 'model' ? String(p.value) : Number(p.value);
+    }
+    for (const [id, values] of perLink) {
+      const link = store.links.get(id);
+      if (link) link.onParameterValues(values, msg.id);
+    }
+    // A reply for a link that has no values in it (should not happen) still ends the wait.
+    for (const link of store.links.values()) {
+      if (link.pending && msg.id !== undefined && link.pending.id === msg.id && !perLink.has(link.id)) link.clearPending();
+    }
+  }
+
+  const LEVEL_NAME = { 0: 'info', 1: 'warning', 2: 'error', page: 'page' };
+
+  function onStatus(msg) {
+    addEvent({ level: msg.level, message: String(msg.message || '') });
+  }
+
+  function addEvent(entry) {
+    const list = $('event-log');
+    const level = LEVEL_NAME[entry.level] || 'info';
+    const k = dash.lastK;
+    const item = el('li', { class: 'event level-' + level, 'data-level': String(entry.level) }, [
+      el('time', { text: clockTime(new Date()), class: 'event-time' }),
+      el('span', { class: 'event-k', text: k === null ? '' : 'k ' + k }),
+      el('span', { class: 'event-level', text: level }),
+      el('span', { class: 'event-message', text: entry.message }),
+    ]);
+    list.insertBefore(item, list.firstChild);   // newest on top
+    while (list.childElementCount > EVENT_LOG_CAP) list.removeChild(list.lastElementChild);
+    dash.eventCount++;
+    $('event-count').textContent = list.childElementCount + (dash.eventCount > list.childElementCount ? ' shown of ' + dash.eventCount : '') + ' entries';
+  }
+
+  // ------------------------------------------------------------ link cards
+  class LinkView {
+    constructor(sensor) {
+      this.id = sensor.id;
+      const link = sensor.link || {};
+      this.model = MODEL_PARAMS[link.model] ? link.model : 'bernoulli';
+      this.params = Object.assign({}, DEFAULT_PARAMS);
+      for (const p of Object.keys(DEFAULT_PARAMS)) if (isNum(link[p])) this.params[p] = link[p];
+      this.fromParameters = false;   // true once parameterValues told the current values
+      this.status = null;
+      this.rates = new RecordRing(LINK_SAMPLES);   // {t, configured, observed}
+      this.pending = null;
+      this.dragging = new Set();      // parameter names whose slider is held
+      this.build();
+      this.syncControls();
+    }
+
+    build() {
+      const id = this.id;
+      this.select = el('select', { 'data-link': String(id), 'data-param': 'model', id: 'link-' + id + '-model' },
+        Object.keys(MODEL_PARAMS).map((m) => el('option', { value: m, text: MODEL_LABEL[m] })));
+      this.select.addEventListener('change', () => {
+        const model = this.select.value;
+        this.showModelRows(model);
+        this.commit(model);
+      });
+      this.inputs = {};   // param -> {row, range, number}
+      const rows = [];
+      for (const model of Object.keys(MODEL_PARAMS)) {
+        for (const param of MODEL_PARAMS[model]) {
+          const attrs = { 'data-link': String(id), 'data-param': param, min: '0', max: '1' };
+          const range = el('input', Object.assign({ type: 'range', step: '0.001', id: 'link-' + id + '-' + param + '-range',
+            'aria-label': 'link ' + id + ' ' + param }, attrs));
+          const number = el('input', Object.assign({ type: 'number', step: '0.01', id: 'link-' + id + '-' + param + '-number',
+            'aria-label': 'link ' + id + ' ' + param + ' value' }, attrs));
+          const row = el('div', { class: 'param-row', 'data-model': model }, [
+            el('label', { for: number.id, text: PARAM_LABEL[param] }), range, number]);
+          this.wireParam(param, range, number);
+          this.inputs[param] = { row, range, number, model };
+          rows.push(row);
+        }
+      }
+      this.modelLabel = el('span', { class: 'link-model' });
+      this.pendingLabel = el('span', { class: 'link-pending' });
+      this.statsLine = el('div', { class: 'link-stats' });
+      this.chartBox = el('div', { class: 'chart arrival-chart' });
+      this.histCanvas = el('canvas', { class: 'burst-hist', 'aria-label': 'burst-length histogram of link ' + id });
+      this.histNote = el('div', { class: 'hist-note muted small' });
+      this.root = el('article', { class: 'panel link-card', 'data-link': String(id), id: 'link-' + id }, [
+        el('div', { class: 'panel-head' }, [el('h2', { text: 'link ' + id }), this.modelLabel, this.pendingLabel]),
+        el('div', { class: 'link-controls' }, [
+          el('div', { class: 'param-row model-row' }, [el('label', { for: this.select.id, text: 'model' }), this.select]),
+          ...rows]),
+        this.statsLine,
+        el('div', { class: 'subhead' }, [document.createTextNode('arrival rate λ: '),
+          el('span', { class: 'key-configured', text: '━ configured' }), document.createTextNode(' '),
+          el('span', { class: 'key-observed', text: '●━ observed' })]),
+        this.chartBox,
+        el('div', { class: 'subhead', text: 'burst length (periods not fused in a row, window)' }),
+        this.histCanvas,
+        this.histNote,
+      ]);
+    }
+
+    wireParam(param, range, number) {
+      // The slider moves the number field while held and applies on release ("change").
+      range.addEventListener('pointerdown', () => this.dragging.add(param));
+      range.addEventListener('input', () => {
+        this.dragging.add(param);
+        number.value = range.value;
+      });
+      range.addEventListener('change', () => {
+        this.dragging.delete(param);
+        number.value = range.value;
+        this.commit(this.model);
+      });
+      // A pointer released without moving fires no "change": stop holding the control.
+      range.addEventListener('pointerup', () => setTimeout(() => this.dragging.delete(param), 0));
+      range.addEventListener('blur', () => this.dragging.delete(param));
+      // The number field applies on Enter and on blur. Chromium also fires "change" on the
+      // blur after an Enter: the text committed last is not sent twice.
+      number.addEventListener('keydown', (event) => {
+        if (event.key === 'Enter') { event.preventDefault(); this.commitNumber(param); }
+      });
+      number.addEventListener('change', () => {
+        if (this.inputs[param].committedText !== number.value) this.commitNumber(param);
+      });
+      number.addEventListener('input', () => {
+        number.classList.remove('invalid');
+        this.inputs[param].committedText = null;
+      });
+    }
+
+    commitNumber(param) {
+      const { number, range } = this.inputs[param];
+      this.inputs[param].committedText = number.value;
+      const value = Number(number.value);
+      if (number.value === '' || !Number.isFinite(value) || value < 0 || value > 1) {
+        number.classList.add('invalid');
+        this.pendingLabel.textContent = param + ' must be in [0, 1]';
+        this.pendingLabel.dataset.state = 'invalid';
+        return;
+      }
+      number.classList.remove('invalid');
+      range.value = String(value);
+      this.commit(this.model);
+    }
+
+    // One setParameters for this link only: its model and that model's parameters.
+    commit(model) {
+      const values = {};
+      for (const param of MODEL_PARAMS[model]) {
+        const v = Number(this.inputs[param].number.value);
+        if (!Number.isFinite(v) || v < 0 || v > 1) {
+          this.inputs[param].number.classList.add('invalid');
+          this.pendingLabel.textContent = param + ' must be in [0, 1]';
+          this.pendingLabel.dataset.state = 'invalid';
+          return;
+        }
+        values[param] = v;
+      }
+      // Enter fires both keydown and "change": the request already under way is enough.
+      // (An explicit commit of the current values is still sent: the server confirms it.)
+      const samePending = this.pending && this.pending.model === model &&
+        MODEL_PARAMS[model].every((p) => values[p] === this.pending.values[p]);
+      if (samePending) return;
+      const requestId = 'netkf-dashboard-' + Date.now().toString(36) + '-' + (conn.nextRequest++);
+      const parameters = [{ name: 'link.' + this.id + '.model', value: model }];
+      for (const param of MODEL_PARAMS[model]) parameters.push({ name: 'link.' + this.id + '.' + param, value: values[param], type: 'float64' });
+      if (!send({ op: 'setParameters', parameters, id: requestId })) {
+        this.pendingLabel.textContent = 'not connected';
+        this.pendingLabel.dataset.state = 'invalid';
+        this.syncControls();
+        return;
+      }
+      dash.setParametersSent++;
+      this.pending = { id: requestId, model, values, timer: setTimeout(() => this.giveUp(requestId), PENDING_TIMEOUT_MS) };
+      this.pendingLabel.textContent = 'applying…';
+      this.pendingLabel.dataset.state = 'pending';
+    }
+
+    giveUp(requestId) {
+      if (!this.pending || this.pending.id !== requestId) return;
+      this.clearPending();
+      this.pendingLabel.textContent = 'no answer';
+      this.pendingLabel.dataset.state = 'invalid';
+      this.syncControls();
+    }
+
+    clearPending() {
+      if (this.pending) clearTimeout(this.pending.timer);
+      this.pending = null;
+      this.pendingLabel.textContent = '';
+      delete this.pendingLabel.dataset.state;
+    }
+
+    onParameterValues(values, requestId) {
+      if (values.model && MODEL_PARAMS[values.model]) this.model = values.model;
+      for (const p of Object.keys(DEFAULT_PARAMS)) if (isNum(values[p])) this.params[p] = values[p];
+      this.fromParameters = true;
+      if (this.pending && requestId !== undefined && requestId === this.pending.id) {
+        // Applied when the answer carries what we asked for; a refusal answers the old values.
+        const p = this.pending;
+        const applied = this.model === p.model && MODEL_PARAMS[p.model].every((n) => Math.abs(this.params[n] - p.values[n]) < 1e-12);
+        this.clearPending();
+        this.pendingLabel.textContent = applied ? 'applied' : 'refused (see events)';
+        this.pendingLabel.dataset.state = applied ? 'applied' : 'invalid';
+      }
+      this.syncControls();
+      view.dirty.links = true;
+      requestRender();
+    }
+
+    onStatus(st) {
+      this.status = st;
+      // Until the parameters have been read, the link status tells the current model.
+      if (!this.fromParameters && !this.pending && MODEL_PARAMS[st.model]) {
+        this.model = st.model;
+        for (const p of MODEL_PARAMS[st.model]) if (isNum(st[p])) this.params[p] = st[p];
+        this.syncControls();
+      }
+      const t = currentTime();
+      if (t !== null) {
+        this.rates.push({
+          t,
+          configured: isNum(st.configured_arrival_rate) ? st.configured_arrival_rate : null,
+          observed: isNum(st.observed_arrival_rate) ? st.observed_arrival_rate : null,
+        });
+      }
+    }
+
+    showModelRows(model) {
+      for (const param of Object.keys(this.inputs)) this.inputs[param].row.hidden = this.inputs[param].model !== model;
+    }
+
+    // Controls follow the current values, except a slider being held or a field being typed in.
+    syncControls() {
+      if (document.activeElement !== this.select) this.select.value = this.model;
+      if (!this.pending) this.showModelRows(this.model);
+      for (const param of Object.keys(this.inputs)) {
+        const { range, number } = this.inputs[param];
+        const value = this.params[param];
+        if (!this.dragging.has(param) && !this.pending) range.value = String(value);
+        if (document.activeElement !== number && !this.dragging.has(param) && !this.pending) {
+          number.value = String(value);
+          number.classList.remove('invalid');
+        }
+      }
+      this.modelLabel.textContent = MODEL_LABEL[this.model];
+    }
+
+    renderStats() {
+      const st = this.status;
+      if (!st) { this.statsLine.textContent = 'no link status yet'; return; }
+      const items = [
+        ['stationary loss', fmt(st.stationary_loss, 3)],
+        ['λ configured', fmt(st.configured_arrival_rate, 3)],
+        ['λ observed', st.observed_arrival_rate === null || st.observed_arrival_rate === undefined ? 'not yet' : fmt(st.observed_arrival_rate, 3)],
+        ['loss observed', fmt(st.observed_loss, 3)],
+        ['mean burst', fmt(st.mean_burst_length, 2)],
+        ['delivered', st.delivered + ' / ' + st.samples_in],
+      ];
+      if (st.last_request_rejected && st.reject_reason) items.push(['last request refused', st.reject_reason]);
+      this.statsLine.replaceChildren(...items.map(([k, v]) => el('span', { class: 'stat' }, [
+        el('span', { class: 'stat-key', text: k }), el('span', { class: 'stat-value', text: v })])));
+    }
+  }
+
+  function buildLinkCards(sensors) {
+    for (const link of store.links.values()) {
+      link.clearPending();
+      if (link.chart) link.chart.destroy();
+    }
+    store.links.clear();
+    const box = $('links');
+    box.replaceChildren();
+    for (const sensor of sensors) {
+      const link = new LinkView(sensor);
+      store.links.set(sensor.id, link);
+      box.appendChild(link.root);
+      link.chart = timeChart(link.chartBox, 84, [
+        { label: 'configured', stroke: COLOR.configured, width: 2, paths: uPlot.paths.stepped({ align: 1 }), points: { show: false } },
+        { label: 'observed', stroke: COLOR.observed, width: 1.5, points: { show: true, size: 4 } },
+      ], { y: { range: [0, 1.05] } }, null, { legend: false, yValues: (u, splits) => splits.map((v) => v.toFixed(1)) });
+      link.renderStats();
+    }
+  }
+
+  // --------------------------------------------------------------- charts
+  const charts = { trace: null, states: [] };
+  const syncKey = 'netkf-time';
+  const emptyData = (seriesCount) => Array.from({ length: seriesCount + 1 }, () => []);
+
+  function timeChart(box, height, series, scales, hooks, options) {
+    const opts = options || {};
+    const width = Math.max(200, box.clientWidth || 400);
+    const chart = new uPlot({
+      width,
+      height,
+      cursor: { sync: { key: syncKey }, drag: { x: false, y: false }, points: { size: 5 } },
+      legend: { show: opts.legend !== false, live: false },
+      scales: Object.assign({ x: { time: false, range: () => [view.tLo, view.tHi] } }, scales || {}),
+      axes: [
+        { stroke: COLOR.axis, grid: { stroke: COLOR.grid, width: 1 }, ticks: { stroke: COLOR.grid }, size: 28,
+          font: '11px system-ui, sans-serif', values: (u, splits) => splits.map((v) => v + ' s') },
+        { stroke: COLOR.axis, grid: { stroke: COLOR.grid, width: 1 }, ticks: { stroke: COLOR.grid }, size: 52, space: 20,
+          font: '11px system-ui, sans-serif', values: opts.yValues },
+      ],
+      series: [{ label: 't' }, ...series],
+      bands: opts.bands,
+      hooks: hooks || {},
+    }, emptyData(series.length), box);
+    observeWidth(box, chart, height);
+    return chart;
+  }
+
+  // Charts follow their box's width; the resize runs in the next frame so that
+  // ResizeObserver never sees a size change made inside its own callback.
+  const resizeTargets = new Map();
+  const resizeObserver = new ResizeObserver((entries) => {
+    for (const entry of entries) {
+      const target = resizeTargets.get(entry.target);
+      if (target) target.wanted = Math.floor(entry.contentRect.width);
+    }
+    requestAnimationFrame(() => {
+      for (const [box, target] of resizeTargets) {
+        if (!box.isConnected) { resizeObserver.unobserve(box); resizeTargets.delete(box); continue; }
+        if (target.wanted && target.wanted !== target.chart.width) target.chart.setSize({ width: Math.max(200, target.wanted), height: target.height });
+      }
+      view.dirty.links = true;
+      view.dirty.region = true;
+      requestRender();
+    });
+  });
+  function observeWidth(box, chart, height) {
+    resizeTargets.set(box, { chart, height, wanted: 0 });
+    resizeObserver.observe(box);
+  }
+
+  function buildStateCharts(n) {
+    for (const chart of charts.states) chart.destroy();
+    charts.states = [];
+    const box = $('state-charts');
+    box.replaceChildren();
+    box.dataset.count = String(n);
+    for (let c = 0; c < n; c++) {
+      const holder = el('div', { class: 'state-chart' }, [el('div', { class: 'subhead', text: 'x' + (c + 1) })]);
+      const chartBox = el('div', { class: 'chart' });
+      holder.appendChild(chartBox);
+      box.appendChild(holder);
+      charts.states.push(timeChart(chartBox, n > 2 ? 120 : 140, [
+        { label: 'truth x', stroke: COLOR.truth, width: 1.25, points: { show: false } },
+        { label: 'estimate x̂', stroke: COLOR.estimate, width: 1.5, points: { show: false } },
+        { label: 'x̂ + 2σ', stroke: COLOR.sigmaEdge, width: 1, points: { show: false } },
+        { label: 'x̂ − 2σ', stroke: COLOR.sigmaEdge, width: 1, points: { show: false } },
+      ], null, null, { bands: [{ series: [3, 4], fill: COLOR.sigmaBand }] }));
+    }
+  }
+
+  // Row annotations of the trace chart for its drawClear hook (theory band, diverging spans).
+  const traceRows = { theory: [], diverging: [] };
+
+  function buildTraceChart() {
+    const box = $('trace-chart');
+    charts.trace = timeChart(box, 190, [
+      { label: 'Tr P k|k−1', stroke: COLOR.tracePred, width: 1.5, points: { show: false } },
+      { label: 'Tr P k|k', stroke: COLOR.traceFiltered, width: 1, points: { show: false } },
+      { label: 'Tr S̄ configured', stroke: COLOR.configured, width: 1.5, points: { show: false } },
+      { label: 'Tr V̄ configured', stroke: COLOR.configured, width: 1.5, dash: [6, 4], points: { show: false } },
+      { label: 'Tr S̄ observed', stroke: COLOR.observed, width: 1.25, points: { show: false } },
+      { label: 'Tr V̄ observed', stroke: COLOR.observed, width: 1.25, dash: [6, 4], points: { show: false } },
+    ], { y: { distr: 3, log: 10 } }, { drawClear: [drawTraceBackground] }, {
+      yValues: (u, splits) => splits.map((v) => (v === null ? '' : fmtTick(v))),
+    });
+  }
+
+  function fmtTick(v) {
+    if (v >= 1e4 || v < 1e-2) return v.toExponential(0);
+    return String(+v.toPrecision(3));
+  }
+
+  // Below the series: shaded periods where the filter said "diverging", and the theory
+  // band (an unbounded Tr V̄ fills up to the top of the plot).
+  function drawTraceBackground(u) {
+    const xs = u.data[0];
+    if (!xs || !xs.length) return;
+    const ctx = u.ctx;
+    const top = u.bbox.top;
+    const bottom = u.bbox.top + u.bbox.height;
+    const halfStep = Math.max(1, (u.valToPos(store.periodS, 'x', true) - u.valToPos(0, 'x', true)) / 2);
+    ctx.save();
+    ctx.beginPath();
+    ctx.rect(u.bbox.left, u.bbox.top, u.bbox.width, u.bbox.height);
+    ctx.clip();
+    const spans = (flagOf, paint) => {
+      let start = -1;
+      let startKey = null;
+      for (let j = 0; j <= xs.length; j++) {
+        const key = j < xs.length ? flagOf(j) : null;
+        if (key !== startKey) {
+          if (start >= 0 && startKey !== null) paint(startKey, u.valToPos(xs[start], 'x', true) - halfStep, u.valToPos(xs[j - 1], 'x', true) + halfStep);
+          start = j;
+          startKey = key;
+        }
+      }
+    };
+    ctx.fillStyle = COLOR.diverging;
+    spans((j) => (traceRows.diverging[j] ? 1 : null), (key, x0, x1) => ctx.fillRect(x0, top, x1 - x0, bottom - top));
+    const band = (lowerKey, upperKey, validKey, color) => {
+      ctx.fillStyle = color;
+      spans((j) => {
+        const entry = traceRows.theory[j];
+        return entry && entry[validKey] && isNum(entry[lowerKey]) ? entry : null;
+      }, (entry, x0, x1) => {
+        const yLow = Math.min(bottom, u.valToPos(entry[lowerKey], 'y', true));
+        const yHigh = isNum(entry[upperKey]) ? Math.max(top, u.valToPos(entry[upperKey], 'y', true)) : top;
+        if (yLow > yHigh) ctx.fillRect(x0, yHigh, x1 - x0, yLow - yHigh);
+      });
+    };
+    band('confLower', 'confUpper', 'confValid', COLOR.configuredBand);
+    band('obsLower', 'obsUpper', 'obsValid', COLOR.observedBand);
+    ctx.restore();
+  }
+
+  // ------------------------------------------------------------ rendering
+  let renderQueued = false;
+  let lastChartDraw = 0;
+
+  function requestRender() {
+    if (renderQueued) return;
+    renderQueued = true;
+    requestAnimationFrame(render);
+  }
+
+  function markAllDirty() {
+    for (const key of Object.keys(view.dirty)) view.dirty[key] = true;
+    requestRender();
+  }
+
+  function render(now) {
+    renderQueued = false;
+    const d = view.dirty;
+    if (d.header) { d.header = false; renderHeader(); }
+    if (d.theory) { d.theory = false; renderVerdict(); }
+    if (d.network) { d.network = false; renderNetwork(); }
+    if (view.paused) return;
+    if (now - lastChartDraw < MIN_REDRAW_MS) {
+      if (d.data || d.links || d.region) requestRender();
+      return;
+    }
+    if (d.data || d.links || d.region) lastChartDraw = now;
+    if (d.data) { d.data = false; renderTimeCharts(); d.links = true; }
+    if (d.links) { d.links = false; renderLinks(); }
+    if (d.region) { d.region = false; renderRegion(); }
+  }
+
+  function currentTime() {
+    const ring = store.ring;
+    if (!ring || ring.maxK < 0) return null;
+    const i = ring.find(ring.maxK);
+    return i >= 0 ? ring.t[i] : ring.maxK * store.periodS;
+  }
+
+  // Periods [kLo, kHi] of the selected window that the ring holds.
+  function windowPeriods() {
+    const ring = store.ring;
+    if (!ring || ring.maxK < 0) return null;
+    const span = Math.max(1, Math.round(view.windowS / store.periodS));
+    const kHi = ring.maxK;
+    const kLo = Math.max(kHi - span + 1, ring.firstK, kHi - ring.cap + 1, 0);
+    return { kLo, kHi, span };
+  }
+
+  function renderTimeCharts() {
+    if (!charts.trace) return;
+    const ring = store.ring;
+    const w = windowPeriods();
+    if (!w) {
+      view.tLo = 0;
+      view.tHi = view.windowS;
+      charts.trace.setData(emptyData(6));
+      for (const chart of charts.states) chart.setData(emptyData(4));
+      dash.pointsPlotted = 0;
+      dash.plotLengths = { trace: 0, states: charts.states.map(() => 0) };
+      return;
+    }
+    // The window ends now; until it has filled it starts at the oldest period held.
+    const tNow = currentTime();
+    const iLo = ring.find(w.kLo);
+    const tOldest = iLo >= 0 ? ring.t[iLo] : w.kLo * store.periodS;
+    view.tHi = tNow;
+    view.tLo = Math.max(tNow - view.windowS, Math.min(tOldest, tNow - 1));
+    const xs = [];
+    const tracePred = [];
+    const trace = [];
+    const confLower = [];
+    const confUpper = [];
+    const obsLower = [];
+    const obsUpper = [];
+    const n = ring.n;
+    const truth = [];
+    const est = [];
+    const hi = [];
+    const lo = [];
+    for (let c = 0; c < n; c++) { truth.push([]); est.push([]); hi.push([]); lo.push([]); }
+    traceRows.theory = [];
+    traceRows.diverging = [];
+    // The theory entry in force for period k is the last one computed at or before k.
+    let theoryIndex = -1;
+    const theory = store.theory;
+    let estimatePoints = 0;
+    const num = (v) => (Number.isNaN(v) ? null : v);
+    for (let k = w.kLo; k <= w.kHi; k++) {
+      const i = ring.find(k);
+      xs.push(i >= 0 ? ring.t[i] : k * store.periodS);
+      while (theoryIndex + 1 < theory.length && theory.at(theoryIndex + 1).k <= k) theoryIndex++;
+      const entry = theoryIndex >= 0 ? theory.at(theoryIndex) : null;
+      traceRows.theory.push(entry);
+      confLower.push(entry && isNum(entry.confLower) ? entry.confLower : null);
+      confUpper.push(entry && isNum(entry.confUpper) ? entry.confUpper : null);
+      obsLower.push(entry && isNum(entry.obsLower) ? entry.obsLower : null);
+      obsUpper.push(entry && isNum(entry.obsUpper) ? entry.obsUpper : null);
+      const hasEst = i >= 0 && ring.hasEstimate[i] === 1;
+      const hasTruth = i >= 0 && ring.hasTruth[i] === 1;
+      traceRows.diverging.push(hasEst && ring.diverging[i] === 1);
+      // A log axis cannot show 0 or negative traces.
+      const tp = hasEst ? num(ring.tracePred[i]) : null;
+      const tf = hasEst ? num(ring.trace[i]) : null;
+      tracePred.push(tp !== null && tp > 0 ? tp : null);
+      trace.push(tf !== null && tf > 0 ? tf : null);
+      if (hasEst) estimatePoints++;
+      for (let c = 0; c < n; c++) {
+        truth[c].push(hasTruth ? num(ring.truth[c][i]) : null);
+        if (hasEst) {
+          const x = num(ring.xHat[c][i]);
+          const s = num(ring.sigma[c][i]);
+          est[c].push(x);
+          hi[c].push(x !== null && s !== null ? x + 2 * s : null);
+          lo[c].push(x !== null && s !== null ? x - 2 * s : null);
+        } else {
+          est[c].push(null); hi[c].push(null); lo[c].push(null);
+        }
+      }
+    }
+    charts.trace.setData([xs, tracePred, trace, confLower, confUpper, obsLower, obsUpper]);
+    charts.states.forEach((chart, c) => chart.setData([xs, truth[c], est[c], hi[c], lo[c]]));
+    dash.pointsPlotted = charts.states.length ? estimatePoints : 0;
+    dash.plotLengths = {
+      trace: charts.trace.data[0].length,
+      states: charts.states.map((chart) => chart.data[0].length),
+    };
+    renderTraceNotes();
+  }
+
+  function renderTraceNotes() {
+    const th = store.latestTheory;
+    const box = $('trace-notes');
+    const chip = (cls, text) => el('span', { class: 'chip ' + cls, text });
+    if (!th) { box.replaceChildren(chip('muted', 'no theory yet')); return; }
+    const describe = (a, label, cls) => {
+      if (!a) return chip(cls, label + ': not known yet');
+      if (!isNum(a.lower_trace)) return chip(cls + ' alarm', label + ': Tr S̄ = ∞ (E[P] unbounded)');
+      const upper = isNum(a.upper_trace) ? fmt(a.upper_trace, 3) : (a.stable === 'yes' ? '∞' : '∞ (unbounded or undecided)');
+      return chip(cls, label + ': ' + fmt(a.lower_trace, 3) + ' … ' + upper);
+    };
+    const estimate = store.latestEstimate;
+    const items = [describe(th.configured, 'configured', 'configured'), describe(th.observed, 'observed', 'observed')];
+    if (estimate && isNum(estimate.trace_P_pred)) items.unshift(chip('pred', 'Tr P k|k−1 = ' + fmt(estimate.trace_P_pred, 3)));
+    box.replaceChildren(...items);
+  }
+
+  function renderLinks() {
+    const w = windowPeriods();
+    const ring = store.ring;
+    const tLo = view.tLo;
+    for (const link of store.links.values()) {
+      link.renderStats();
+      // Arrival rates over the same time window as the other charts.
+      const xs = [];
+      const configured = [];
+      const observed = [];
+      link.rates.forEach((r) => {
+        if (r.t < tLo || r.t > view.tHi + 1) return;
+        xs.push(r.t); configured.push(r.configured); observed.push(r.observed);
+      });
+      // Carry the configured rate to "now" so the step reaches the right edge.
+      if (xs.length && view.tHi > xs[xs.length - 1]) {
+        xs.push(view.tHi); configured.push(configured[configured.length - 1]); observed.push(null);
+      }
+      link.chart.setData([xs, configured, observed]);
+      dash.plotLengths['link' + link.id] = link.chart.data[0].length;
+      drawBurstHistogram(link, w ? burstHistogram(ring, store.sensorIndex.get(link.id), w.kLo, w.kHi) : null);
+    }
+  }
+
+  // Runs of consecutive periods in which the sensor was not fused, within the window.
+  // A period missing from the ring (message dropped by the server) ends a run uncounted.
+  function burstHistogram(ring, s, kLo, kHi) {
+    const counts = new Array(BURST_BINS.length).fill(0);
+    let run = 0;
+    let runs = 0;
+    let total = 0;
+    let periods = 0;
+    const close = () => {
+      if (run > 0) {
+        const b = BURST_BINS.findIndex((bin) => run >= bin.lo && run <= bin.hi);
+        counts[b]++;
+        runs++;
+        total += run;
+      }
+      run = 0;
+    };
+    for (let k = kLo; k <= kHi; k++) {
+      const i = ring.find(k);
+      if (i < 0 || !ring.hasEstimate[i]) { run = 0; continue; }
+      periods++;
+      if (ring.fused[s][i]) close(); else run++;
+    }
+    const ongoing = run;
+    close();
+    return { counts, runs, mean: runs ? total / runs : null, ongoing, periods };
+  }
+
+  function canvasContext(canvas, cssHeight) {
+    const ratio = window.devicePixelRatio || 1;
+    const width = Math.max(150, Math.floor(canvas.parentElement.clientWidth - 2));
+    if (canvas.width !== Math.floor(width * ratio) || canvas.height !== Math.floor(cssHeight * ratio)) {
+      canvas.width = Math.floor(width * ratio);
+      canvas.height = Math.floor(cssHeight * ratio);
+      canvas.style.width = width + 'px';
+      canvas.style.height = cssHeight + 'px';
+    }
+    const ctx = canvas.getContext('2d');
+    ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
+    ctx.clearRect(0, 0, width, cssHeight);
+    return { ctx, width, height: cssHeight };
+  }
+
+  function drawBurstHistogram(link, hist) {
+    const { ctx, width, height } = canvasContext(link.histCanvas, 74);
+    const left = 30;
+    const bottom = height - 18;
+    const top = 4;
+    const plotW = width - left - 6;
+    ctx.font = '10px system-ui, sans-serif';
+    ctx.fillStyle = COLOR.axis;
+    ctx.strokeStyle = COLOR.grid;
+    ctx.beginPath();
+    ctx.moveTo(left, bottom + 0.5);
+    ctx.lineTo(left + plotW, bottom + 0.5);
+    ctx.stroke();
+    if (!hist || hist.periods === 0) {
+      ctx.fillText('no periods yet', left + 8, top + 20);
+      link.histNote.textContent = '';
+      return;
+    }
+    const max = Math.max(1, ...hist.counts);
+    const slot = plotW / BURST_BINS.length;
+    ctx.textAlign = 'center';
+    BURST_BINS.forEach((bin, b) => {
+      const x = left + b * slot;
+      const h = (hist.counts[b] / max) * (bottom - top - 10);
+      ctx.fillStyle = COLOR.observed;
+      ctx.globalAlpha = 0.8;
+      ctx.fillRect(x + 2, bottom - h, slot - 4, h);
+      ctx.globalAlpha = 1;
+      ctx.fillStyle = COLOR.axis;
+      ctx.font = (slot < 30 ? '9px' : '10px') + ' system-ui, sans-serif';
+      ctx.fillText(bin.label, x + slot / 2, bottom + 12);
+      if (hist.counts[b]) ctx.fillText(String(hist.counts[b]), x + slot / 2, Math.max(top + 9, bottom - h - 2));
+    });
+    ctx.textAlign = 'right';
+    ctx.fillText('runs', left - 4, top + 8);
+    const server = link.status && isNum(link.status.mean_burst_length) ? fmt(link.status.mean_burst_length, 2) : '—';
+    link.histNote.textContent = hist.runs + ' bursts in ' + hist.periods + ' periods, mean ' + fmt(hist.mean, 2) +
+      (hist.ongoing ? ' · ongoing ' + hist.ongoing : '') + ' · link status mean ' + server;
+  }
+
+  // The (λ1, λ2) plane: above lambda2_upper stable, below lambda2_lower unstable, between
+  // undecided by the bounds; the operating point is where the links are now.
+  function renderRegion() {
+    const box = $('region-box');
+    if (box.hidden) return;
+    const canvas = $('region-canvas');
+    const { ctx, width, height } = canvasContext(canvas, 250);
+    const pad = { left: 40, right: 120, top: 10, bottom: 34 };
+    const pw = width - pad.left - pad.right;
+    const ph = height - pad.top - pad.bottom;
+    const X = (v) => pad.left + v * pw;
+    const Y = (v) => pad.top + (1 - v) * ph;
+    const clamp = (v) => Math.min(1, Math.max(0, v));
+    const th = store.latestTheory;
+    const region = th && Array.isArray(th.region) ? th.region.filter((p) => isNum(p.lambda1)).sort((a, b) => a.lambda1 - b.lambda1) : [];
+    ctx.font = '11px system-ui, sans-serif';
+    if (region.length >= 2) {
+      // A missing upper curve means no λ2 is proven stable; a missing lower, none proven unstable.
+      const lower = region.map((p) => [p.lambda1, isNum(p.lambda2_lower) ? clamp(p.lambda2_lower) : 0]);
+      const upper = region.map((p) => [p.lambda1, isNum(p.lambda2_upper) ? clamp(p.lambda2_upper) : 1]);
+      const fillBetween = (a, b, color) => {
+        ctx.beginPath();
+        a.forEach(([x, y], i) => (i ? ctx.lineTo(X(x), Y(y)) : ctx.moveTo(X(x), Y(y))));
+        for (let i = b.length - 1; i >= 0; i--) ctx.lineTo(X(b[i][0]), Y(b[i][1]));
+        ctx.closePath();
+        ctx.fillStyle = color;
+        ctx.fill();
+      };
+      const x0 = region[0].lambda1;
+      const x1 = region[region.length - 1].lambda1;
+      fillBetween([[x0, 0], [x1, 0]], lower, COLOR.unstable);
+      fillBetween(lower, upper, COLOR.undecided);
+      fillBetween(upper, [[x0, 1], [x1, 1]], COLOR.stable);
+      const curve = (pts, color) => {
+        ctx.beginPath();
+        pts.forEach(([x, y], i) => (i ? ctx.lineTo(X(x), Y(y)) : ctx.moveTo(X(x), Y(y))));
+        ctx.strokeStyle = color;
+        ctx.lineWidth = 1.5;
+        ctx.stroke();
+      };
+      curve(lower, COLOR.lowerCurve);
+      curve(upper, COLOR.upperCurve);
+    } else {
+      ctx.fillStyle = COLOR.axis;
+      ctx.fillText('waiting for netkf/theory.region', X(0.2), Y(0.5));
+    }
+    // Axes and ticks.
+    ctx.strokeStyle = COLOR.axis;
+    ctx.lineWidth = 1;
+    ctx.strokeRect(X(0) + 0.5, Y(1) + 0.5, pw, ph);
+    ctx.fillStyle = COLOR.axis;
+    for (let v = 0; v <= 1.0001; v += 0.25) {
+      ctx.textAlign = 'center';
+      ctx.fillText(v.toFixed(2), X(v), Y(0) + 13);
+      ctx.textAlign = 'right';
+      ctx.fillText(v.toFixed(2), X(0) - 4, Y(v) + 4);
+    }
+    const ids = store.sensorIds;
+    ctx.textAlign = 'center';
+    ctx.fillText('λ1 (arrival rate of link ' + (ids[0] !== undefined ? ids[0] : 1) + ')', X(0.5), height - 4);
+    ctx.save();
+    ctx.translate(10, Y(0.5));
+    ctx.rotate(-Math.PI / 2);
+    ctx.fillText('λ2 (link ' + (ids[1] !== undefined ? ids[1] : 2) + ')', 0, 0);
+    ctx.restore();
+    // Operating points: configured (filled) and observed (ring, with its recent trail).
+    const point = operatingPoints();
+    if (point.observed) {
+      const last = store.regionTrail.last();
+      if (!last || last[0] !== point.observed[0] || last[1] !== point.observed[1]) store.regionTrail.push(point.observed);
+    }
+    ctx.fillStyle = COLOR.observed;
+    store.regionTrail.forEach((p, i) => {
+      ctx.globalAlpha = 0.1 + 0.4 * (i / REGION_TRAIL);
+      ctx.beginPath();
+      ctx.arc(X(clamp(p[0])), Y(clamp(p[1])), 2.5, 0, 2 * Math.PI);
+      ctx.fill();
+    });
+    ctx.globalAlpha = 1;
+    if (point.observed) {
+      ctx.beginPath();
+      ctx.arc(X(clamp(point.observed[0])), Y(clamp(point.observed[1])), 6, 0, 2 * Math.PI);
+      ctx.strokeStyle = COLOR.observed;
+      ctx.lineWidth = 2.5;
+      ctx.stroke();
+    }
+    if (point.configured) {
+      ctx.beginPath();
+      ctx.arc(X(clamp(point.configured[0])), Y(clamp(point.configured[1])), 5, 0, 2 * Math.PI);
+      ctx.fillStyle = COLOR.truth;
+      ctx.fill();
+    }
+    // Legend on the right.
+    const lx = pad.left + pw + 12;
+    let ly = pad.top + 12;
+    const legend = (draw, text) => { draw(lx, ly); ctx.fillStyle = COLOR.axis; ctx.textAlign = 'left'; ctx.fillText(text, lx + 18, ly + 4); ly += 18; };
+    const swatch = (color) => (x, y) => { ctx.fillStyle = color; ctx.fillRect(x, y - 5, 12, 10); };
+    legend(swatch(COLOR.stable), 'stable');
+    legend(swatch(COLOR.undecided), 'undecided');
+    legend(swatch(COLOR.unstable), 'unstable');
+    legend((x, y) => { ctx.beginPath(); ctx.arc(x + 6, y, 5, 0, 2 * Math.PI); ctx.fillStyle = COLOR.truth; ctx.fill(); }, 'configured');
+    legend((x, y) => { ctx.beginPath(); ctx.arc(x + 6, y, 5, 0, 2 * Math.PI); ctx.strokeStyle = COLOR.observed; ctx.lineWidth = 2.5; ctx.stroke(); }, 'observed');
+    ly += 6;
+    const fmtPoint = (p) => (p ? '(' + p[0].toFixed(2) + ', ' + p[1].toFixed(2) + ')' : '—');
+    ctx.fillStyle = COLOR.axis;
+    ctx.fillText('conf ' + fmtPoint(point.configured), lx, ly); ly += 15;
+    ctx.fillText('obs  ' + fmtPoint(point.observed), lx, ly);
+  }
+
+  // Arrival rates of the two links: from the link status (updated right after a change),
+  // else from the last theory assessment.
+  function operatingPoints() {
+    const ids = store.sensorIds;
+    const pick = (field, assessment) => {
+      const values = ids.map((id) => {
+        const link = store.links.get(id);
+        return link && link.status && isNum(link.status[field]) ? link.status[field] : null;
+      });
+      if (values.every(isNum)) return values;
+      const rates = assessment && assessment.arrival_rates;
+      return Array.isArray(rates) && rates.length === ids.length && rates.every(isNum) ? rates : null;
+    };
+    const th = store.latestTheory || {};
+    return {
+      configured: pick('configured_arrival_rate', th.configured),
+      observed: pick('observed_arrival_rate', th.observed),
+    };
+  }
+
+  function renderHeader() {
+    const e = store.latestEstimate;
+    $('period').textContent = e && isNum(e.k) ? String(e.k) : '—';
+    $('time').textContent = e && isNum(e.t) ? e.t.toFixed(2) + ' s' : '—';
+    const state = $('filter-state');
+    state.textContent = e ? String(e.state) : '—';
+    state.dataset.state = e ? String(e.state) : '';
+    const nw = store.latestNetwork;
+    $('rms-error').textContent = nw ? fmt(nw.rms_error, 3) : '—';
+    if (nw && Array.isArray(nw.processes)) {
+      const running = nw.processes.filter((p) => p.running).length;
+      const restarts = nw.processes.reduce((sum, p) => sum + (p.restarts | 0), 0);
+      const summary = $('processes-summary');
+      summary.textContent = running + '/' + nw.processes.length + ' running' + (restarts ? ', ' + restarts + ' restarts' : '');
+      summary.dataset.state = running === nw.processes.length ? 'ok' : 'down';
+    }
+  }
+
+  const STABLE_TEXT = { yes: 'stable', no: 'unstable', unknown: 'undecided' };
+
+  function renderVerdict() {
+    const th = store.latestTheory;
+    const verdict = $('verdict');
+    if (!th) return;
+    const conf = th.configured || null;
+    const obs = th.observed || null;
+    const confStable = conf ? String(conf.stable) : 'unknown';
+    const obsStable = obs ? String(obs.stable) : 'none';
+    verdict.dataset.configured = confStable;
+    verdict.dataset.observed = obsStable;
+    verdict.replaceChildren(
+      el('span', { class: 'verdict-main', 'data-stable': confStable, text: STABLE_TEXT[confStable] || confStable }),
+      document.createTextNode(' '),
+      el('span', { class: 'verdict-detail', text: 'configured: ' + (STABLE_TEXT[confStable] || confStable) +
+        ' · observed: ' + (obs ? (STABLE_TEXT[obsStable] || obsStable) : 'not yet known') }),
+      document.createTextNode(' '),
+      el('span', { class: 'verdict-k muted small', text: '(at k ' + th.k + ')' }));
+    const set = (field, text, cls) => {
+      const cell = document.querySelector('#assessment [data-field="' + field + '"]');
+      cell.textContent = text;
+      cell.className = cls || '';
+    };
+    const fill = (prefix, a) => {
+      if (!a) {
+        for (const f of ['stable', 'markov', 'lower', 'upper', 'rates']) set(prefix + '-' + f, '—');
+        return;
+      }
+      set(prefix + '-stable', STABLE_TEXT[a.stable] || String(a.stable), 'stable-' + a.stable);
+      const markov = a.markov_criterion;
+      set(prefix + '-markov', isNum(markov) ? fmt(markov, 3) + (markov < 1 ? ' < 1' : ' ≥ 1') : 'n/a',
+        isNum(markov) ? (markov < 1 ? 'stable-yes' : 'stable-no') : 'muted');
+      set(prefix + '-lower', fmtTrace(a.lower_trace, '∞ (unbounded)'), isNum(a.lower_trace) ? '' : 'stable-no');
+      set(prefix + '-upper', fmtTrace(a.upper_trace, a.stable === 'no' ? '∞ (unbounded)' : '∞ / undecided'), isNum(a.upper_trace) ? '' : 'muted');
+      set(prefix + '-rates', Array.isArray(a.arrival_rates) ? a.arrival_rates.map((v) => fmt(v, 2)).join(', ') : '—');
+    };
+    fill('conf', conf);
+    fill('obs', obs);
+    const reasons = [];
+    if (conf && conf.reason) reasons.push('configured: ' + conf.reason);
+    if (obs && obs.reason) reasons.push('observed: ' + obs.reason);
+    $('assessment-reason').textContent = reasons.join(' · ');
+  }
+
+  function renderNetwork() {
+    const nw = store.latestNetwork;
+    if (!nw) return;
+    const body = document.querySelector('#process-table tbody');
+    body.replaceChildren(...(nw.processes || []).map((p) => el('tr', { class: p.running ? '' : 'down' }, [
+      el('td', { text: String(p.name) }), el('td', { text: String(p.pid) }),
+      el('td', { text: p.running ? 'yes' : 'no' }), el('td', { text: String(p.restarts) })])));
+    $('network-counters').textContent = 'estimates ' + nw.estimates + ' · mean Tr P ' + fmt(nw.mean_trace_P, 3) +
+      ' · mean Tr P k|k−1 ' + fmt(nw.mean_trace_P_pred, 3) + ' · late ' + nw.late_total + ' · rejected ' + nw.rejected_total +
+      ' · invalid samples ' + nw.invalid_samples;
+  }
+
+  // ------------------------------------------------------------- controls
+  function clearData() {
+    if (store.ring) store.ring.clear();
+    store.theory.clear();
+    store.regionTrail.clear();
+    for (const link of store.links.values()) link.rates.clear();
+    markAllDirty();
+  }
+
+  function setupViewControls() {
+    const select = $('window-select');
+    view.windowS = Number(select.value) || 30;
+    select.addEventListener('change', () => {
+      view.windowS = Number(select.value) || 30;
+      markAllDirty();
+    });
+    const pause = $('pause-button');
+    pause.addEventListener('click', () => {
+      view.paused = !view.paused;
+      pause.textContent = view.paused ? 'Resume' : 'Pause';
+      pause.setAttribute('aria-pressed', String(view.paused));
+      document.body.classList.toggle('paused', view.paused);
+      markAllDirty();
+    });
+    $('clear-button').addEventListener('click', clearData);
+  }
+
+  function start() {
+    setupViewControls();
+    buildTraceChart();
+    renderTimeCharts();
+    connect();
+  }
+
+  if (document.readyState === 'loading') document.addEventListener('DOMContentLoaded', start);
+  else start();
+})();

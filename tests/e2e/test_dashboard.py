@@ -1,0 +1,169 @@
+"""The live dashboard of `netkf launch`, seen by real clients (docs/dashboard.md):
+- Debian's Chromium, driven by playwright-core, opens the page, sees the plots receive
+  points and sets link 2 to loss 1.0 with the page's own control; `netkf ctl status` and
+  the recording then show that sensor 2 is no longer fused, and the page's event log
+  shows the change; no console errors; the screenshot is kept as an artefact;
+- @foxglove/ws-protocol's client (an independent implementation of the protocol) receives
+  estimates equal to the --record CSV rows of the same periods, and sets a link parameter;
+- /metrics passes `promtool check metrics`, and its link counters agree with
+  `netkf ctl status --json`.
+"""
+import json
+import os
+import re
+import shutil
+import subprocess
+import time
+import urllib.request
+
+from e2e_common import HERE, Launch, check, finish, netkf, read_periods, read_samples, require_netns, workdir
+
+PORT = 8470  # the default; the test's network namespace has it to itself
+NODE = shutil.which("node") or "/usr/bin/node"
+REPO = os.path.dirname(os.path.dirname(HERE))
+ARTEFACTS = os.environ.get("NETKF_ARTEFACT_DIR", os.path.join(os.environ.get("NETKF_BIN_DIR", "/tmp"), "artefacts"))
+
+
+def node(script, *args, timeout=120):
+    cmd = [NODE, os.path.join(HERE, script)] + [str(a) for a in args]
+    print("$", " ".join(cmd), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO)
+    if r.stderr:
+        print(r.stderr[-3000:], flush=True)
+    try:
+        return json.loads(r.stdout)
+    except ValueError:
+        print("node output:", r.stdout[-3000:], flush=True)
+        check(False, "%s printed one JSON object (rc=%d)" % (script, r.returncode))
+        return {}
+
+
+def scrape():
+    with urllib.request.urlopen("http://127.0.0.1:%d/metrics" % PORT, timeout=10) as r:
+        return r.read().decode()
+
+
+def series(text, name, labels=""):
+    m = re.search(r"^%s%s (\S+)$" % (re.escape(name), re.escape(labels)), text, re.M)
+    return float(m.group(1)) if m else None
+
+
+def wait_for(predicate, seconds):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.2)
+    return False
+
+
+require_netns()
+out = workdir("dashboard")
+os.makedirs(ARTEFACTS, exist_ok=True)
+with Launch(None, 120, out, samples=True) as run:  # the built-in default scenario, as the demo
+    check(wait_for(lambda: "dashboard: http://127.0.0.1:%d/" % PORT in run.output(), 20),
+          "launch prints the dashboard's URL")
+    check(wait_for(lambda: "period " in run.output(), 20), "the network runs")
+    listening = subprocess.run(["ss", "-ltnH"], capture_output=True, text=True).stdout
+    check("127.0.0.1:%d" % PORT in listening and "0.0.0.0:%d" % PORT not in listening,
+          "the dashboard listens on 127.0.0.1 only:\n" + listening)
+
+    # ---- metrics: promtool accepts them; the counters agree with ctl status
+    before = scrape()
+    st = netkf("ctl", "status", "--json")
+    after = scrape()
+    metrics_file = os.path.join(out, "metrics.txt")
+    with open(metrics_file, "w") as f:
+        f.write(after)
+    lint = subprocess.run(["promtool", "check", "metrics"], input=after, capture_output=True, text=True)
+    print(lint.stdout, lint.stderr, flush=True)
+    check(lint.returncode == 0, "promtool check metrics accepts /metrics")
+    for name in ("netkf_link_samples_total", "netkf_link_delivered_total", "netkf_link_dropped_total",
+                 "netkf_link_configured_loss", "netkf_link_observed_loss", "netkf_estimator_period",
+                 "netkf_estimator_trace_p", "netkf_estimator_diverging", "netkf_estimator_fused_sensors",
+                 "netkf_samples_late_total", "netkf_samples_rejected_total", "netkf_pipeline_latency_seconds_bucket",
+                 "netkf_process_restarts_total"):
+        check(re.search(r"^%s[ {]" % name, after, re.M) is not None, "/metrics has %s" % name)
+    if st.returncode == 0:
+        for link in json.loads(st.stdout)["links"]:
+            lab = '{link="%d"}' % link["sensor_id"]
+            for key, metric in (("samples_total", "netkf_link_samples_total"),
+                                ("delivered_total", "netkf_link_delivered_total"),
+                                ("dropped_total", "netkf_link_dropped_total")):
+                lo, hi = series(before, metric, lab), series(after, metric, lab)
+                check(lo is not None and hi is not None and lo <= link[key] <= hi,
+                      "link %d: ctl's %s %s lies between the scrapes before and after (%s, %s)"
+                      % (link["sensor_id"], key, link[key], lo, hi))
+            check(abs(series(after, "netkf_link_configured_loss", lab) - link["stationary_loss"]) < 1e-12,
+                  "link %d: configured loss agrees" % link["sensor_id"])
+    else:
+        check(False, "ctl status works")
+    check(series(after, "netkf_pipeline_latency_seconds_count") > 0, "pipeline latency observed")
+
+    # ---- an independent client: @foxglove/ws-protocol, no Origin (like a desktop app)
+    fox = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%d/" % PORT, "--seconds", 3,
+               "--set", "link.1.loss=0.25")
+    topics = sorted(c.get("topic") for c in fox.get("channels", []))
+    check("netkf/estimate" in topics and "netkf/theory" in topics, "advertised channels: %s" % topics)
+    fox_estimates = fox.get("estimates", [])
+    check(len(fox_estimates) > 50, "the Foxglove client received estimates (%d)" % len(fox_estimates))
+    applied = [p for pv in fox.get("parameter_values", []) for p in pv.get("parameters", [])
+               if p.get("name") == "link.1.loss"]
+    check(any(abs(p.get("value", -1) - 0.25) < 1e-15 for p in applied),
+          "setParameters link.1.loss=0.25 answered with the new value: %s" % applied)
+    st = netkf("ctl", "status", "--json")
+    l1 = [l for l in json.loads(st.stdout)["links"] if l["sensor_id"] == 1] if st.returncode == 0 else []
+    check(l1 and l1[0]["model"] == "bernoulli" and l1[0]["loss"] == 0.25, "ctl status shows link 1 at loss 0.25")
+
+    # ---- a foreign web page's Origin is refused
+    evil = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%d/" % PORT, "--seconds", 1,
+                "--origin", "http://evil.example")
+    check(evil.get("refused") is True and evil.get("http_status") == 403,
+          "a WebSocket from origin http://evil.example is refused with 403: %s" % {k: evil.get(k) for k in
+                                                                                   ("refused", "http_status")})
+
+    # ---- a real browser
+    shot = os.path.join(ARTEFACTS, "dashboard.png")
+    page = node("dashboard_browser.mjs", "--url", "http://127.0.0.1:%d/" % PORT, "--screenshot", shot,
+                "--link", 2, "--loss", "1.0", timeout=150)
+    t_applied = time.monotonic()
+    check(page.get("estimates_received", 0) > 50, "the page received estimates (%s)" % page.get("estimates_received"))
+    check(page.get("points_plotted", 0) > 50, "the page's plots hold points (%s)" % page.get("points_plotted"))
+    check(not page.get("console_errors") and not page.get("page_errors"),
+          "no console or page errors: %s %s" % (page.get("console_errors"), page.get("page_errors")))
+    log = page.get("event_log", [])
+    check(any("link 2" in e and "loss=1" in e and "dashboard" in e for e in log),
+          "the page's event log shows the change from the dashboard: %s" % log[-5:])
+    check(os.path.getsize(shot) > 10000 if os.path.exists(shot) else False, "screenshot saved: %s" % shot)
+    st = netkf("ctl", "status", "--json")
+    l2 = [l for l in json.loads(st.stdout)["links"] if l["sensor_id"] == 2] if st.returncode == 0 else []
+    check(l2 and l2[0]["model"] == "bernoulli" and l2[0]["loss"] == 1.0, "ctl status shows link 2 at loss 1.0")
+    time.sleep(3)
+    rc = run.interrupt()
+check(rc == 0, "launch exits 0 on Ctrl-C (rc=%s)" % rc)
+
+rows = read_periods(run.record, 2)
+by_k = {r["k"]: r for r in rows}
+# Foxglove's estimates are the recording's rows, value for value (JSON and the CSV's 17
+# significant digits both carry doubles exactly).
+matched = [e for e in fox_estimates if e["k"] in by_k]
+check(len(matched) > 50, "the Foxglove estimates' periods are in the recording (%d)" % len(matched))
+mismatch = [e["k"] for e in matched if e["x_hat"] != by_k[e["k"]]["xhat"] or e["trace_P"] != by_k[e["k"]]["trace_P"]
+            or e["fused"] != by_k[e["k"]]["fused"] or e["state"] != by_k[e["k"]]["state"]]
+check(not mismatch, "every Foxglove estimate equals its CSV row (mismatches at k=%s)" % mismatch[:5])
+
+# The browser's change: from the first period published after it was applied, sensor 2 is
+# never fused again (times joined through the steady clock the sensors stamp samples with).
+samples = read_samples(run.samples)
+stamp_of_k = {}
+for s in samples:
+    stamp_of_k[s["k"]] = min(stamp_of_k.get(s["k"], 1e300), s["stamp"])
+k_applied = min((k for k, t in stamp_of_k.items() if t >= t_applied), default=None)
+check(k_applied is not None, "periods were recorded after the change")
+if k_applied is not None:
+    after_change = [r for r in rows if r["k"] >= k_applied + 2]
+    check(len(after_change) > 50 and not any(2 in r["fused"] for r in after_change),
+          "sensor 2 fused in no period after the page's change (%d periods)" % len(after_change))
+    before_change = [r for r in rows if r["k"] < k_applied - 200]
+    check(any(2 in r["fused"] for r in before_change), "sensor 2 was fused before the change")
+finish()

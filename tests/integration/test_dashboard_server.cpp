@@ -1,0 +1,305 @@
+// The dashboard's HTTP + WebSocket server over real sockets on 127.0.0.1 (inside the test's
+// network namespace): the page and /metrics, the Foxglove handshake, subscriptions, the
+// safety rules (Origin, token, message size) and malformed client messages.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <gtest/gtest.h>
+
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+#include <boost/beast/websocket.hpp>
+#include <future>
+#include <thread>
+
+#include "dashboard_server.hpp"
+
+namespace netkf::cli {
+namespace {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace websocket = beast::websocket;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+using nlohmann::json;
+
+/// A server on its own io thread, as in the launch.
+class ServerFixture {
+ public:
+  explicit ServerFixture(DashboardOptions options = {}) : work_(net::make_work_guard(io_)) {
+    options.port = 0;
+    DashboardServer::Hooks hooks;
+    hooks.metrics = [] { return std::string("# TYPE test_metric gauge\ntest_metric 1\n"); };
+    hooks.get_parameters = [](const dashboard::GetParameters& g) {
+      return json{{"op", "parameterValues"}, {"parameters", json::array({{{"name", "link.2.loss"}, {"value", 0.1}}})},
+                  {"id", g.id.value_or("")}};
+    };
+    hooks.set_parameters = [this](DashboardServer::ClientId, const dashboard::SetParameters& s) {
+      last_set_ = s;
+      set_promise_.set_value();
+    };
+    server_ = std::make_unique<DashboardServer>(io_, options, dashboard::server_info("t", default_scenario()), hooks);
+    thread_ = std::thread([this] { io_.run(); });
+  }
+  ~ServerFixture() {
+    run([this] { server_->stop(); });
+    work_.reset();
+    io_.stop();
+    thread_.join();
+  }
+  unsigned short port() const { return server_->port(); }
+  void run(std::function<void()> f) {
+    std::promise<void> done;
+    net::post(io_, [&] {
+      f();
+      done.set_value();
+    });
+    done.get_future().wait();
+  }
+  DashboardServer& server() { return *server_; }
+  std::future<void> set_called() { return set_promise_.get_future(); }
+  dashboard::SetParameters last_set_;
+
+ private:
+  net::io_context io_;
+  net::executor_work_guard<net::io_context::executor_type> work_;
+  std::unique_ptr<DashboardServer> server_;
+  std::thread thread_;
+  std::promise<void> set_promise_;
+};
+
+http::response<http::string_body> get(unsigned short port, const std::string& target,
+                                      http::verb verb = http::verb::get) {
+  net::io_context io;
+  beast::tcp_stream stream(io);
+  stream.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+  http::request<http::string_body> req{verb, target, 11};
+  req.set(http::field::host, "127.0.0.1");
+  http::write(stream, req);
+  beast::flat_buffer buffer;
+  http::response_parser<http::string_body> parser;
+  parser.body_limit(16 * 1024 * 1024);
+  http::read(stream, buffer, parser);
+  return parser.release();
+}
+
+/// A synchronous Foxglove client.
+struct Client {
+  net::io_context io;
+  websocket::stream<tcp::socket> ws{io};
+  beast::flat_buffer buffer;
+
+  /// Throws beast::system_error when the handshake is refused (the HTTP status in `refusal`).
+  Client(unsigned short port, const std::string& origin = "", const std::string& target = "/",
+         const std::string& subprotocol = dashboard::kSubprotocol) {
+    ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
+    ws.set_option(websocket::stream_base::decorator([&](websocket::request_type& req) {
+      if (!subprotocol.empty()) req.set(http::field::sec_websocket_protocol, subprotocol);
+      if (!origin.empty()) req.set(http::field::origin, origin);
+    }));
+    websocket::response_type res;
+    try {
+      ws.handshake(res, "127.0.0.1:" + std::to_string(port), target);
+    } catch (...) {
+      refusal = res.result_int();
+      throw;
+    }
+    accepted_subprotocol = std::string(res[http::field::sec_websocket_protocol]);
+  }
+  std::string read() {
+    buffer.consume(buffer.size());
+    ws.read(buffer);
+    return beast::buffers_to_string(buffer.data());
+  }
+  json read_json() {
+    const auto text = read();
+    EXPECT_TRUE(ws.got_text());
+    return json::parse(text);
+  }
+  void send(const std::string& text) {
+    ws.text(true);
+    ws.write(net::buffer(text));
+  }
+  unsigned refusal = 0;
+  std::string accepted_subprotocol;
+};
+
+TEST(DashboardServer, ServesThePageItsAssetsAndMetrics) {
+  ServerFixture f;
+  auto page = get(f.port(), "/");
+  EXPECT_EQ(page.result(), http::status::ok);
+  EXPECT_NE(page.body().find("<html"), std::string::npos);
+  EXPECT_EQ(page[http::field::content_type], "text/html; charset=utf-8");
+  EXPECT_EQ(page["X-Frame-Options"], "DENY");
+  auto uplot = get(f.port(), "/uPlot.iife.min.js");
+  EXPECT_EQ(uplot.result(), http::status::ok);
+  EXPECT_NE(uplot.body().find("uPlot"), std::string::npos);
+  EXPECT_EQ(get(f.port(), "/app.js").result(), http::status::ok);
+  EXPECT_EQ(get(f.port(), "/../etc/passwd").result(), http::status::not_found);
+  EXPECT_EQ(get(f.port(), "/", http::verb::post).result(), http::status::method_not_allowed);
+  auto metrics = get(f.port(), "/metrics");
+  EXPECT_EQ(metrics.body(), "# TYPE test_metric gauge\ntest_metric 1\n");
+  EXPECT_EQ(metrics[http::field::content_type], "text/plain; version=0.0.4; charset=utf-8");
+}
+
+TEST(DashboardServer, SpeaksFoxgloveAndStreamsSubscribedChannels) {
+  ServerFixture f;
+  Client c(f.port());  // no Origin: a desktop app or a script
+  EXPECT_EQ(c.accepted_subprotocol, dashboard::kSubprotocol);
+  EXPECT_EQ(c.read_json()["op"], "serverInfo");
+  const json adv = c.read_json();
+  EXPECT_EQ(adv["op"], "advertise");
+  EXPECT_EQ(adv["channels"].size(), dashboard::channels().size());
+  // A value published before the subscription is sent at once (latched) ...
+  f.run([&] { f.server().publish(dashboard::ChannelId::theory, json{{"k", 1}}, 5); });
+  c.send(R"({"op":"subscribe","subscriptions":[{"id":7,"channelId":2},{"id":8,"channelId":5}]})");
+  std::string frame = c.read();
+  ASSERT_FALSE(c.ws.got_text());
+  ASSERT_EQ(frame.substr(13), R"({"k":1})");
+  EXPECT_EQ(frame[1], 8);  // subscription id 8, little-endian
+  // ... and later ones in the next batch.
+  f.run([&] { f.server().publish(dashboard::ChannelId::estimate, json{{"k", 42}}, 123456789); });
+  frame = c.read();
+  ASSERT_EQ(frame.size(), 13u + std::string(R"({"k":42})").size());
+  EXPECT_EQ(static_cast<unsigned char>(frame[0]), 0x01);
+  EXPECT_EQ(frame[1], 7);
+  std::uint64_t ts = 0;
+  for (int i = 0; i < 8; ++i) ts |= static_cast<std::uint64_t>(static_cast<unsigned char>(frame[5 + i])) << (8 * i);
+  EXPECT_EQ(ts, 123456789u);
+  EXPECT_EQ(json::parse(frame.substr(13))["k"], 42);
+  // Status messages reach every client.
+  f.run([&] { f.server().broadcast_status(LiveEvent::Level::warning, "careful"); });
+  const json st = c.read_json();
+  EXPECT_EQ(st["op"], "status");
+  EXPECT_EQ(st["level"], 1);
+  EXPECT_EQ(st["message"], "careful");
+}
+
+TEST(DashboardServer, AnswersParametersAndPassesChangesOn) {
+  ServerFixture f;
+  Client c(f.port());
+  c.read_json();
+  c.read_json();
+  c.send(R"({"op":"getParameters","parameterNames":[],"id":"g1"})");
+  const json values = c.read_json();
+  EXPECT_EQ(values["op"], "parameterValues");
+  EXPECT_EQ(values["id"], "g1");
+  auto called = f.set_called();
+  c.send(R"({"op":"setParameters","parameters":[{"name":"link.2.loss","value":1.0}],"id":"s1"})");
+  ASSERT_EQ(called.wait_for(std::chrono::seconds(10)), std::future_status::ready);
+  EXPECT_EQ(f.last_set_.id, "s1");
+  ASSERT_EQ(f.last_set_.parameters.size(), 1u);
+  EXPECT_EQ(f.last_set_.parameters[0].first, "link.2.loss");
+  // Updates go to subscribed clients only, filtered by name.
+  c.send(R"({"op":"subscribeParameterUpdates","parameterNames":["link.2.loss"]})");
+  c.send(R"({"op":"getParameters","parameterNames":[],"id":"sync"})");  // ordered after the subscription
+  EXPECT_EQ(c.read_json()["id"], "sync");
+  f.run([&] {
+    f.server().broadcast_parameter_values(json{{"op", "parameterValues"},
+                                               {"parameters", {{{"name", "link.1.loss"}, {"value", 0.2}},
+                                                               {{"name", "link.2.loss"}, {"value", 0.9}}}}});
+  });
+  const json update = c.read_json();
+  ASSERT_EQ(update["parameters"].size(), 1u);
+  EXPECT_EQ(update["parameters"][0]["name"], "link.2.loss");
+}
+
+TEST(DashboardServer, MalformedMessagesGetAnErrorStatusAndTheConnectionLives) {
+  ServerFixture f;
+  Client c(f.port());
+  c.read_json();
+  c.read_json();
+  for (const std::string bad : {"{", "[]", R"({"op":"nope"})", R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":99}]})"}) {
+    c.send(bad);
+    const json st = c.read_json();
+    EXPECT_EQ(st["op"], "status") << bad;
+    EXPECT_EQ(st["level"], 2) << bad;
+  }
+  c.ws.binary(true);
+  c.ws.write(net::buffer(std::string("\x02\x00", 2)));
+  EXPECT_EQ(c.read_json()["level"], 2);
+  c.send(R"({"op":"getParameters","parameterNames":[],"id":"still-here"})");
+  EXPECT_EQ(c.read_json()["id"], "still-here");
+}
+
+TEST(DashboardServer, AMessageOverTheLimitClosesTheConnection) {
+  ServerFixture f;
+  Client c(f.port());
+  c.read_json();
+  c.read_json();
+  c.send(std::string(70 * 1024, ' '));
+  beast::error_code ec;
+  for (int i = 0; i < 10 && !ec; ++i) c.ws.read(c.buffer, ec);  // until the close
+  EXPECT_TRUE(ec == websocket::error::closed || ec == net::error::eof || ec == net::error::connection_reset) << ec.message();
+  // The server is still there for others.
+  Client other(f.port());
+  EXPECT_EQ(other.read_json()["op"], "serverInfo");
+}
+
+TEST(DashboardServer, RefusesForeignOriginsAndClientsWithoutTheSubprotocol) {
+  DashboardOptions o;
+  o.allowed_origins = {"https://app.foxglove.dev"};
+  ServerFixture f(o);
+  const std::string own = "http://127.0.0.1:" + std::to_string(f.port());
+  EXPECT_NO_THROW(Client(f.port(), own));
+  EXPECT_NO_THROW(Client(f.port(), "http://localhost:" + std::to_string(f.port())));
+  EXPECT_NO_THROW(Client(f.port(), "https://app.foxglove.dev"));
+  for (const std::string foreign : {"http://evil.example", "http://127.0.0.1:1", "null"}) {
+    try {
+      Client c(f.port(), foreign);
+      ADD_FAILURE() << "accepted origin " << foreign;
+    } catch (const beast::system_error&) {
+    }
+  }
+  // The refusal is a 403 with the reason (seen by a raw request).
+  net::io_context io;
+  beast::tcp_stream stream(io);
+  stream.connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), f.port()));
+  http::request<http::string_body> req{http::verb::get, "/", 11};
+  req.set(http::field::host, "127.0.0.1");
+  req.set(http::field::upgrade, "websocket");
+  req.set(http::field::connection, "Upgrade");
+  req.set(http::field::sec_websocket_key, "dGhlIHNhbXBsZSBub25jZQ==");
+  req.set(http::field::sec_websocket_version, "13");
+  req.set(http::field::sec_websocket_protocol, dashboard::kSubprotocol);
+  req.set(http::field::origin, "http://evil.example");
+  http::write(stream, req);
+  beast::flat_buffer buffer;
+  http::response<http::string_body> res;
+  http::read(stream, buffer, res);
+  EXPECT_EQ(res.result(), http::status::forbidden);
+  EXPECT_NE(res.body().find("--dashboard-allow-origin"), std::string::npos);
+  EXPECT_THROW(Client(f.port(), "", "/", ""), beast::system_error);  // no subprotocol offered
+}
+
+TEST(DashboardServer, WithATokenEveryRequestMustCarryIt) {
+  DashboardOptions o;
+  o.token = "s3cret";
+  ServerFixture f(o);
+  EXPECT_EQ(get(f.port(), "/").result(), http::status::unauthorized);
+  EXPECT_EQ(get(f.port(), "/metrics?token=wrong").result(), http::status::unauthorized);
+  EXPECT_EQ(get(f.port(), "/?token=s3cret").result(), http::status::ok);
+  EXPECT_EQ(get(f.port(), "/metrics?token=s3cret").result(), http::status::ok);
+  EXPECT_THROW(Client(f.port()), beast::system_error);
+  Client c(f.port(), "", "/?token=s3cret");
+  EXPECT_EQ(c.read_json()["op"], "serverInfo");
+  EXPECT_NE(f.server().url().find("?token=s3cret"), std::string::npos);
+}
+
+TEST(DashboardServer, ATakenPortIsAClearError) {
+  ServerFixture first;
+  DashboardOptions o;
+  o.port = first.port();
+  net::io_context io;
+  try {
+    DashboardServer second(io, o, json::object(), {});
+    FAIL() << "bound a taken port";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("--dashboard PORT"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace netkf::cli

@@ -1,0 +1,183 @@
+// The dashboard's Foxglove WebSocket protocol messages and the link parameters
+// (docs/dashboard.md), without sockets.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "dashboard_protocol.hpp"
+#include "live_model.hpp"
+
+namespace netkf::cli::dashboard {
+namespace {
+
+using nlohmann::json;
+
+std::vector<LinkView> three_links() {
+  LiveModel model(default_scenario());  // links 1, 2 Bernoulli; 3 Gilbert-Elliott
+  return model.snapshot().links;
+}
+
+SetParameters set(std::vector<std::pair<std::string, json>> params) { return SetParameters{std::move(params), "r1"}; }
+
+TEST(DashboardProtocol, AdvertisesEveryChannelWithAJsonSchema) {
+  const json a = advertise();
+  EXPECT_EQ(a["op"], "advertise");
+  std::vector<std::string> topics;
+  for (const auto& c : a["channels"]) {
+    topics.push_back(c["topic"]);
+    EXPECT_EQ(c["encoding"], "json");
+    EXPECT_EQ(c["schemaEncoding"], "jsonschema");
+    const json schema = json::parse(c["schema"].get<std::string>());  // the schema is itself JSON text
+    EXPECT_EQ(schema["type"], "object");
+  }
+  EXPECT_EQ(topics, (std::vector<std::string>{"netkf/scenario", "netkf/estimate", "netkf/truth", "netkf/link/status",
+                                              "netkf/theory", "netkf/network"}));
+  const json info = server_info("s1", default_scenario());
+  EXPECT_EQ(info["op"], "serverInfo");
+  EXPECT_EQ(info["capabilities"], json({"parameters", "parametersSubscribe"}));
+}
+
+TEST(DashboardProtocol, MessageDataFrameIsLittleEndianAsTheSpecSays) {
+  const std::string f = message_data_frame(0x01020304u, 0x1122334455667788ULL, "{}");
+  ASSERT_EQ(f.size(), 1u + 4u + 8u + 2u);
+  const unsigned char expected[] = {0x01, 0x04, 0x03, 0x02, 0x01, 0x88, 0x77, 0x66, 0x55, 0x44, 0x33, 0x22, 0x11, '{', '}'};
+  for (std::size_t i = 0; i < f.size(); ++i) EXPECT_EQ(static_cast<unsigned char>(f[i]), expected[i]) << i;
+}
+
+TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
+  EstimateRecord e;
+  e.k = 5;
+  e.t = 0.05;
+  e.xhat = {1.0, 2.0};
+  e.P = {1, 0, 0, 1};
+  e.trace_P = 2.0;
+  e.trace_P_pred = 3.0;
+  e.fused = {1, 3};
+  e.late_total = 4;
+  e.state = "ok";
+  const json j = estimate_message(e);
+  for (const char* key : {"k", "t", "x_hat", "P", "fused", "late", "late_total", "rejected_total", "state", "trace_P",
+                          "trace_P_pred"})
+    EXPECT_TRUE(j.contains(key)) << key;
+  EXPECT_EQ(j["fused"], json({1, 3}));
+  // A link that never delivers has an infinite mean burst: null, not an invalid JSON token.
+  LinkView l = three_links()[0];
+  l.model = BernoulliLink{1.0};
+  l.mean_burst_length = std::numeric_limits<double>::infinity();
+  const json s = link_status_message(l);
+  EXPECT_TRUE(s["mean_burst_length"].is_null());
+  EXPECT_EQ(s["loss"], 1.0);
+  EXPECT_NE(s.dump().find("\"observed_arrival_rate\":null"), std::string::npos);
+}
+
+TEST(DashboardProtocol, ParsesTheClientMessagesItSupports) {
+  auto sub = std::get<Subscribe>(parse_client_message(R"({"op":"subscribe","subscriptions":[{"id":0,"channelId":2}]})"));
+  ASSERT_EQ(sub.subscriptions.size(), 1u);
+  EXPECT_EQ(sub.subscriptions[0], (std::pair<std::uint32_t, std::uint32_t>{0, 2}));
+  auto unsub = std::get<Unsubscribe>(parse_client_message(R"({"op":"unsubscribe","subscriptionIds":[0,7]})"));
+  EXPECT_EQ(unsub.subscription_ids, (std::vector<std::uint32_t>{0, 7}));
+  auto get = std::get<GetParameters>(parse_client_message(R"({"op":"getParameters","parameterNames":[],"id":"a"})"));
+  EXPECT_TRUE(get.names.empty());
+  EXPECT_EQ(get.id, "a");
+  auto s = std::get<SetParameters>(
+      parse_client_message(R"({"op":"setParameters","parameters":[{"name":"link.2.loss","value":0.5}]})"));
+  ASSERT_EQ(s.parameters.size(), 1u);
+  EXPECT_FALSE(s.id);
+  auto up = std::get<ParameterUpdates>(parse_client_message(R"({"op":"unsubscribeParameterUpdates","parameterNames":["x"]})"));
+  EXPECT_FALSE(up.subscribe);
+}
+
+TEST(DashboardProtocol, RefusesMalformedMessagesWithTheReason) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"not json", "not valid JSON"},
+      {"[1,2]", "JSON object"},
+      {R"({"x":1})", "missing field 'op'"},
+      {R"({"op":5})", "'op' must be a string"},
+      {R"({"op":"advertise","channels":[]})", "unsupported op 'advertise'"},
+      {R"({"op":"subscribe"})", "missing field 'subscriptions'"},
+      {R"({"op":"subscribe","subscriptions":[{"id":-1,"channelId":2}]})", "out of range"},
+      {R"({"op":"subscribe","subscriptions":[{"id":1.5,"channelId":2}]})", "must be an integer"},
+      {R"({"op":"getParameters","parameterNames":[1]})", "array of strings"},
+      {R"({"op":"setParameters","parameters":[{"value":1}]})", "missing field 'name'"},
+      {R"({"op":"setParameters","parameters":[],"id":7})", "'id' must be a string"},
+  };
+  for (const auto& [text, reason] : cases) {
+    try {
+      parse_client_message(text);
+      ADD_FAILURE() << "accepted: " << text;
+    } catch (const ProtocolError& e) {
+      EXPECT_NE(std::string(e.what()).find(reason), std::string::npos) << text << " -> " << e.what();
+    }
+  }
+}
+
+TEST(DashboardProtocol, ParameterValuesAreTheCurrentModelsOfEveryLink) {
+  const json all = parameter_values(three_links(), {}, "q");
+  EXPECT_EQ(all["id"], "q");
+  std::map<std::string, json> values;
+  for (const auto& p : all["parameters"]) values[p["name"]] = p["value"];
+  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link);
+  EXPECT_EQ(values["link.1.model"], "bernoulli");
+  EXPECT_EQ(values["link.1.loss"], std::get<BernoulliLink>(default_scenario().sensors[0].link).loss);
+  EXPECT_EQ(values["link.3.model"], "gilbert_elliott");
+  EXPECT_EQ(values["link.3.p"], ge.p);
+  EXPECT_EQ(values["link.3.loss_bad"], ge.loss_bad);
+  EXPECT_FALSE(values.count("link.1.p"));  // only the current model's parameters
+  EXPECT_FALSE(values.count("link.3.loss"));
+  const json some = parameter_values(three_links(), {"link.2.loss", "link.9.loss"}, std::nullopt);
+  ASSERT_EQ(some["parameters"].size(), 1u);
+  EXPECT_EQ(some["parameters"][0]["name"], "link.2.loss");
+  EXPECT_EQ(some["parameters"][0]["type"], "float64");
+}
+
+TEST(DashboardProtocol, ALinksParametersBecomeOneChange) {
+  auto changes = link_changes(set({{"link.2.loss", 0.97}}), three_links());
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].sensor_id, 2);
+  EXPECT_EQ(changes[0].model, LinkModel(BernoulliLink{0.97}));
+  // Switching model: Gilbert-Elliott needs p and r; loss_good / loss_bad default to 0 / 1.
+  changes = link_changes(set({{"link.1.model", "gilbert_elliott"}, {"link.1.p", 0.1}, {"link.1.r", 0.4}}), three_links());
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].model, LinkModel(GilbertElliottLink{0.1, 0.4, 0.0, 1.0}));
+  // Same model: given parameters replace the current ones, the others stay.
+  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link);
+  changes = link_changes(set({{"link.3.loss_good", 0.05}}), three_links());
+  ASSERT_TRUE(changes[0].model);
+  EXPECT_EQ(changes[0].model, LinkModel(GilbertElliottLink{ge.p, ge.r, 0.05, ge.loss_bad}));
+  // Two links in one request: two independent changes.
+  changes = link_changes(set({{"link.1.loss", 0.3}, {"link.2.loss", 2.0}}), three_links());
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_TRUE(changes[0].model);
+  EXPECT_FALSE(changes[1].model);
+}
+
+TEST(DashboardProtocol, RefusedValuesChangeNothingAndSayWhy) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<std::pair<std::vector<std::pair<std::string, json>>, std::string>> cases = {
+      {{{"link.2.loss", 1.5}}, "loss must be a probability"},
+      {{{"link.2.loss", -0.1}}, "loss must be a probability"},
+      {{{"link.2.loss", json(nan)}}, "loss must be a probability"},
+      {{{"link.2.loss", nullptr}}, "loss must be a number"},  // NaN cannot travel as JSON text: null
+      {{{"link.2.loss", "0.5"}}, "loss must be a number"},
+      {{{"link.9.loss", 0.5}}, "link 9: unknown link"},
+      {{{"link.2.delay", 0.5}}, "unknown parameter 'delay'"},
+      {{{"speed", 3}}, "unknown parameter 'speed'"},
+      {{{"link.x.loss", 0.1}}, "unknown parameter 'link.x.loss'"},
+      {{{"link.2.model", "markov"}}, "unknown model 'markov'"},
+      {{{"link.2.model", "gilbert_elliott"}, {"link.2.p", 0.1}}, "needs link.2.p and .r"},
+      {{{"link.3.model", "bernoulli"}}, "needs link.3.loss"},
+      {{{"link.2.p", 0.1}}, "p is not a parameter of the bernoulli model"},
+      {{{"link.3.loss", 0.1}}, "loss is not a parameter of the gilbert_elliott model"},
+      {{{"link.3.r", 1.2}}, "r must be a probability"},
+  };
+  for (const auto& [params, reason] : cases) {
+    const auto changes = link_changes(set(params), three_links());
+    ASSERT_EQ(changes.size(), 1u) << reason;
+    EXPECT_FALSE(changes[0].model) << reason;
+    EXPECT_NE(changes[0].refusal.find(reason), std::string::npos) << changes[0].refusal;
+  }
+}
+
+}  // namespace
+}  // namespace netkf::cli::dashboard

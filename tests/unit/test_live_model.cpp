@@ -1,0 +1,245 @@
+// The live snapshot (LiveModel) and its terminal views, the theory worker, and the metrics.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "live_metrics.hpp"
+#include "live_model.hpp"
+#include "live_status.hpp"
+#include "netkf/analysis/operating_point.hpp"
+#include "test_paths.hpp"
+#include "theory_worker.hpp"
+
+namespace netkf::cli {
+namespace {
+
+LinkStatusRecord link_status(int id, LinkModel model, std::uint64_t samples, std::uint64_t delivered,
+                             std::uint64_t request = 0) {
+  LinkStatusRecord l;
+  l.sensor_id = id;
+  l.model = model;
+  l.samples_in = samples;
+  l.delivered = delivered;
+  l.dropped = samples - delivered;
+  l.observed_loss = samples ? static_cast<double>(samples - delivered) / static_cast<double>(samples) : 0.0;
+  l.samples_total = samples;
+  l.delivered_total = delivered;
+  l.dropped_total = samples - delivered;
+  l.last_request_id = request;
+  return l;
+}
+
+EstimateRecord estimate(std::int64_t k, std::vector<double> xhat, double trace, double trace_pred) {
+  EstimateRecord e;
+  e.k = k;
+  e.t = 0.01 * static_cast<double>(k);
+  e.xhat = std::move(xhat);
+  e.P = {trace / 2, 0.0, 0.0, trace / 2};
+  e.trace_P = trace;
+  e.trace_P_pred = trace_pred;
+  e.fused = {1, 2};
+  e.state = "ok";
+  return e;
+}
+
+TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
+  LiveModel model(default_scenario());
+  model.add_truth({3, 0.03, {1.0, 2.0}});
+  model.add_estimate(estimate(3, {1.0, 5.0}, 0.5, 0.9));  // error 3
+  model.add_estimate(estimate(4, {0.0, 0.0}, 0.7, 1.1));
+  model.add_truth({4, 0.04, {3.0, 4.0}});  // error 5, truth after the estimate
+  const auto& s = model.snapshot();
+  ASSERT_TRUE(s.period);
+  EXPECT_EQ(s.period->k, 4);
+  EXPECT_EQ(s.period->truth, (std::vector<double>{3.0, 4.0}));
+  EXPECT_DOUBLE_EQ(*s.error_norm, 5.0);
+  EXPECT_DOUBLE_EQ(*s.rms_error, std::sqrt((9.0 + 25.0) / 2.0));
+  EXPECT_EQ(s.estimates, 2u);
+  EXPECT_DOUBLE_EQ(s.mean_trace_P, 0.6);
+  EXPECT_DOUBLE_EQ(s.mean_trace_P_pred, 1.0);
+}
+
+TEST(LiveModel, NonFiniteEstimateIsCountedNeverShown) {
+  LiveModel model(default_scenario());
+  model.add_estimate(estimate(1, {0.0, std::nan("")}, 0.5, 0.9));
+  EXPECT_FALSE(model.snapshot().period);
+  EXPECT_EQ(model.snapshot().invalid_samples, 1u);
+  EXPECT_TRUE(model.saw_non_finite());
+}
+
+TEST(LiveModel, ObservedRateFollowsTheLastReportInterval) {
+  LiveModel model(default_scenario());
+  EXPECT_FALSE(model.observed_rates());
+  model.add_link_status(link_status(1, BernoulliLink{0.1}, 100, 90));
+  model.add_link_status(link_status(2, BernoulliLink{0.2}, 100, 80));
+  model.add_link_status(link_status(3, GilbertElliottLink{0.05, 0.5, 0.0, 1.0}, 100, 91));
+  auto rates = model.observed_rates();
+  ASSERT_TRUE(rates);
+  EXPECT_DOUBLE_EQ((*rates)[0], 0.9);
+  // Next report of link 2: 100 more samples, 50 more delivered -> 0.5 over the interval.
+  model.add_link_status(link_status(2, BernoulliLink{0.2}, 200, 130));
+  EXPECT_DOUBLE_EQ((*model.observed_rates())[1], 0.5);
+  // The configured rate is the channel's model, not the scenario's.
+  EXPECT_DOUBLE_EQ(model.snapshot().links[1].configured_arrival_rate, 0.8);
+  EXPECT_EQ(model.configured_scenario().sensors[1].link, LinkModel(BernoulliLink{0.2}));
+}
+
+TEST(LiveModel, ALinkChangeNamesItsSource) {
+  LiveModel model(default_scenario());
+  model.add_link_status(link_status(2, BernoulliLink{0.2}, 100, 80));
+  model.note_own_request(77, "dashboard");
+  model.add_link_status(link_status(2, BernoulliLink{0.97}, 0, 0, 77));
+  model.add_link_status(link_status(2, BernoulliLink{0.5}, 0, 0, 78));
+  const auto events = model.take_events();
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].text, "link 2: bernoulli loss=0.97 (from dashboard)");
+  EXPECT_EQ(events[1].text, "link 2: bernoulli loss=0.5 (from netkf ctl or another client)");
+  EXPECT_TRUE(model.take_events().empty());
+  // The counts restarted with the change: the rate is taken afresh, not as a difference.
+  model.add_link_status(link_status(2, BernoulliLink{0.5}, 10, 4, 78));
+  EXPECT_DOUBLE_EQ(*model.snapshot().links[1].observed_arrival_rate, 0.4);
+}
+
+TEST(LiveModel, CrossingTheCriticalBoundaryRaisesAWarning) {
+  // The scalar example of Sinopoli et al. (A = -1.25): λ_c = 0.36 with one sensor.
+  Scenario s = load_scenario_file(netkf::test::source_dir() / "deploy/scenarios/sinopoli-scalar.yaml");
+  LiveModel model(s);
+  TheoryRequest request;
+  request.configured = s;
+  model.set_theory(compute_theory(request));
+  EXPECT_EQ(model.snapshot().theory.configured.result.stable, analysis::Verdict::yes);
+  EXPECT_TRUE(model.take_events().empty());
+  request.configured.sensors[0].link = BernoulliLink{0.97};  // λ = 0.03 < 0.36
+  model.set_theory(compute_theory(request));
+  auto events = model.take_events();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].level, LiveEvent::Level::warning);
+  EXPECT_NE(events[0].text.find("below the critical arrival rate"), std::string::npos);
+  request.configured.sensors[0].link = BernoulliLink{0.1};
+  model.set_theory(compute_theory(request));
+  events = model.take_events();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_NE(events[0].text.find("back above"), std::string::npos);
+}
+
+TEST(TheoryWorker, ComputesOffTheCallersThreadAndMatchesTheDirectAssessment) {
+  const Scenario s = load_scenario_file(netkf::test::source_dir() / "deploy/scenarios/liu-goldsmith-fig5.yaml");
+  std::mutex m;
+  std::condition_variable cv;
+  std::optional<TheoryView> result;
+  std::thread::id worker_thread;
+  {
+    TheoryWorker worker([&](TheoryView v) {
+      const std::lock_guard lock(m);
+      worker_thread = std::this_thread::get_id();
+      result = std::move(v);
+      cv.notify_one();
+    });
+    TheoryRequest r;
+    r.configured = s;
+    r.observed_rates = std::vector<double>{0.9, 0.8};
+    r.k = 12;
+    r.with_region = true;
+    worker.request(r);
+    std::unique_lock lock(m);
+    ASSERT_TRUE(cv.wait_for(lock, std::chrono::seconds(60), [&] { return result.has_value(); }));
+  }
+  EXPECT_NE(worker_thread, std::this_thread::get_id());
+  EXPECT_EQ(result->k, 12);
+  const auto direct = analysis::assess_operating_point(s, {0.9, 0.8});
+  ASSERT_TRUE(result->observed);
+  EXPECT_EQ(result->observed->result.stable, direct.stable);
+  EXPECT_EQ(result->observed->result.upper_trace, direct.upper_trace);
+  // Two sensors: the Liu-Goldsmith region comes along (21 points over λ1 in [0, 1]).
+  EXPECT_EQ(result->region.size(), 21u);
+}
+
+TEST(TheoryWorker, DestructionDoesNotWaitForAComputation) {
+  // A 200-state plant whose assessment takes long: destroying the worker must not wait.
+  Scenario s = default_scenario();
+  const int n = 200;
+  s.plant.A = Matrix::Identity(n, n) * 1.01;
+  s.plant.Q = Matrix::Identity(n, n);
+  s.plant.B.reset();
+  s.plant.control.reset();
+  s.plant.x0 = Vector::Zero(n);
+  s.plant.P0 = Matrix::Identity(n, n);
+  for (auto& sensor : s.sensors) sensor.C = Matrix::Identity(1, n);
+  const auto start = std::chrono::steady_clock::now();
+  {
+    TheoryWorker worker([](TheoryView) {});
+    TheoryRequest r;
+    r.configured = s;
+    worker.request(r);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_TRUE(worker.busy());
+  }
+  // Not a timing assertion on the theory: only that the destructor returned while it ran.
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(30));
+}
+
+TEST(LiveStatusText, ShowsBothCovariancesAndTheBoundsOnThePrediction) {
+  LiveModel model(default_scenario());
+  model.add_truth({3, 0.03, {1.0, 2.0}});
+  model.add_estimate(estimate(3, {1.0, 5.0}, 0.5, 0.9));
+  model.add_link_status(link_status(2, BernoulliLink{1.0}, 100, 0));
+  std::string text = render_status(model.snapshot(), false);
+  EXPECT_NE(text.find("period 3"), std::string::npos) << text;
+  EXPECT_NE(text.find("Tr P_k|k=0.5"), std::string::npos) << text;
+  EXPECT_NE(text.find("Tr P_k|k-1=0.9"), std::string::npos) << text;
+  EXPECT_NE(text.find("|x-x̂|=3"), std::string::npos) << text;
+  EXPECT_NE(text.find("bernoulli loss=1"), std::string::npos) << text;
+  EXPECT_NE(text.find("0.000"), std::string::npos) << text;  // observed arrival rate of link 2
+  EXPECT_NE(text.find("theory: pending"), std::string::npos) << text;
+  TheoryRequest r;
+  r.configured = model.configured_scenario();
+  model.set_theory(compute_theory(r));
+  text = render_status(model.snapshot(), false);
+  EXPECT_NE(text.find("theory (configured links)"), std::string::npos) << text;
+  EXPECT_NE(text.find("E[P_k|k-1]"), std::string::npos) << text;
+  const std::string screen = render_status_screen("header line", model.snapshot(), false, {"an event"});
+  EXPECT_EQ(screen.rfind("\x1b[H\x1b[2J", 0), 0u);
+  EXPECT_NE(screen.find("header line"), std::string::npos);
+  EXPECT_NE(screen.find("an event"), std::string::npos);
+}
+
+/// The value of one sample line of the text exposition ("name{labels} value").
+double metric(const std::string& text, const std::string& series) {
+  const auto at = text.find("\n" + series + " ");
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(text.substr(at + series.size() + 2));
+}
+
+TEST(LiveMetrics, CountersFollowTheTotalsAndNeverGoBack) {
+  LiveModel model(default_scenario());
+  LiveMetrics metrics;
+  model.add_link_status(link_status(2, BernoulliLink{0.2}, 100, 80));
+  model.add_estimate(estimate(9, {0.0, 0.0}, 0.5, 0.9));
+  metrics.update(model.snapshot());
+  std::string text = metrics.serialize();
+  EXPECT_EQ(metric(text, "netkf_link_samples_total{link=\"2\"}"), 100.0) << text;
+  EXPECT_EQ(metric(text, "netkf_link_delivered_total{link=\"2\"}"), 80.0);
+  EXPECT_EQ(metric(text, "netkf_link_dropped_total{link=\"2\"}"), 20.0);
+  EXPECT_EQ(metric(text, "netkf_link_configured_loss{link=\"2\"}"), 0.2);
+  EXPECT_EQ(metric(text, "netkf_estimator_period"), 9.0);
+  EXPECT_EQ(metric(text, "netkf_estimator_fused_sensors"), 2.0);
+  EXPECT_EQ(metric(text, "netkf_estimator_diverging"), 0.0);
+  // The channel restarted: its totals start again at 30; the counter goes on from 100.
+  model.add_link_status(link_status(2, BernoulliLink{0.2}, 30, 30, 5));
+  metrics.update(model.snapshot());
+  text = metrics.serialize();
+  EXPECT_EQ(metric(text, "netkf_link_samples_total{link=\"2\"}"), 130.0) << text;
+  metrics.observe_pipeline_latency(0.0004);
+  metrics.observe_pipeline_latency(0.003);
+  metrics.count_restart("channel_emulator");
+  text = metrics.serialize();
+  EXPECT_EQ(metric(text, "netkf_pipeline_latency_seconds_count"), 2.0) << text;
+  EXPECT_EQ(metric(text, "netkf_pipeline_latency_seconds_bucket{le=\"0.0005\"}"), 1.0) << text;
+  EXPECT_EQ(metric(text, "netkf_process_restarts_total{process=\"channel_emulator\"}"), 1.0) << text;
+}
+
+}  // namespace
+}  // namespace netkf::cli
