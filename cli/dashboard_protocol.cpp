@@ -369,7 +369,8 @@ json parameter_values(const std::vector<LinkView>& links, const std::vector<std:
                       const std::optional<std::string>& id) {
   json list = json::array();
   for (const auto& link : links) {
-    for (auto& p : link_parameter_values(link, std::nullopt)["parameters"]) {
+    json values = link_parameter_values(link, std::nullopt);  // named: the loop runs over a part of it
+    for (auto& p : values["parameters"]) {
       const auto name = p["name"].get<std::string>();
       bool wanted = names.empty();
       for (const auto& n : names) wanted = wanted || n == name;

@@ -244,9 +244,12 @@ int run_launch(const LaunchOptions& o) {
   so.policy = policy;
   so.max_restarts = o.max_restarts;
   Supervisor supervisor(so);
-  auto report = [&](const std::vector<SupervisorEvent>& events) {
+  // Trouble: a process that died unexpectedly, a restart, a failure to start; a clean exit
+  // (the plant ending the run, or any exit during the stop) is not.
+  auto report = [&](const std::vector<SupervisorEvent>& events, bool stopping = false) {
     for (const auto& e : events) {
-      const bool trouble = e.kind != SupervisorEvent::Kind::started;
+      const bool clean_exit = e.kind == SupervisorEvent::Kind::exited && e.exit.clean();
+      const bool trouble = !stopping && e.kind != SupervisorEvent::Kind::started && !clean_exit;
       views->announce(trouble ? LiveEvent::Level::warning : LiveEvent::Level::info, e.message());
       if (e.kind == SupervisorEvent::Kind::restart_scheduled) views->count_restart(e.child);
     }
@@ -337,7 +340,7 @@ int run_launch(const LaunchOptions& o) {
   // Stop: the children get SIGTERM (SIGKILL after the timeout); then take what DDS
   // still delivered so the recording ends with the last complete period.
   views->set_screen(false);  // from here on, plain lines
-  report(supervisor.stop_all());
+  report(supervisor.stop_all(), /*stopping=*/true);
   io.restart();
   io.run_for(std::chrono::milliseconds(300));
   recording.flush();

@@ -12,7 +12,10 @@
   const THEORY_SAMPLES = 600;       // theory ~1/s
   const EVENT_LOG_CAP = 500;
   const REGION_TRAIL = 60;          // last observed operating points drawn as a trail
-  const MIN_REDRAW_MS = 50;         // charts redraw at most ~20 times a second
+  const MIN_REDRAW_MS = 100;        // time charts redraw at most 10 times a second
+  const MAX_REDRAW_MS = 500;        // and at least twice a second, however slow
+  const LINK_REDRAW_MS = 500;       // link panels (fed ~1/s) at most twice a second
+  const TEXT_REDRAW_MS = 100;       // header and stability texts at most 10 times a second
   const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
   const RESTART_GAP = 50;           // k going back by more than this: the run restarted
   const MODEL_PARAMS = {
@@ -179,7 +182,7 @@
     paused: false,
     tLo: 0,
     tHi: 30,
-    dirty: { data: true, header: true, theory: true, region: true, links: true, network: true },
+    dirty: { data: true, slowData: false, header: true, theory: true, region: true, links: true, network: true },
   };
 
   // ------------------------------------------------------------- connection
@@ -787,9 +790,12 @@
 
   // Charts follow their box's width; the resize runs in the next frame so that
   // ResizeObserver never sees a size change made inside its own callback.
+  // Widths come from the observer, so drawing never forces a layout to read them.
   const resizeTargets = new Map();
+  const knownWidth = new WeakMap();
   const resizeObserver = new ResizeObserver((entries) => {
     for (const entry of entries) {
+      knownWidth.set(entry.target, Math.floor(entry.contentRect.width));
       const target = resizeTargets.get(entry.target);
       if (target) target.wanted = Math.floor(entry.contentRect.width);
     }
@@ -806,6 +812,13 @@
   function observeWidth(box, chart, height) {
     resizeTargets.set(box, { chart, height, wanted: 0 });
     resizeObserver.observe(box);
+  }
+  function widthOf(element) {
+    if (!knownWidth.has(element)) {
+      resizeObserver.observe(element);
+      knownWidth.set(element, element.clientWidth);   // once, until the observer reports
+    }
+    return knownWidth.get(element);
   }
 
   function buildStateCharts(n) {
@@ -895,34 +908,93 @@
 
   // ------------------------------------------------------------ rendering
   let renderQueued = false;
-  let lastChartDraw = 0;
+  let lastChartDraw = -Infinity;
+  let lastLinkDraw = -Infinity;
+  let lastTextDraw = -Infinity;
+  let redrawCost = 0;                 // smoothed milliseconds of one chart redraw
+  let redrawInterval = MIN_REDRAW_MS;
 
-  function requestRender() {
+  // Called on every message; at most one render is pending. A render that is not due yet
+  // waits on a timer (not on back-to-back animation frames, which would repaint for nothing).
+  function requestRender(delayMs) {
     if (renderQueued) return;
     renderQueued = true;
-    requestAnimationFrame(render);
+    if (delayMs > 0) setTimeout(() => requestAnimationFrame(render), delayMs);
+    else requestAnimationFrame(render);
   }
 
   function markAllDirty() {
     for (const key of Object.keys(view.dirty)) view.dirty[key] = true;
+    lastTextDraw = -Infinity;
+    lastChartDraw = -Infinity;
+    lastLinkDraw = -Infinity;
     requestRender();
   }
 
   function render(now) {
     renderQueued = false;
     const d = view.dirty;
-    if (d.header) { d.header = false; renderHeader(); }
-    if (d.theory) { d.theory = false; renderVerdict(); }
-    if (d.network) { d.network = false; renderNetwork(); }
-    if (view.paused) return;
-    if (now - lastChartDraw < MIN_REDRAW_MS) {
-      if (d.data || d.links || d.region) requestRender();
-      return;
+    let wait = Infinity;
+    // Header and stability texts: a period number changing 50 times a second is unreadable anyway.
+    if (d.header || d.theory || d.network) {
+      if (now - lastTextDraw >= TEXT_REDRAW_MS) {
+        lastTextDraw = now;
+        if (d.header) { d.header = false; renderHeader(); }
+        if (d.theory) { d.theory = false; renderVerdict(); }
+        if (d.network) { d.network = false; renderNetwork(); }
+      } else {
+        wait = Math.min(wait, TEXT_REDRAW_MS - (now - lastTextDraw));
+      }
     }
-    if (d.data || d.links || d.region) lastChartDraw = now;
-    if (d.data) { d.data = false; renderTimeCharts(); d.links = true; }
-    if (d.links) { d.links = false; renderLinks(); }
-    if (d.region) { d.region = false; renderRegion(); }
+    if (!view.paused) wait = Math.min(wait, renderCharts(now));
+    if (wait < Infinity) requestRender(Math.max(1, wait));
+  }
+
+  // Draws what is due; returns the milliseconds until the next chart work is due (or Infinity).
+  function renderCharts(now) {
+    const d = view.dirty;
+    let wait = Infinity;
+    const started = performance.now();
+    let drew = false;
+    if (d.data) {
+      if (now - lastChartDraw >= redrawInterval) {
+        lastChartDraw = now;
+        d.data = false;
+        d.slowData = true;
+        renderTimeCharts();
+        drew = true;
+      } else {
+        wait = Math.min(wait, redrawInterval - (now - lastChartDraw));
+      }
+    }
+    // Link panels change about once a second: fewer canvases to redraw and hand over.
+    if (d.links || d.slowData) {
+      if (now - lastLinkDraw >= LINK_REDRAW_MS) {
+        lastLinkDraw = now;
+        d.links = false;
+        d.slowData = false;
+        renderLinks();
+        drew = true;
+      } else {
+        wait = Math.min(wait, LINK_REDRAW_MS - (now - lastLinkDraw));
+      }
+    }
+    if (d.region) {
+      d.region = false;
+      renderRegion();
+    }
+    if (drew) {
+      // A slow machine redraws less often instead of spending every frame on charts: at
+      // most about a fifth of the time goes to drawing. uPlot draws in a microtask queued
+      // by setData, so the cost is read in a microtask queued after it.
+      queueMicrotask(() => {
+        const spent = performance.now() - started;
+        redrawCost = 0.8 * redrawCost + 0.2 * spent;
+        redrawInterval = Math.min(MAX_REDRAW_MS, Math.max(MIN_REDRAW_MS, 5 * redrawCost));
+        dash.redrawMs = Math.round(redrawCost * 10) / 10;
+      });
+    }
+    return wait;
   }
 
   function currentTime() {
@@ -942,6 +1014,25 @@
     return { kLo, kHi, span };
   }
 
+  // The smallest and largest value of one series in one bucket of periods, in the order
+  // they occurred: a bucket narrower than a pixel then draws as the stroke it would cover.
+  class Envelope {
+    constructor() { this.reset(); }
+    reset() { this.min = Infinity; this.max = -Infinity; this.minAt = 0; this.maxAt = 0; this.any = false; }
+    add(v, k) {
+      if (v === null) return;
+      this.any = true;
+      if (v < this.min) { this.min = v; this.minAt = k; }
+      if (v > this.max) { this.max = v; this.maxAt = k; }
+    }
+    emitOne(out) { out.push(this.any ? this.min : null); }
+    emitTwo(out) {
+      if (!this.any) out.push(null, null);
+      else if (this.minAt <= this.maxAt) out.push(this.min, this.max);
+      else out.push(this.max, this.min);
+    }
+  }
+
   function renderTimeCharts() {
     if (!charts.trace) return;
     const ring = store.ring;
@@ -955,35 +1046,34 @@
       dash.plotLengths = { trace: 0, states: charts.states.map(() => 0) };
       return;
     }
+    const timeOf = (k) => {
+      const i = ring.find(k);
+      return i >= 0 ? ring.t[i] : k * store.periodS;
+    };
     // The window ends now; until it has filled it starts at the oldest period held.
     const tNow = currentTime();
-    const iLo = ring.find(w.kLo);
-    const tOldest = iLo >= 0 ? ring.t[iLo] : w.kLo * store.periodS;
     view.tHi = tNow;
-    view.tLo = Math.max(tNow - view.windowS, Math.min(tOldest, tNow - 1));
+    view.tLo = Math.max(tNow - view.windowS, Math.min(timeOf(w.kLo), tNow - 1));
+
+    // More periods than pixels: buckets of `stride` periods (aligned to multiples of the
+    // stride so they do not shimmer as the window slides), each drawn as its envelope.
+    const plotPx = Math.max(100, Math.round(charts.trace.bbox.width / (window.devicePixelRatio || 1)) || 600);
+    const stride = Math.max(1, Math.ceil((w.kHi - w.kLo + 1) / plotPx));
+    const n = ring.n;
+    const seriesCount = 2 + 4 * n;   // Tr P pred, Tr P, then per component truth, x̂, x̂+2σ, x̂−2σ
+    const envelopes = Array.from({ length: seriesCount }, () => new Envelope());
+    const outs = Array.from({ length: seriesCount }, () => []);
     const xs = [];
-    const tracePred = [];
-    const trace = [];
     const confLower = [];
     const confUpper = [];
     const obsLower = [];
     const obsUpper = [];
-    const n = ring.n;
-    const truth = [];
-    const est = [];
-    const hi = [];
-    const lo = [];
-    for (let c = 0; c < n; c++) { truth.push([]); est.push([]); hi.push([]); lo.push([]); }
     traceRows.theory = [];
     traceRows.diverging = [];
     // The theory entry in force for period k is the last one computed at or before k.
-    let theoryIndex = -1;
     const theory = store.theory;
-    let estimatePoints = 0;
-    const num = (v) => (Number.isNaN(v) ? null : v);
-    for (let k = w.kLo; k <= w.kHi; k++) {
-      const i = ring.find(k);
-      xs.push(i >= 0 ? ring.t[i] : k * store.periodS);
+    let theoryIndex = -1;
+    const pushTheory = (k) => {
       while (theoryIndex + 1 < theory.length && theory.at(theoryIndex + 1).k <= k) theoryIndex++;
       const entry = theoryIndex >= 0 ? theory.at(theoryIndex) : null;
       traceRows.theory.push(entry);
@@ -991,34 +1081,63 @@
       confUpper.push(entry && isNum(entry.confUpper) ? entry.confUpper : null);
       obsLower.push(entry && isNum(entry.obsLower) ? entry.obsLower : null);
       obsUpper.push(entry && isNum(entry.obsUpper) ? entry.obsUpper : null);
-      const hasEst = i >= 0 && ring.hasEstimate[i] === 1;
-      const hasTruth = i >= 0 && ring.hasTruth[i] === 1;
-      traceRows.diverging.push(hasEst && ring.diverging[i] === 1);
-      // A log axis cannot show 0 or negative traces.
-      const tp = hasEst ? num(ring.tracePred[i]) : null;
-      const tf = hasEst ? num(ring.trace[i]) : null;
-      tracePred.push(tp !== null && tp > 0 ? tp : null);
-      trace.push(tf !== null && tf > 0 ? tf : null);
-      if (hasEst) estimatePoints++;
-      for (let c = 0; c < n; c++) {
-        truth[c].push(hasTruth ? num(ring.truth[c][i]) : null);
+    };
+    const num = (v) => (Number.isNaN(v) ? null : v);
+    let estimatePoints = 0;
+    for (let b = w.kLo - (w.kLo % stride); b <= w.kHi; b += stride) {
+      const first = Math.max(b, w.kLo);
+      const last = Math.min(b + stride - 1, w.kHi);
+      let diverging = false;
+      for (const e of envelopes) e.reset();
+      for (let k = first; k <= last; k++) {
+        const i = ring.find(k);
+        if (i < 0) continue;
+        const hasEst = ring.hasEstimate[i] === 1;
         if (hasEst) {
+          estimatePoints++;
+          if (ring.diverging[i]) diverging = true;
+          // A log axis cannot show 0 or negative traces.
+          const tp = num(ring.tracePred[i]);
+          const tf = num(ring.trace[i]);
+          envelopes[0].add(tp !== null && tp > 0 ? tp : null, k);
+          envelopes[1].add(tf !== null && tf > 0 ? tf : null, k);
+        }
+        for (let c = 0; c < n; c++) {
+          const base = 2 + 4 * c;
+          if (ring.hasTruth[i]) envelopes[base].add(num(ring.truth[c][i]), k);
+          if (!hasEst) continue;
           const x = num(ring.xHat[c][i]);
-          const s = num(ring.sigma[c][i]);
-          est[c].push(x);
-          hi[c].push(x !== null && s !== null ? x + 2 * s : null);
-          lo[c].push(x !== null && s !== null ? x - 2 * s : null);
-        } else {
-          est[c].push(null); hi[c].push(null); lo[c].push(null);
+          const sd = num(ring.sigma[c][i]);
+          envelopes[base + 1].add(x, k);
+          if (x !== null && sd !== null) {
+            envelopes[base + 2].add(x + 2 * sd, k);
+            envelopes[base + 3].add(x - 2 * sd, k);
+          }
         }
       }
+      if (last === first) {
+        xs.push(timeOf(first));
+        for (let sIdx = 0; sIdx < seriesCount; sIdx++) envelopes[sIdx].emitOne(outs[sIdx]);
+        pushTheory(first);
+        traceRows.diverging.push(diverging);
+      } else {
+        xs.push(timeOf(first), timeOf(last));
+        for (let sIdx = 0; sIdx < seriesCount; sIdx++) envelopes[sIdx].emitTwo(outs[sIdx]);
+        pushTheory(first);
+        pushTheory(last);
+        traceRows.diverging.push(diverging, diverging);
+      }
     }
-    charts.trace.setData([xs, tracePred, trace, confLower, confUpper, obsLower, obsUpper]);
-    charts.states.forEach((chart, c) => chart.setData([xs, truth[c], est[c], hi[c], lo[c]]));
+    charts.trace.setData([xs, outs[0], outs[1], confLower, confUpper, obsLower, obsUpper]);
+    charts.states.forEach((chart, c) => {
+      const base = 2 + 4 * c;
+      chart.setData([xs, outs[base], outs[base + 1], outs[base + 2], outs[base + 3]]);
+    });
     dash.pointsPlotted = charts.states.length ? estimatePoints : 0;
     dash.plotLengths = {
       trace: charts.trace.data[0].length,
       states: charts.states.map((chart) => chart.data[0].length),
+      stride,
     };
     renderTraceNotes();
   }
@@ -1094,7 +1213,7 @@
 
   function canvasContext(canvas, cssHeight) {
     const ratio = window.devicePixelRatio || 1;
-    const width = Math.max(150, Math.floor(canvas.parentElement.clientWidth - 2));
+    const width = Math.max(150, widthOf(canvas.parentElement));
     if (canvas.width !== Math.floor(width * ratio) || canvas.height !== Math.floor(cssHeight * ratio)) {
       canvas.width = Math.floor(width * ratio);
       canvas.height = Math.floor(cssHeight * ratio);
