@@ -381,6 +381,8 @@
     $('region-box').hidden = !twoSensors;
     $('region-none').hidden = twoSensors;
     document.querySelector('main.grid').classList.toggle('no-region', !twoSensors);
+    // New link cards: read their parameters (an earlier answer may have come before them).
+    if (conn.capabilities.includes('parameters')) send({ op: 'getParameters', parameterNames: [], id: 'netkf-dashboard-scenario' });
     subscribeParameterUpdates();
     markAllDirty();
   }
@@ -535,6 +537,15 @@
         Object.keys(MODEL_PARAMS).map((m) => el('option', { value: m, text: MODEL_LABEL[m] })));
       this.select.addEventListener('change', () => {
         const model = this.select.value;
+        // Leaving Gilbert-Elliott for Bernoulli keeps the average loss: the new loss starts
+        // at the stationary loss of the current chain.
+        if (model === 'bernoulli' && this.model === 'gilbert_elliott') {
+          const { p, r, loss_good: good, loss_bad: bad } = this.params;
+          const bad_share = p + r > 0 ? p / (p + r) : 0;
+          const loss = +((1 - bad_share) * good + bad_share * bad).toFixed(4);
+          this.inputs.loss.number.value = String(loss);
+          this.inputs.loss.range.value = String(loss);
+        }
         this.showModelRows(model);
         this.commit(model);
       });
@@ -778,7 +789,7 @@
         { stroke: COLOR.axis, grid: { stroke: COLOR.grid, width: 1 }, ticks: { stroke: COLOR.grid }, size: 28,
           font: '11px system-ui, sans-serif', values: (u, splits) => splits.map((v) => v + ' s') },
         { stroke: COLOR.axis, grid: { stroke: COLOR.grid, width: 1 }, ticks: { stroke: COLOR.grid }, size: 52, space: 20,
-          font: '11px system-ui, sans-serif', values: opts.yValues },
+          font: '11px system-ui, sans-serif', values: opts.yValues || compactTicks },
       ],
       series: [{ label: 't' }, ...series],
       bands: opts.bands,
@@ -855,6 +866,16 @@
       { label: 'Tr V̄ observed', stroke: COLOR.observed, width: 1.25, dash: [6, 4], points: { show: false } },
     ], { y: { distr: 3, log: 10 } }, { drawClear: [drawTraceBackground] }, {
       yValues: (u, splits) => splits.map((v) => (v === null ? '' : fmtTick(v))),
+    });
+  }
+
+  // Tick labels that fit the 52 px axis whatever the magnitude (a diverging estimate).
+  function compactTicks(u, splits) {
+    return splits.map((v) => {
+      if (v === null || v === undefined) return '';
+      const a = Math.abs(v);
+      if (a !== 0 && (a >= 1e4 || a < 1e-3)) return v.toExponential(0);
+      return String(+v.toPrecision(4));
     });
   }
 
@@ -1134,11 +1155,11 @@
       chart.setData([xs, outs[base], outs[base + 1], outs[base + 2], outs[base + 3]]);
     });
     dash.pointsPlotted = charts.states.length ? estimatePoints : 0;
-    dash.plotLengths = {
+    Object.assign(dash.plotLengths, {
       trace: charts.trace.data[0].length,
       states: charts.states.map((chart) => chart.data[0].length),
       stride,
-    };
+    });
     renderTraceNotes();
   }
 
