@@ -63,7 +63,8 @@ os.makedirs(ARTEFACTS, exist_ok=True)
 with Launch(None, 120, out, samples=True) as run:  # the built-in default scenario, as the demo
     check(wait_for(lambda: "dashboard: http://127.0.0.1:%d/" % PORT in run.output(), 20),
           "launch prints the dashboard's URL")
-    check(wait_for(lambda: "period " in run.output(), 20), "the network runs")
+    # A status line of a fused period (not the launch line's "period 10 ms").
+    check(wait_for(lambda: re.search(r"^period \d+ ", run.output(), re.M) is not None, 20), "the network runs")
     listening = subprocess.run(["ss", "-ltnH"], capture_output=True, text=True).stdout
     check("127.0.0.1:%d" % PORT in listening and "0.0.0.0:%d" % PORT not in listening,
           "the dashboard listens on 127.0.0.1 only:\n" + listening)
