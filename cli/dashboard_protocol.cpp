@@ -93,7 +93,7 @@ std::vector<Channel> make_channels() {
                               {"region",
                                {{"type", json::array({"array", "null"})},
                                 {"items", schema_object({{"lambda1", {{"type", "number"}}},
-                                                         {"lambda2_lower", {{"type", "number"}}},
+                                                         {"lambda2_lower", nullable_number()},
                                                          {"lambda2_upper", nullable_number()}},
                                                         {"lambda1", "lambda2_lower"})}}}},
                              {"k", "configured"})});

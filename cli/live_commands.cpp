@@ -23,8 +23,6 @@
 #include <sstream>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
-
 #include "commands.hpp"
 #include "launch_supervisor.hpp"
 #include "live_bus.hpp"
