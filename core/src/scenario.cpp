@@ -289,17 +289,16 @@ void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
 }
 
 Scenario default_scenario() {
-  // A slightly unstable 2-state plant (eigenvalues 1.1 and 0.95; α = 1.1, so a single
-  // Bernoulli link would need λ > 1 - 1/α² ≈ 0.17, Sinopoli Thm 3) closed by LQR
-  // through the second state. Three sensors all see the unstable mode, over mixed links;
-  // all three are lost together only ~0.7 % of the time, far below 1/α² ≈ 0.83, so the
-  // filter is comfortably stable for hours until someone degrades the links with `ctl`.
+  // The demo (deploy/scenarios/default.yaml explains it): an unstable 2-state plant
+  // (α = 1.25) closed by LQR; only sensors 2 and 3 see the unstable mode, sensor 3 over
+  // a bursty link that cannot hold it alone, so link 2 is critical: stable while its loss
+  // is below 0.914 (Markov criterion, multi-sensor paper Thm 7/9), unstable above.
   Scenario s;
   s.name = "default";
   s.source = "<built-in default scenario>";
   s.period_ms = 10;
   s.seed = 42;
-  s.plant.A = (Matrix(2, 2) << 1.1, 0.1, 0.0, 0.95).finished();
+  s.plant.A = (Matrix(2, 2) << 1.25, 0.1, 0.0, 0.95).finished();
   s.plant.Q = (Matrix(2, 2) << 0.1, 0.0, 0.0, 0.1).finished();
   s.plant.B = (Matrix(2, 1) << 0.0, 1.0).finished();
   ControlSpec control;
@@ -308,10 +307,10 @@ Scenario default_scenario() {
   s.plant.control = control;
   s.plant.x0 = (Vector(2) << 1.0, -0.5).finished();
   s.plant.P0 = Matrix::Identity(2, 2);
-  s.sensors.push_back({1, (Matrix(1, 2) << 1.0, 0.0).finished(), Matrix::Constant(1, 1, 0.5), BernoulliLink{0.2}});
+  s.sensors.push_back({1, (Matrix(1, 2) << 0.0, 1.0).finished(), Matrix::Constant(1, 1, 0.5), BernoulliLink{0.2}});
   s.sensors.push_back({2, (Matrix(1, 2) << 1.0, 1.0).finished(), Matrix::Constant(1, 1, 1.0), BernoulliLink{0.3}});
   s.sensors.push_back({3, (Matrix(1, 2) << 1.0, 0.0).finished(), Matrix::Constant(1, 1, 0.25),
-                       GilbertElliottLink{0.05, 0.4, 0.02, 0.9}});
+                       GilbertElliottLink{0.05, 0.3, 0.02, 1.0}});
   s.estimator.deadline_ms = 8;
   complete_scenario(s);
   return s;

@@ -135,6 +135,12 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     log = page.get("event_log", [])
     check(any("link 2" in e and "loss=1" in e and "dashboard" in e for e in log),
           "the page's event log shows the change from the dashboard: %s" % log[-5:])
+    # In the default scenario link 2 is critical (deploy/scenarios/default.yaml): its loss
+    # at 1.0 moves the network below the boundary, and the page says so.
+    check(any("below the critical arrival rate" in e for e in log),
+          "the page's event log shows the boundary warning: %s" % log[-5:])
+    check(page.get("verdict", {}).get("configured") == "no",
+          "the page's verdict for the configured links is 'no': %s" % page.get("verdict"))
     check(os.path.getsize(shot) > 10000 if os.path.exists(shot) else False, "screenshot saved: %s" % shot)
     st = netkf("ctl", "status", "--json")
     l2 = [l for l in json.loads(st.stdout)["links"] if l["sensor_id"] == 2] if st.returncode == 0 else []

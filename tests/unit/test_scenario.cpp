@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "test_paths.hpp"
+#include "netkf/analysis/operating_point.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -411,11 +412,18 @@ TEST(DefaultScenario, IsTheDemoTheDesignAsksFor) {
   EXPECT_GT(alpha, 1.0);  // open-loop unstable
   ASSERT_TRUE(s.plant.control);
   EXPECT_LT(spectral_radius(s.plant.A - *s.plant.B * s.plant.control->gain), 1.0);
-  // Comfortably stable: every sensor sees the unstable mode and the chance that all are
-  // lost together, times α², is far below the scalar threshold 1.
-  double all_lost = 1.0;
-  for (const auto& sensor : s.sensors) all_lost *= drop_probability(sensor.link);
-  EXPECT_LT(alpha * alpha * all_lost, 0.1);
+  // The demo: stable as configured, and link 2 is critical. Degrading it to loss 0.97
+  // (the README's walk-through) crosses the boundary; 0.9 does not (the criterion
+  // crosses 1 at loss 0.914).
+  const auto configured = netkf::analysis::assess_configured_links(s);
+  EXPECT_EQ(configured.stable, netkf::analysis::Verdict::yes);
+  ASSERT_TRUE(configured.markov_criterion);
+  EXPECT_LT(*configured.markov_criterion, 0.5);
+  netkf::Scenario degraded = s;
+  degraded.sensors[1].link = netkf::BernoulliLink{0.97};
+  EXPECT_EQ(netkf::analysis::assess_configured_links(degraded).stable, netkf::analysis::Verdict::no);
+  degraded.sensors[1].link = netkf::BernoulliLink{0.9};
+  EXPECT_EQ(netkf::analysis::assess_configured_links(degraded).stable, netkf::analysis::Verdict::yes);
 }
 
 // ---------------------------------------------------------------------------------
