@@ -6,6 +6,7 @@
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
+#include <linux/close_range.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -108,6 +109,12 @@ SupervisorEvent Supervisor::spawn(Child& child) {
       [[maybe_unused]] const int r = setpriority(PRIO_PROCESS, 0, child.spec.nice);
     }
     close(pipe_fds[0]);
+    // The child inherits stdin/out/err only: nothing else the launch holds (the
+    // dashboard's listening and client sockets, recording files) may outlive it in a node.
+    if (close_range(3, ~0U, CLOSE_RANGE_CLOEXEC) != 0) {
+      const long open_max = std::min(sysconf(_SC_OPEN_MAX), 65536L);
+      for (int fd = 3; fd < open_max; ++fd) fcntl(fd, F_SETFD, FD_CLOEXEC);
+    }
     execv(argv[0], argv.data());
     const int err = errno;
     [[maybe_unused]] auto n = write(pipe_fds[1], &err, sizeof err);

@@ -140,6 +140,17 @@ TEST(Supervisor, CriticalChildEndingCleanlyFinishesTheRun) {
   EXPECT_EQ(s.running_count(), 0u);
 }
 
+TEST(Supervisor, ChildInheritsNoDescriptorButStdio) {
+  // E.g. the dashboard's listening socket: a node holding it would keep the port open.
+  const int fd = dup(1);  // no close-on-exec
+  ASSERT_GE(fd, 3);
+  Supervisor s;
+  s.start(shell("plant", "test -e /proc/self/fd/" + std::to_string(fd) + " && exit 3; exit 0", true));
+  poll_until(s, [&] { return s.finished() || s.failed(); });
+  close(fd);
+  EXPECT_TRUE(s.finished()) << s.failure_reason();
+}
+
 TEST(Supervisor, StopAllKillsAChildIgnoringSigterm) {
   SupervisorOptions o;
   o.stop_timeout = 300ms;
