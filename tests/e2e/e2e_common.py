@@ -144,6 +144,16 @@ class Launch:
         return False
 
 
+def wait_for(predicate, seconds):
+    """Poll `predicate` until it holds (True) or `seconds` pass (False)."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(0.2)
+    return False
+
+
 def netkf(*args, timeout=30):
     cmd = [NETKF] + [str(a) for a in args]
     print("$", " ".join(cmd), flush=True)

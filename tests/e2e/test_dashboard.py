@@ -16,7 +16,8 @@ import subprocess
 import time
 import urllib.request
 
-from e2e_common import HERE, Launch, check, finish, netkf, read_periods, read_samples, require_netns, workdir
+from e2e_common import (HERE, Launch, check, finish, netkf, read_periods, read_samples, require_netns, wait_for,
+                        workdir)
 
 PORT = 8470  # the default; the test's network namespace has it to itself
 NODE = shutil.which("node") or "/usr/bin/node"
@@ -46,15 +47,6 @@ def scrape():
 def series(text, name, labels=""):
     m = re.search(r"^%s%s (\S+)$" % (re.escape(name), re.escape(labels)), text, re.M)
     return float(m.group(1)) if m else None
-
-
-def wait_for(predicate, seconds):
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.2)
-    return False
 
 
 require_netns()

@@ -7,20 +7,10 @@ Only addresses of the test's own network namespace are used (127.0.0.0/8 on its 
 import re
 import socket
 import subprocess
-import time
 import urllib.error
 import urllib.request
 
-from e2e_common import NETKF, Launch, check, finish, require_netns, workdir
-
-
-def wait_for(predicate, seconds):
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        time.sleep(0.2)
-    return False
+from e2e_common import NETKF, Launch, check, finish, require_netns, wait_for, workdir
 
 
 def listening():
