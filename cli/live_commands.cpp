@@ -161,6 +161,13 @@ struct LaunchOptions {
   std::vector<std::string> dashboard_allow_origins;
 };
 
+/// "8", "2.5", "1e+03": a number as a person writes it.
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
 /// 128 random bits as hex: the dashboard's token when it listens beyond 127.0.0.1.
 std::string random_token() {
   std::random_device rd;  // the kernel's random source
@@ -301,7 +308,7 @@ int run_launch(const LaunchOptions& o) {
                             std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
                       : std::string())
               << ", period " << scenario.period_ms << " ms"
-              << (o.duration > 0 ? ", for " + std::to_string(o.duration) + " s" : ", Ctrl-C stops");
+              << (o.duration > 0 ? ", for " + number_text(o.duration) + " s" : ", Ctrl-C stops");
   if (const auto url = views->dashboard_url()) launch_line << "\nnetkf launch: dashboard: " << *url;
   std::cerr << launch_line.str() << "\n" << std::flush;
   views->set_header(launch_line.str());
@@ -409,12 +416,6 @@ int run_record(const RecordOptions& o) {
 
 // ---------------------------------------------------------------- ctl
 
-std::string seconds_text(double s) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%g", s);
-  return buf;
-}
-
 /// Run `io` until `done()` or the deadline; true when done.
 bool run_until(boost::asio::io_context& io, const std::function<bool()>& done, std::chrono::milliseconds timeout) {
   const auto deadline = Clock::now() + timeout;
@@ -467,7 +468,7 @@ int run_ctl_status(const CtlOptions& o) {
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
   if (!run_until(io, [&] { return !links.empty(); }, timeout))
-    fail(3, "no link status received within " + seconds_text(o.timeout) + " s on DDS domain " +
+    fail(3, "no link status received within " + number_text(o.timeout) + " s on DDS domain " +
                 std::to_string(bus->domain()) + " (is a network running? netkf launch)");
   // Link status is transient-local: the other links arrive in the same burst right
   // after the first; a short grace period collects them.
@@ -540,12 +541,12 @@ int run_ctl_set_link(const CtlOptions& o) {
   const auto start = Clock::now();
   if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
     fail(3, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
-                seconds_text(o.timeout) + " s (is a network running? netkf launch)");
+                number_text(o.timeout) + " s (is a network running? netkf launch)");
   if (!bus->send_link_control(request_id, o.sensor_id, model)) fail(3, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
     fail(3, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
-                seconds_text(o.timeout) + " s");
+                number_text(o.timeout) + " s");
   if (!reply->applied) fail(4, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
