@@ -1,4 +1,6 @@
 // netkf: launch and supervise a scenario, tune links, record, analyse, simulate.
+// Exit codes (README, "Exit codes"): 0 done, 1 failure of the run, 2 bad usage or input,
+// 3 no network answered, 4 the network refused the request.
 #include <iostream>
 
 #include "commands.hpp"
@@ -13,8 +15,12 @@ int main(int argc, char** argv) {
   netkf::cli::add_simulate_command(app);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // a command's own code, its message already printed
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version end with 0; every argument error is "bad usage", 2 (not
+    // CLI11's own codes 101-127).
+    return app.exit(e) == 0 ? 0 : 2;
   } catch (const std::exception& e) {
     std::cerr << "netkf: error: " << e.what() << "\n";
     return 1;

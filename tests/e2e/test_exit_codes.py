@@ -1,0 +1,39 @@
+"""One table of exit codes for every command (README, "Exit codes"): 0 done, 1 the run
+failed, 2 bad usage or input (argument errors included, not CLI11's own 101-127), 3 no
+network answered, 4 the network refused the request."""
+import os
+
+from e2e_common import DATA, check, finish, netkf, require_netns
+
+require_netns()
+missing = "/nonexistent/netkf-scenario.yaml"
+good = os.path.join(DATA, "tuning.yaml")
+cases = [
+    (("--help",), 0),
+    (("analyze", "--help"), 0),
+    (("bogus-command",), 2),
+    ((), 2),  # a subcommand is required
+    (("launch", missing), 2),
+    (("analyze", missing), 2),
+    (("simulate", missing, "--runs", "10", "--steps", "10"), 2),
+    (("record", missing, "--out", "/tmp/x.csv"), 2),
+    (("launch", "--duration", "abc"), 2),
+    (("launch", "--duration", "-1"), 2),
+    (("launch", "--dashboard", "99999"), 2),
+    (("launch", "--sensors-per-process", "0"), 2),
+    (("analyze", good, "--no-such-flag"), 2),
+    (("ctl", "set-link", "2", "--bernoulli", "1.5"), 2),
+    (("ctl", "set-link", "2"), 2),
+    (("ctl",), 2),
+    (("analyze", good, "--json"), 0),
+    (("ctl", "status", "--timeout", "1"), 3),  # no network on this test's domain
+    (("ctl", "set-link", "2", "--bernoulli", "0.5", "--timeout", "1"), 3),
+]
+for args, expected in cases:
+    r = netkf(*args, timeout=60)
+    check(r.returncode == expected, "netkf %s exits %d (got %d)" % (" ".join(args), expected, r.returncode))
+    if expected == 2 and args not in ((),):
+        check("error" in r.stderr.lower() or "required" in r.stderr.lower() or "usage" in r.stderr.lower()
+              or "run with --help" in r.stderr.lower(),
+              "netkf %s says what is wrong on stderr" % " ".join(args))
+finish()
