@@ -35,6 +35,17 @@ Scenario load_or_fail(const std::string& command, const std::string& path) {
   }
 }
 
+// A --plot path that cannot be written: one clear error before any work, status 2.
+void check_plot_or_fail(const std::string& command, const std::string& path) {
+  if (path.empty()) return;
+  try {
+    check_plot_output(path);
+  } catch (const std::exception& e) {
+    std::cerr << "netkf " << command << ": error: " << e.what() << "\n";
+    throw CLI::RuntimeError(2);
+  }
+}
+
 [[noreturn]] void fail(const std::string& command, const std::string& message) {
   std::cerr << "netkf " << command << ": error: " << message << "\n";
   throw CLI::RuntimeError(1);
@@ -119,6 +130,7 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_option("--plot", args->plot, "write the figure (PNG or SVG) with gnuplot");
   cmd->callback([args] {
     const Scenario s = load_or_fail("analyze", args->file);
+    check_plot_or_fail("analyze", args->plot);
     analysis::AnalyzeOptions o;
     o.region = args->region;
     o.sweep = args->sweep || (!args->plot.empty() && !args->region);
@@ -194,6 +206,7 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--plot", args->plot, "write mean Tr P and squared error against k (PNG or SVG) with gnuplot");
   cmd->callback([args] {
     const Scenario s = load_or_fail("simulate", args->file);
+    check_plot_or_fail("simulate", args->plot);
     MonteCarloOptions o;
     o.runs = args->runs;
     o.steps = args->steps;

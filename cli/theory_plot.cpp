@@ -1,9 +1,11 @@
 // gnuplot figures for the theory commands (see theory_plot.hpp).
 #include "theory_plot.hpp"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -32,8 +34,10 @@ bool gnuplot_available() {
   if (!path) return false;
   std::stringstream dirs(path);
   std::string dir;
-  while (std::getline(dirs, dir, ':'))
-    if (!dir.empty() && std::filesystem::exists(std::filesystem::path(dir) / "gnuplot")) return true;
+  while (std::getline(dirs, dir, ':')) {
+    std::error_code ec;  // an entry that cannot be read is skipped, not fatal
+    if (!dir.empty() && std::filesystem::exists(std::filesystem::path(dir) / "gnuplot", ec)) return true;
+  }
   return false;
 }
 
@@ -44,18 +48,40 @@ std::string terminal_for(const std::filesystem::path& out) {
   throw std::runtime_error("--plot: " + out.string() + ": use a .png or .svg file name");
 }
 
+/// Open the figure's file before gnuplot does: a path gnuplot cannot write would
+/// otherwise end up as a figure on its standard output.
+void check_writable(const std::filesystem::path& out) {
+  std::error_code ec;
+  const bool existed = std::filesystem::exists(out, ec);
+  std::FILE* f = std::fopen(out.c_str(), "ab");
+  if (!f) throw std::runtime_error("--plot: cannot write " + out.string() + ": " + std::strerror(errno));
+  std::fclose(f);
+  if (!existed) std::filesystem::remove(out, ec);  // leave nothing behind if the work fails later
+}
+
 void run_gnuplot(const std::string& script) {
   if (!gnuplot_available())
     throw std::runtime_error("--plot needs gnuplot on the PATH (Debian: apt-get install gnuplot-nox)");
-  FILE* pipe = ::popen("gnuplot", "w");
+  // gnuplot's standard output is never ours (it may carry --json): it goes nowhere.
+  FILE* pipe = ::popen("gnuplot > /dev/null", "w");
   if (!pipe) throw std::runtime_error("--plot: could not start gnuplot");
   std::fwrite(script.data(), 1, script.size(), pipe);
   const int status = ::pclose(pipe);
   if (status != 0) throw std::runtime_error("--plot: gnuplot failed (exit status " + std::to_string(status) + ")");
 }
 
+}  // namespace
+
+void check_plot_output(const std::filesystem::path& out) {
+  terminal_for(out);
+  check_writable(out);
+}
+
+namespace {
+
 std::string header(const std::filesystem::path& out, const std::string& title) {
   std::string s = terminal_for(out);
+  check_writable(out);
   s += "set output " + quoted(out.string()) + "\n";
   s += "set title " + quoted(title) + " noenhanced\n";
   s += "set grid\nset key top right\n";

@@ -10,6 +10,10 @@
 
 namespace netkf::cli {
 
+/// Throws std::runtime_error (the reason) unless `out` is a .png or .svg file that can be
+/// written. Called before any work, so a bad --plot path fails at once.
+void check_plot_output(const std::filesystem::path& out);
+
 /// Sinopoli Figs. 2-4: Tr S̄ and Tr V̄ against λ with the critical rates marked.
 void plot_sweep(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out);
 /// Liu-Goldsmith Figs. 4-5: the (λ1, λ2) stable / unstable / undecided regions.

@@ -29,6 +29,15 @@ cases = [
     (("ctl", "status", "--timeout", "1"), 3),  # no network on this test's domain
     (("ctl", "set-link", "2", "--bernoulli", "0.5", "--timeout", "1"), 3),
 ]
+# --plot to a path that cannot be written: a clear error before any work, and nothing on
+# stdout (gnuplot used to write the figure there, into the --json output).
+for command in (("analyze", good, "--json"), ("simulate", good, "--runs", "20", "--steps", "20", "--json")):
+    for plot in ("/nonexistent-dir/fig.png", "/nonexistent-dir/fig.svg", "/tmp/fig.pdf"):
+        r = netkf(*(command + ("--plot", plot)), timeout=60)
+        check(r.returncode == 2 and r.stdout == "" and ("cannot write" in r.stderr or ".png or .svg" in r.stderr),
+              "netkf %s --plot %s: exit 2, stdout empty, the reason on stderr (rc=%d, %d bytes on stdout)"
+              % (command[0], plot, r.returncode, len(r.stdout)))
+
 for args, expected in cases:
     r = netkf(*args, timeout=60)
     check(r.returncode == expected, "netkf %s exits %d (got %d)" % (" ".join(args), expected, r.returncode))
