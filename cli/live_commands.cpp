@@ -409,8 +409,12 @@ int run_record(const RecordOptions& o) {
   io.run();
   recording.flush();
   signals.cancel();
+  const int domain = bus->domain();
   bus.reset();
   std::cerr << "netkf record: " << recording.rows() << " rows written to " << o.out << "\n";
+  if (recording.rows() == 0)
+    fail(3, "nothing was recorded: no network answered on DDS domain " + std::to_string(domain) +
+                " (is a network running? netkf launch; the same --domain)");
   return 0;
 }
 

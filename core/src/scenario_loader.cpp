@@ -3,8 +3,10 @@
 // line and column of the offending node; the meaning (dimensions, definiteness,
 // probabilities, duplicate ids, ...) is checked by validate_scenario() with the
 // marks recorded here, so programmatic scenarios get exactly the same checks.
+#include <cerrno>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <initializer_list>
@@ -352,7 +354,8 @@ Scenario load_scenario_file(const std::filesystem::path& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw ScenarioError(path.string() + ": is a directory, not a scenario file");
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw ScenarioError(path.string() + ": cannot open scenario file");
+  // errno says why (no such file, permission denied); the message names it.
+  if (!in) throw ScenarioError(path.string() + ": cannot open scenario file: " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw ScenarioError(path.string() + ": error while reading the scenario file");

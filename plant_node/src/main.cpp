@@ -107,12 +107,12 @@ class PlantNode {
     }
     if (s.bound_exceeded) {
       if (sim_.closed_loop()) {
-        spdlog::error(
+        spdlog::warn(
             "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the closed loop went "
             "unstable (are the links below the critical arrival rate?)",
             s.k, s.x.lpNorm<Eigen::Infinity>(), scenario_.plant.state_bound);
       } else {
-        spdlog::error(
+        spdlog::warn(
             "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the plant is open-loop "
             "unstable and the scenario has no control (add plant.B and control to close the loop)",
             s.k, s.x.lpNorm<Eigen::Infinity>(), scenario_.plant.state_bound);

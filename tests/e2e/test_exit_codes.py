@@ -28,6 +28,7 @@ cases = [
     (("analyze", good, "--json"), 0),
     (("ctl", "status", "--timeout", "1"), 3),  # no network on this test's domain
     (("ctl", "set-link", "2", "--bernoulli", "0.5", "--timeout", "1"), 3),
+    (("record", "--out", "/tmp/netkf-exit-codes.csv", "--duration", "1"), 3),  # never silently empty
 ]
 # --plot to a path that cannot be written: a clear error before any work, and nothing on
 # stdout (gnuplot used to write the figure there, into the --json output).

@@ -198,7 +198,7 @@ TEST(ScenarioErrors, ColumnPointsAtTheOffendingKey) {
 
 TEST(ScenarioErrors, MissingFileIsReported) {
   const std::string message = error_of([] { netkf::load_scenario_file(kData / "does-not-exist.yaml"); });
-  EXPECT_THAT(message, HasSubstr("does-not-exist.yaml: cannot open scenario file"));
+  EXPECT_THAT(message, HasSubstr("does-not-exist.yaml: cannot open scenario file: No such file or directory"));
 }
 
 TEST(ScenarioErrors, DirectoryIsReported) {
