@@ -515,7 +515,6 @@ int run_ctl_set_link(const CtlOptions& o) {
   } catch (const std::exception& e) {
     fail(2, std::string("invalid link model: ") + e.what());
   }
-  if (o.sensor_id <= 0) fail(2, "sensor id must be positive, got " + std::to_string(o.sensor_id));
 
   boost::asio::io_context io;
   std::optional<LinkReplyRecord> reply;
@@ -561,6 +560,21 @@ int run_ctl_set_link(const CtlOptions& o) {
 }
 
 }  // namespace
+
+/// A wait in seconds: finite, more than 0, at most an hour (NaN, -1 and 1e300 are refused).
+CLI::Validator timeout_seconds() {
+  return CLI::Validator(
+      [](std::string& v) -> std::string {
+        try {
+          std::size_t used = 0;
+          const double s = std::stod(v, &used);
+          if (used == v.size() && std::isfinite(s) && s > 0.0 && s <= 3600.0) return {};
+        } catch (const std::exception&) {
+        }
+        return "must be a number of seconds in (0, 3600], got '" + v + "'";
+      },
+      "SECONDS");
+}
 
 void add_launch_command(CLI::App& app) {
   auto o = std::make_shared<LaunchOptions>();
@@ -632,14 +646,14 @@ void add_ctl_command(CLI::App& app) {
                  ->expected(2, 4);
   b->excludes(ge);
   o->network.add_to(set);
-  set->add_option("--timeout", o->timeout, "Seconds to wait for the channel emulator's answer");
+  set->add_option("--timeout", o->timeout, "Seconds to wait for the channel emulator's answer")->check(timeout_seconds());
   set->callback([o] {
     if (const int rc = run_ctl_set_link(*o); rc != 0) throw CLI::RuntimeError(rc);
   });
   auto* status = cmd->add_subcommand("status", "Table of links (model, counts, observed loss)");
   status->add_flag("--json", o->json, "One JSON object on stdout");
   o->network.add_to(status);
-  status->add_option("--timeout", o->timeout, "Seconds to wait for the first link status");
+  status->add_option("--timeout", o->timeout, "Seconds to wait for the first link status")->check(timeout_seconds());
   status->callback([o] {
     if (const int rc = run_ctl_status(*o); rc != 0) throw CLI::RuntimeError(rc);
   });

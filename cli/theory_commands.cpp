@@ -198,7 +198,17 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("scenario", args->file, "scenario YAML file")->required();
   cmd->add_option("--runs", args->runs, "independent runs N")->check(CLI::Range(1, 100000000));
   cmd->add_option("--steps", args->steps, "steps T per run")->check(CLI::Range(1, 100000000));
-  cmd->add_option("--seed", args->seed, "override the scenario's seed");
+  cmd->add_option("--seed", args->seed, "override the scenario's seed (0 .. 2^64-1)")
+      ->check(CLI::Validator(
+          [](std::string& v) -> std::string {
+            try {
+              parse_seed(v);  // the scenario file's rule
+              return {};
+            } catch (const std::exception& e) {
+              return e.what();
+            }
+          },
+          "SEED"));
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--kernel", args->kernel, "auto | reference (the core filter) | fast (fixed-size)")
       ->check(CLI::IsMember({"auto", "reference", "fast"}));

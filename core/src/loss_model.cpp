@@ -79,8 +79,9 @@ void validate_link_model(const LinkModel& model) {
   check_probability("r", g.r);
   check_probability("loss_good", g.loss_good);
   check_probability("loss_bad", g.loss_bad);
-  // p = r = 0 is allowed at run time (a frozen chain: it stays where it is);
-  // the scenario loader is stricter for files.
+  // One rule for files, `ctl`, the dashboard and the control topic: p = r = 0 leaves the
+  // chain's stationary distribution undefined (it would stay wherever it is).
+  if (g.p + g.r <= 0.0) throw std::invalid_argument("p and r cannot both be 0 (the chain would never move)");
 }
 
 std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model) {

@@ -194,19 +194,12 @@ class Loader {
 
   std::uint64_t read_seed(const YAML::Node& node) const {
     if (!node.IsScalar()) fail(mark_of(node, "seed"), "seed must be a non-negative integer, got " + describe(node));
-    const std::string& text = node.Scalar();
-    if (!text.empty() && text.front() == '-')
-      fail(node.Mark(), "seed must be a non-negative integer, got " + text);
-    std::uint64_t value = 0;
-    const char* first = text.data();
-    const char* last = text.data() + text.size();
-    if (first != last && *first == '+') ++first;
-    const auto [end, ec] = std::from_chars(first, last, value);
-    if (ec == std::errc::result_out_of_range)
-      fail(node.Mark(), "seed must fit in 64 bits (at most 18446744073709551615), got " + text);
-    if (ec != std::errc{} || end != last || first == last)
-      fail(node.Mark(), "seed must be a non-negative integer, got " + describe(node));
-    return value;
+    try {
+      return parse_seed(node.Scalar());
+    } catch (const std::invalid_argument& e) {
+      fail(node.Mark(), e.what());
+    }
+    return 0;
   }
 
   // Matrices are nested lists, row-major: [[a, b], [c, d]].
@@ -348,6 +341,20 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& source_
     if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
     throw ScenarioError(prefix + ": " + e.msg);
   }
+}
+
+std::uint64_t parse_seed(const std::string& text) {
+  if (!text.empty() && text.front() == '-') throw std::invalid_argument("seed must be a non-negative integer, got " + text);
+  std::uint64_t value = 0;
+  const char* first = text.data();
+  const char* last = text.data() + text.size();
+  if (first != last && *first == '+') ++first;
+  const auto [end, ec] = std::from_chars(first, last, value);
+  if (ec == std::errc::result_out_of_range)
+    throw std::invalid_argument("seed must fit in 64 bits (at most 18446744073709551615), got " + text);
+  if (ec != std::errc{} || end != last || first == last)
+    throw std::invalid_argument("seed must be a non-negative integer, got '" + text + "'");
+  return value;
 }
 
 Scenario load_scenario_file(const std::filesystem::path& path) {

@@ -25,6 +25,12 @@ cases = [
     (("ctl", "set-link", "2", "--bernoulli", "1.5"), 2),
     (("ctl", "set-link", "2"), 2),
     (("ctl",), 2),
+    (("ctl", "status", "--timeout", "-1"), 2),
+    (("ctl", "status", "--timeout", "nan"), 2),
+    (("ctl", "status", "--timeout", "1e300"), 2),
+    (("ctl", "set-link", "2", "--gilbert-elliott", "0", "0"), 2),  # p = r = 0: refused as in a file
+    (("simulate", good, "--runs", "10", "--steps", "10", "--seed", "-1"), 2),
+    (("ctl", "set-link", "0", "--bernoulli", "0.5", "--timeout", "1"), 3),  # id 0 is valid (as in a file)
     (("analyze", good, "--json"), 0),
     (("ctl", "status", "--timeout", "1"), 3),  # no network on this test's domain
     (("ctl", "set-link", "2", "--bernoulli", "0.5", "--timeout", "1"), 3),

@@ -170,6 +170,7 @@ TEST(DashboardProtocol, RefusedValuesChangeNothingAndSayWhy) {
       {{{"link.2.p", 0.1}}, "p is not a parameter of the bernoulli model"},
       {{{"link.3.loss", 0.1}}, "loss is not a parameter of the gilbert_elliott model"},
       {{{"link.3.r", 1.2}}, "r must be a probability"},
+      {{{"link.3.p", 0.0}, {"link.3.r", 0.0}}, "p and r cannot both be 0"},
   };
   for (const auto& [params, reason] : cases) {
     const auto changes = link_changes(set(params), three_links());

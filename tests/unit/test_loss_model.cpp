@@ -170,7 +170,7 @@ TEST(LossModel, BernoulliToGilbertElliottStartsGood) {
   ASSERT_EQ(link.chain_state(), LinkLossProcess::ChainState::bad);
   link.set_model(BernoulliLink{0.0});
   EXPECT_FALSE(link.next_dropped());
-  link.set_model(GilbertElliottLink{0.0, 0.0, 0.0, 1.0});  // frozen chain
+  link.set_model(GilbertElliottLink{0.0, 1.0, 0.0, 1.0});  // never leaves good
   EXPECT_EQ(link.chain_state(), LinkLossProcess::ChainState::good);
   EXPECT_FALSE(link.next_dropped());
 }
@@ -181,6 +181,8 @@ TEST(LossModel, InvalidModelThrowsAndChangesNothing) {
   EXPECT_THROW(netkf::validate_link_model(GilbertElliottLink{0.1, -0.1, 0.0, 1.0}), std::invalid_argument);
   EXPECT_THROW(netkf::validate_link_model(GilbertElliottLink{0.1, 0.1, 0.0, 1.01}), std::invalid_argument);
   EXPECT_NO_THROW(netkf::validate_link_model(GilbertElliottLink{0.1, 0.1, 0.0, 1.0}));
+  // p = r = 0: refused at run time as in a scenario file (one rule everywhere).
+  EXPECT_THROW(netkf::validate_link_model(GilbertElliottLink{0.0, 0.0, 0.1, 0.9}), std::invalid_argument);
 
   const LinkModel original = GilbertElliottLink{1.0, 0.0, 0.0, 1.0};
   LinkLossProcess link(original, 3);

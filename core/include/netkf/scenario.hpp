@@ -40,7 +40,9 @@ double stationary_loss(const LinkModel& model);
 double mean_burst_length(const LinkModel& model);
 /// "bernoulli" or "gilbert_elliott".
 std::string link_model_name(const LinkModel& model);
-/// Throws std::invalid_argument naming the offending parameter when a probability is outside [0,1].
+/// Throws std::invalid_argument naming the offending parameter when a probability is outside
+/// [0,1] (or NaN), or when a Gilbert-Elliott chain has p = r = 0. The one link validation of
+/// scenario files, `netkf ctl`, the dashboard and the channel's control topic.
 void validate_link_model(const LinkModel& model);
 /// The model's parameters by name, as in a scenario file: {loss} for Bernoulli;
 /// {p, r, loss_good, loss_bad} for Gilbert-Elliott.
@@ -106,6 +108,10 @@ Scenario parse_scenario(const std::string& yaml_text, const std::string& source_
 Scenario default_scenario();
 /// Serialise to YAML that parse_scenario accepts (used to hand the scenario to child processes).
 std::string scenario_to_yaml(const Scenario& scenario);
+
+/// A seed as written by a person (file or command line): a non-negative integer that fits in
+/// 64 bits. Throws std::invalid_argument with the reason (no wrapping of -1 or 2^64).
+std::uint64_t parse_seed(const std::string& text);
 
 /// Validate an already-built scenario (used by parse and by programmatic construction).
 /// Throws ScenarioError with a message naming the field.
