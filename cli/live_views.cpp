@@ -116,7 +116,9 @@ void LiveViews::link_reply(const LinkReplyRecord& reply) {
 
 void LiveViews::invalid_sample(const std::string& what) {
   model_.count_invalid();
-  log(LiveEvent::Level::warning, "rejected a sample: " + what);
+  if (const auto left_out = invalid_log_.allow())
+    log(LiveEvent::Level::warning, "rejected a sample: " + what +
+                                       (*left_out ? " (" + std::to_string(*left_out) + " more like it left out)" : ""));
 }
 
 void LiveViews::log(LiveEvent::Level level, const std::string& line) {

@@ -20,6 +20,7 @@
 #include "live_metrics.hpp"
 #include "live_model.hpp"
 #include "live_records.hpp"
+#include "netkf/log_throttle.hpp"
 #include "theory_worker.hpp"
 
 namespace netkf::cli {
@@ -80,6 +81,7 @@ class LiveViews {
   LiveMetrics metrics_;
   std::unique_ptr<DashboardServer> dashboard_;
   std::deque<std::string> screen_events_;
+  LogThrottle invalid_log_;  // a rogue sender: a few warnings, then a count
   struct PendingChange {
     DashboardServer::ClientId client;
     std::optional<std::string> id;

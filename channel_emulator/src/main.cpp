@@ -18,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/log_throttle.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/scenario.hpp"
 
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
       netkf::dds::Writer<wire::LinkControlReply> reply(participant, netkf::dds::topics::link_control_reply);
 
       std::mutex links_mutex;
+      netkf::LogThrottle unknown_log;  // a rogue sender: a few warnings, then a count
       auto publish_status = [&] {
         const auto now = netkf::dds::steady_now_ns();
         const auto reports = [&] {
@@ -79,10 +81,13 @@ int main(int argc, char** argv) {
           case netkf::nodes::ChannelLinks::Verdict::dropped:
             spdlog::trace("dropped sensor {} period {}", m.sensor_id(), m.k());
             break;
-          case netkf::nodes::ChannelLinks::Verdict::unknown_sensor:
-            spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far)", m.sensor_id(), m.k(),
-                         unknown_so_far);
+          case netkf::nodes::ChannelLinks::Verdict::unknown_sensor: {
+            const std::lock_guard lock(links_mutex);  // the throttle's state
+            if (const auto left_out = unknown_log.allow())
+              spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far){}", m.sensor_id(),
+                           m.k(), unknown_so_far, netkf::dds::left_out_text(*left_out));
             break;
+          }
         }
       };
 

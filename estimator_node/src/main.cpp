@@ -20,6 +20,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/log_throttle.hpp"
 #include "netkf/nodes/estimator_core.hpp"
 #include "netkf/scenario.hpp"
 
@@ -81,15 +82,18 @@ class EstimatorNode {
       s = netkf::dds::to_sensor_sample(m);
     } catch (const std::exception& e) {
       core_.count_rejection(netkf::nodes::SampleRejection::non_finite);
-      spdlog::warn("sample of sensor {} for period {} rejected: {}", m.sensor_id(), m.k(), e.what());
+      if (const auto left_out = rejection_log_.allow())
+        spdlog::warn("sample of sensor {} for period {} rejected: {}{}", m.sensor_id(), m.k(), e.what(),
+                     netkf::dds::left_out_text(*left_out));
       return;
     }
     const auto rejected_before = core_.rejected_total();
     const auto late_before = core_.late_total();
     publish(core_.on_sample(s.sensor_id, m.k(), s.y, m.stamp_ns(), netkf::dds::steady_now_ns()));
     if (core_.rejected_total() != rejected_before) {
-      spdlog::warn("sample of sensor {} for period {} rejected ({} rejected so far)", m.sensor_id(), m.k(),
-                   core_.rejected_total());
+      if (const auto left_out = rejection_log_.allow())
+        spdlog::warn("sample of sensor {} for period {} rejected ({} rejected so far){}", m.sensor_id(), m.k(),
+                     core_.rejected_total(), netkf::dds::left_out_text(*left_out));
     } else if (core_.late_total() != late_before) {
       spdlog::debug("late sample of sensor {} for period {} (period already fused)", m.sensor_id(), m.k());
     }
@@ -159,6 +163,7 @@ class EstimatorNode {
 
   boost::asio::io_context& io_;
   std::mutex mutex_;  // core_ and the publication state below
+  netkf::LogThrottle rejection_log_;  // a broken or rogue sender: a few warnings, then a count
   netkf::nodes::EstimatorCore core_;
   int input_dim_;
   boost::asio::steady_timer deadline_timer_;

@@ -5,6 +5,7 @@
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <string>
@@ -21,6 +22,11 @@ struct CommonNodeFlags {
   std::optional<std::string> dds_profile;// --dds-profile FILE (default $NETKF_DDS_PROFILE, else built-in localhost-only)
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
 };
+
+/// " (N more like it left out)" after a throttled warning (netkf::LogThrottle); "" for none.
+inline std::string left_out_text(std::uint64_t left_out) {
+  return left_out ? " (" + std::to_string(left_out) + " more like it left out)" : std::string();
+}
 
 /// Register the common flags on `app`.
 void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);
