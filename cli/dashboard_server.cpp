@@ -503,6 +503,9 @@ unsigned short DashboardServer::port() const {
 }
 
 std::string DashboardServer::url() const {
+  // Only the printed address: the server listens where options.bind says (127.0.0.1 by
+  // default). A wildcard bind (--dashboard-bind 0.0.0.0) is not an address a browser can
+  // open, so the URL names this machine's loopback, which the wildcard includes.
   std::string host = impl_->options.bind;
   if (host == "0.0.0.0" || host == "::") host = "127.0.0.1";
   else if (host.find(':') != std::string::npos) host = "[" + host + "]";
@@ -516,9 +519,13 @@ void DashboardServer::publish(dashboard::ChannelId channel, const nlohmann::json
   if (impl_->stopped) return;
   const auto channel_id = static_cast<std::uint32_t>(channel);
   std::string payload = message.dump();
-  for (auto& s : impl_->live_sessions())
+  // Called for every estimate and truth sample: no list is rebuilt here (the flush prunes).
+  for (const auto& weak : impl_->sessions) {
+    const auto s = weak.lock();
+    if (!s || !s->open()) continue;
     for (const auto& [subscription, ch] : s->subscriptions)
       if (ch == channel_id) s->queue_data(dashboard::message_data_frame(subscription, timestamp_ns, payload));
+  }
   impl_->latched[{channel_id, latch_key}] = {std::move(payload), timestamp_ns};
 }
 

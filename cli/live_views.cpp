@@ -5,6 +5,7 @@
 #include <random>
 
 #include "live_status.hpp"
+#include "netkf/dds/node_support.hpp"
 
 namespace netkf::cli {
 
@@ -117,8 +118,7 @@ void LiveViews::link_reply(const LinkReplyRecord& reply) {
 void LiveViews::invalid_sample(const std::string& what) {
   model_.count_invalid();
   if (const auto left_out = invalid_log_.allow())
-    log(LiveEvent::Level::warning, "rejected a sample: " + what +
-                                       (*left_out ? " (" + std::to_string(*left_out) + " more like it left out)" : ""));
+    log(LiveEvent::Level::warning, "rejected a sample: " + what + dds::left_out_text(*left_out));
 }
 
 void LiveViews::log(LiveEvent::Level level, const std::string& line) {
