@@ -161,7 +161,7 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
     return out;
   }
   std::vector<LinkChain> links;
-  for (const auto& s : sensors) links.push_back(link_chain(s.link));
+  for (const auto& s : sensors) links.push_back(link_chain(s.link.loss));  // delay-free links (with_effective_links)
 
   // Eigen-blocks: eigenvalues of equal modulus (Assumption 3's A_i = α_i diag(e^{iθ})).
   std::vector<bool> used(static_cast<std::size_t>(n), false);

@@ -49,7 +49,7 @@ OperatingPointAssessment assess(const Scenario& scenario, const std::vector<Sens
 
 std::vector<double> configured_arrival_rates(const Scenario& scenario) {
   std::vector<double> rates;
-  for (const auto& s : scenario.sensors) rates.push_back(1.0 - stationary_loss(s.link));
+  for (const auto& s : scenario.sensors) rates.push_back(effective_arrival_rate(s.link, scenario.deadline_ms()));
   return rates;
 }
 
@@ -75,7 +75,8 @@ OperatingPointAssessment assess_operating_point(const Scenario& scenario, const 
 }
 
 OperatingPointAssessment assess_configured_links(const Scenario& scenario) {
-  return assess(scenario, scenario.sensors, configured_arrival_rates(scenario));
+  const Scenario effective = with_effective_links(scenario);  // what reaches the estimator in time
+  return assess(effective, effective.sensors, configured_arrival_rates(scenario));
 }
 
 }  // namespace netkf::analysis

@@ -73,6 +73,7 @@ class Validator {
     positive("estimator.divergence_trace_bound", s_.estimator.divergence_trace_bound);
     plant(gain_may_be_pending);
     sensors();
+    events();
   }
 
  private:
@@ -223,22 +224,38 @@ class Validator {
     }
   }
 
-  void link(const std::string& at, const LinkModel& model) const {
-    if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-      probability(at + ".loss", b->loss);
-    } else {
-      const auto& g = std::get<GilbertElliottLink>(model);
-      probability(at + ".p", g.p);
-      probability(at + ".r", g.r);
-      probability(at + ".loss_good", g.loss_good);
-      probability(at + ".loss_bad", g.loss_bad);
-      // p = r = 0 leaves the chain's stationary distribution undefined.
-      if (g.p + g.r <= 0.0) fail(at + ".p", at + ": p and r cannot both be 0 (the chain would never move)");
-    }
+  void link(const std::string& at, const LinkSpec& spec) const {
     try {
-      validate_link_model(model);  // the loss-model library's own checks, in case they are stricter
-    } catch (const std::invalid_argument& e) {
-      fail(at, at + ": " + e.what());
+      validate_link(spec);  // the link type's one validation (netkf/link.hpp)
+    } catch (const LinkError& e) {
+      fail(at + "." + e.key(), at + "." + e.what());
+    }
+  }
+
+  // Replay the events in the order they apply, as the channel will: each must make sense for
+  // its link at that point (a key of the model the link then has, valid values).
+  void events() const {
+    std::map<int, LinkSpec> links;
+    for (const auto& sensor : s_.sensors) links[sensor.id] = sensor.link;
+    for (const std::size_t i : event_application_order(s_.events)) {
+      const LinkEvent& e = s_.events[i];
+      const std::string at = "events[" + std::to_string(i) + "]";
+      if (e.at_period < 0) fail(at + ".at_period", at + ".at_period: the event is before period 0");
+      if (e.ramp_periods < 0) fail(at + ".ramp", at + ".ramp: negative duration");
+      const auto link = links.find(e.link);
+      if (link == links.end()) fail(at + ".link", at + ".link: unknown link " + std::to_string(e.link));
+      const std::string keys_at = at + (e.kind == LinkEvent::Kind::set ? ".set" : ".ramp.to");
+      try {
+        if (e.kind == LinkEvent::Kind::ramp) {
+          for (const auto& k : e.keys) {
+            if (link_key_is_word(k.name)) throw LinkError(k.name, "a ramp moves numbers; change " + k.name + " with set");
+            (void)link_key_value(link->second, k.name);  // the ramp starts from it
+          }
+        }
+        link->second = apply_link_keys(link->second, e.keys);
+      } catch (const LinkError& err) {
+        fail(keys_at + "." + err.key(), keys_at + ": " + err.what());
+      }
     }
   }
 
@@ -256,7 +273,73 @@ void emit_matrix(YAML::Emitter& out, const Matrix& M) {
   out << YAML::EndSeq;
 }
 
+void emit_link_keys(YAML::Emitter& out, const LinkKeys& keys) {
+  out << YAML::Flow << YAML::BeginMap;
+  for (const auto& k : keys) {
+    out << YAML::Key << k.name << YAML::Value;
+    if (const auto* word = std::get_if<std::string>(&k.value)) {
+      out << *word;
+    } else {
+      out << std::get<double>(k.value);
+    }
+  }
+  out << YAML::EndMap;
+}
+
+void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
+  out << YAML::BeginSeq;
+  for (const auto& e : events) {
+    out << YAML::Flow << YAML::BeginMap;
+    out << YAML::Key << "at_period" << YAML::Value << e.at_period;
+    out << YAML::Key << "link" << YAML::Value << e.link;
+    if (e.kind == LinkEvent::Kind::set) {
+      out << YAML::Key << "set" << YAML::Value;
+      emit_link_keys(out, e.keys);
+    } else {
+      out << YAML::Key << "ramp" << YAML::Value << YAML::BeginMap << YAML::Key << "to" << YAML::Value;
+      emit_link_keys(out, e.keys);
+      out << YAML::Key << "over_periods" << YAML::Value << e.ramp_periods << YAML::EndMap;
+    }
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+}
+
 }  // namespace
+
+Scenario with_effective_links(const Scenario& scenario) {
+  Scenario out = scenario;
+  for (auto& sensor : out.sensors) sensor.link = LinkSpec(effective_loss_model(sensor.link, scenario.deadline_ms()));
+  return out;
+}
+
+std::vector<std::size_t> event_application_order(const std::vector<LinkEvent>& events) {
+  std::vector<std::size_t> order(events.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return events[a].at_period < events[b].at_period; });
+  return order;
+}
+
+std::string events_to_yaml(const std::vector<LinkEvent>& events) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);  // every double round-trips exactly: a replay is bit-identical
+  out << YAML::BeginMap << YAML::Key << "events" << YAML::Value;
+  if (events.empty()) {
+    out << YAML::Flow << YAML::BeginSeq << YAML::EndSeq;
+  } else {
+    emit_events(out, events);
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+void add_replayed_events(Scenario& scenario, const std::vector<LinkEvent>& replayed) {
+  std::vector<LinkEvent> all = replayed;
+  all.insert(all.end(), scenario.events.begin(), scenario.events.end());
+  scenario.events = std::move(all);
+  validate_scenario(scenario);
+}
 
 const SensorSpec* Scenario::find_sensor(int id) const {
   for (const auto& s : sensors)
@@ -366,22 +449,15 @@ std::string scenario_to_yaml(const Scenario& s) {
     emit_matrix(out, sensor.C);
     out << YAML::Key << "R" << YAML::Value;
     emit_matrix(out, sensor.R);
-    out << YAML::Key << "link" << YAML::Value << YAML::Flow << YAML::BeginMap;
-    if (const auto* b = std::get_if<BernoulliLink>(&sensor.link)) {
-      out << YAML::Key << "model" << YAML::Value << "bernoulli";
-      out << YAML::Key << "loss" << YAML::Value << b->loss;
-    } else {
-      const auto& g = std::get<GilbertElliottLink>(sensor.link);
-      out << YAML::Key << "model" << YAML::Value << "gilbert_elliott";
-      out << YAML::Key << "p" << YAML::Value << g.p;
-      out << YAML::Key << "r" << YAML::Value << g.r;
-      out << YAML::Key << "loss_good" << YAML::Value << g.loss_good;
-      out << YAML::Key << "loss_bad" << YAML::Value << g.loss_bad;
-    }
-    out << YAML::EndMap;
+    out << YAML::Key << "link" << YAML::Value;
+    emit_link_keys(out, link_keys(sensor.link));
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
+  if (!s.events.empty()) {
+    out << YAML::Key << "events" << YAML::Value;
+    emit_events(out, s.events);
+  }
 
   out << YAML::Key << "estimator" << YAML::Value << YAML::BeginMap;
   if (s.estimator.deadline_ms) out << YAML::Key << "deadline_ms" << YAML::Value << *s.estimator.deadline_ms;

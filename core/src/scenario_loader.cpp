@@ -9,7 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <initializer_list>
+#include <algorithm>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -23,9 +23,9 @@
 namespace netkf {
 namespace {
 
-std::string join(std::initializer_list<const char*> names) {
+std::string join(const std::vector<std::string>& names) {
   std::string out;
-  for (const char* n : names) {
+  for (const auto& n : names) {
     if (!out.empty()) out += ", ";
     out += n;
   }
@@ -72,7 +72,7 @@ class Loader {
     Scenario s;
     s.source = source_;
     const MapView top = open_map(root, "", YAML::Mark::null_mark(),
-                                 {"name", "period_ms", "seed", "plant", "sensors", "estimator"});
+                                 {"name", "period_ms", "seed", "plant", "sensors", "estimator", "events"});
     s.name = top.has("name") ? read_string(top.values.at("name"), "name") : default_name();
     s.period_ms = read_int(require(top, "period_ms"), "period_ms");
     // Optional: a scenario without a seed is still reproducible (seed 0).
@@ -80,9 +80,31 @@ class Loader {
     read_plant(require(top, "plant"), s.plant);
     read_sensors(require(top, "sensors"), s.sensors);
     if (top.has("estimator")) read_estimator(top.values.at("estimator"), s.estimator);
+    if (top.has("events")) s.events = read_events(top.values.at("events"), "events", s);
 
     complete_scenario(s, [this](const std::string& path) { return locate(path); });
     return s;
+  }
+
+  // An events file: `events: [...]` or the bare list, for `scenario`'s links and period.
+  std::vector<LinkEvent> load_events(const std::string& text, const Scenario& scenario) {
+    YAML::Node root;
+    try {
+      root = YAML::Load(text);
+    } catch (const YAML::ParserException& e) {
+      fail(e.mark, "YAML syntax error: " + e.msg);
+    }
+    if (root.IsNull()) return {};
+    if (root.IsMap()) {
+      const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
+      if (!top.has("events")) return {};
+      root = top.values.at("events");
+    }
+    std::vector<LinkEvent> events = read_events(root, "events", scenario);
+    Scenario check = scenario;
+    check.events = events;
+    validate_scenario(check, [this](const std::string& path) { return locate(path); });
+    return events;
   }
 
  private:
@@ -117,7 +139,7 @@ class Loader {
   // `key_mark`: where the key naming this mapping is (messages about the mapping as a
   // whole point there, not at its first entry); null for the document itself.
   MapView open_map(const YAML::Node& node, const std::string& path, const YAML::Mark& key_mark,
-                   std::initializer_list<const char*> allowed) {
+                   const std::vector<std::string>& allowed) {
     const YAML::Mark at = valid(key_mark) ? key_mark : node.Mark();
     const std::string what = path.empty() ? "the scenario" : path;
     if (!node.IsMap()) fail(at, what + " must be a mapping (key: value), got " + describe(node));
@@ -127,7 +149,7 @@ class Loader {
       if (!kv.first.IsScalar()) fail(kv.first.Mark(), "keys in " + what + " must be plain names");
       const std::string key = kv.first.Scalar();
       bool known = false;
-      for (const char* a : allowed) known = known || key == a;
+      for (const auto& a : allowed) known = known || key == a;
       if (!known)
         fail(kv.first.Mark(), "unknown key '" + key + "' in " + (path.empty() ? "the top level" : path) +
                                   " (expected one of: " + join(allowed) + ")");
@@ -288,33 +310,110 @@ class Loader {
     }
   }
 
-  LinkModel read_link(const YAML::Node& node, const std::string& at) {
+  // A link's keys (a sensor's link, an event's `set` or ramp target). Names, types and
+  // combinations are the link type's rules (netkf/link.hpp), the same for ctl and the dashboard.
+  LinkKeys read_link_keys(const YAML::Node& node, const std::string& at, const YAML::Mark& where) {
+    if (!node.IsMap())
+      fail(where, at + " must be a mapping such as { model: bernoulli, loss: 0.1 }, got " + describe(node));
+    const MapView m = open_map(node, at, where, link_key_names());
+    LinkKeys keys;
+    for (const auto& name : link_key_names()) {
+      if (!m.has(name)) continue;
+      const std::string path = child(at, name);
+      if (link_key_is_word(name)) {
+        keys.push_back({name, read_string(m.values.at(name), path)});
+      } else {
+        keys.push_back({name, read_double(m.values.at(name), path)});
+      }
+    }
+    return keys;
+  }
+
+  [[noreturn]] void fail_link(const LinkError& e, const YAML::Node& node, const std::string& at) const {
+    fail(mark_of(node, child(at, e.key())), at + ": " + e.what());
+  }
+
+  LinkSpec read_link(const YAML::Node& node, const std::string& at) {
     const YAML::Mark where = mark_of(node, at);
-    if (!node.IsMap()) fail(where, at + " must be a mapping such as { model: bernoulli, loss: 0.1 }, got " + describe(node));
-    const YAML::Node model_node = node["model"];
-    if (!model_node) {
-      // Catch a misspelt 'model' (or any other typo) as an unknown key first.
-      open_map(node, at, where, {"model", "loss", "p", "r", "loss_good", "loss_bad"});
+    const LinkKeys keys = read_link_keys(node, at, where);
+    if (std::none_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; }))
       fail(where, "missing required key '" + at + ".model' (bernoulli or gilbert_elliott)");
+    try {
+      return link_from_keys(keys);
+    } catch (const LinkError& e) {
+      fail_link(e, node, at);
     }
-    const std::string model = read_string(model_node, at + ".model");
-    if (model == "bernoulli") {
-      const MapView m = open_map(node, at, where, {"model", "loss"});
-      BernoulliLink link;
-      link.loss = read_double(require(m, "loss"), at + ".loss");
-      return link;
+  }
+
+  // `events:`: when each link changes. Which keys are valid for the link at that point is
+  // checked by validate_scenario(), which replays the events in order.
+  std::vector<LinkEvent> read_events(const YAML::Node& node, const std::string& at, const Scenario& s) {
+    if (!node.IsSequence())
+      fail(mark_of(node, at), at + " must be a list such as - { at_period: 300, link: 2, set: { loss: 1.0 } }, got " +
+                                  describe(node));
+    std::vector<LinkEvent> events;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string path = at + "[" + std::to_string(i) + "]";
+      marks_[path] = node[i].Mark();
+      const MapView m = open_map(node[i], path, marks_[path], {"at_period", "at_s", "link", "set", "ramp"});
+      LinkEvent e;
+      if (m.has("at_period") == m.has("at_s"))
+        fail(m.mark, path + " needs exactly one of at_period (a period index) or at_s (seconds from the start)");
+      if (m.has("at_period")) {
+        const YAML::Node& v = m.values.at("at_period");
+        e.at_period = read_integer(v, path + ".at_period");
+        if (e.at_period < 0) fail(v.Mark(), path + ".at_period: the event is before period 0, got " + v.Scalar());
+      } else {
+        const YAML::Node& v = m.values.at("at_s");
+        const double seconds = read_double(v, path + ".at_s");
+        if (seconds < 0.0) fail(v.Mark(), path + ".at_s: the event is before the start (period 0), got " + v.Scalar());
+        e.at_period = periods_in(seconds, s, v, path + ".at_s");
+      }
+      const YAML::Node& link = require(m, "link");
+      e.link = read_int(link, path + ".link");
+      if (!s.find_sensor(e.link)) {
+        std::string ids;
+        for (const auto& sensor : s.sensors) ids += (ids.empty() ? "" : ", ") + std::to_string(sensor.id);
+        fail(mark_of(link, path + ".link"),
+             path + ".link: unknown link " + std::to_string(e.link) + " (the scenario's links: " + ids + ")");
+      }
+      if (m.has("set") == m.has("ramp"))
+        fail(m.mark, path + " needs exactly one of set: { LINK KEYS } or ramp: { to: { LINK KEYS }, over_s: S }");
+      if (m.has("set")) {
+        e.kind = LinkEvent::Kind::set;
+        e.keys = read_link_keys(m.values.at("set"), path + ".set", mark_of(m.values.at("set"), path + ".set"));
+      } else {
+        e.kind = LinkEvent::Kind::ramp;
+        const std::string rp = path + ".ramp";
+        const MapView r = open_map(m.values.at("ramp"), rp, mark_of(m.values.at("ramp"), rp), {"to", "over_s", "over_periods"});
+        e.keys = read_link_keys(require(r, "to"), rp + ".to", mark_of(r.values.at("to"), rp + ".to"));
+        for (const auto& k : e.keys)
+          if (link_key_is_word(k.name))
+            fail(mark_of(r.values.at("to"), rp + ".to." + k.name),
+                 rp + ".to." + k.name + ": a ramp moves numbers; change " + k.name + " with set");
+        if (r.has("over_s") == r.has("over_periods"))
+          fail(r.mark, rp + " needs exactly one of over_s (seconds) or over_periods");
+        if (r.has("over_s")) {
+          const YAML::Node& v = r.values.at("over_s");
+          const double seconds = read_double(v, rp + ".over_s");
+          if (seconds < 0.0) fail(v.Mark(), rp + ".over_s must be >= 0, got " + v.Scalar());
+          e.ramp_periods = periods_in(seconds, s, v, rp + ".over_s");
+        } else {
+          const YAML::Node& v = r.values.at("over_periods");
+          e.ramp_periods = read_integer(v, rp + ".over_periods");
+          if (e.ramp_periods < 0) fail(v.Mark(), rp + ".over_periods must be >= 0, got " + v.Scalar());
+        }
+      }
+      events.push_back(std::move(e));
     }
-    if (model == "gilbert_elliott") {
-      const MapView m = open_map(node, at, where, {"model", "p", "r", "loss_good", "loss_bad"});
-      GilbertElliottLink link;  // loss_good = 0, loss_bad = 1 by default: the simple Gilbert channel
-      link.p = read_double(require(m, "p"), at + ".p");
-      link.r = read_double(require(m, "r"), at + ".r");
-      if (m.has("loss_good")) link.loss_good = read_double(m.values.at("loss_good"), at + ".loss_good");
-      if (m.has("loss_bad")) link.loss_bad = read_double(m.values.at("loss_bad"), at + ".loss_bad");
-      return link;
-    }
-    fail(model_node.Mark(), "unknown link model '" + model + "' in " + at +
-                                ".model (expected one of: bernoulli, gilbert_elliott)");
+    return events;
+  }
+
+  // Seconds as a whole number of periods (rounded to the nearest).
+  std::int64_t periods_in(double seconds, const Scenario& s, const YAML::Node& node, const std::string& path) const {
+    const double periods = std::round(seconds * 1000.0 / s.period_ms);
+    if (periods > 1e15) fail(node.Mark(), path + " is too far in the future, got " + node.Scalar());
+    return static_cast<std::int64_t>(periods);
   }
 
   void read_estimator(const YAML::Node& node, EstimatorSpec& estimator) {
@@ -357,16 +456,33 @@ std::uint64_t parse_seed(const std::string& text) {
   return value;
 }
 
-Scenario load_scenario_file(const std::filesystem::path& path) {
+namespace {
+std::string read_text_file(const std::filesystem::path& path, const char* what) {
   std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw ScenarioError(path.string() + ": is a directory, not a scenario file");
+  if (std::filesystem::is_directory(path, ec)) throw ScenarioError(path.string() + ": is a directory, not a " + what);
   std::ifstream in(path, std::ios::binary);
   // errno says why (no such file, permission denied); the message names it.
-  if (!in) throw ScenarioError(path.string() + ": cannot open scenario file: " + std::strerror(errno));
+  if (!in) throw ScenarioError(path.string() + ": cannot open " + what + ": " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) throw ScenarioError(path.string() + ": error while reading the scenario file");
-  return parse_scenario(text.str(), path.string());
+  if (in.bad()) throw ScenarioError(path.string() + ": error while reading " + what);
+  return text.str();
+}
+}  // namespace
+
+std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const Scenario& scenario) {
+  const std::string text = read_text_file(path, "events file");
+  try {
+    return Loader(path.string()).load_events(text, scenario);
+  } catch (const YAML::Exception& e) {
+    std::string prefix = path.string();
+    if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
+    throw ScenarioError(prefix + ": " + e.msg);
+  }
+}
+
+Scenario load_scenario_file(const std::filesystem::path& path) {
+  return parse_scenario(read_text_file(path, "scenario file"), path.string());
 }
 
 }  // namespace netkf

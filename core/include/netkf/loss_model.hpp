@@ -1,10 +1,10 @@
 #pragma once
-// Seeded packet-loss processes for one link (DESIGN.md, "Bernoulli" / "Gilbert-Elliott").
+// Seeded packet-loss and delay processes for one link (docs/scenario-format.md, "Links").
 #include <cstdint>
 #include <variant>
 
+#include "netkf/link.hpp"
 #include "netkf/random.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf {
 
@@ -39,6 +39,18 @@ class LinkLossProcess {
   LinkModel model_;
   Rng rng_;
   ChainState state_ = ChainState::good;
+};
+
+/// One link's delay draws (i.i.d. per delivered sample, seeded like the loss draws but on a
+/// stream of its own, so a delay never changes the drop decisions).
+class LinkDelayProcess {
+ public:
+  explicit LinkDelayProcess(std::uint64_t seed) : rng_(seed) {}
+  /// The hold time of the next delivered sample, in ms (0 when the link has no delay).
+  double next_delay_ms(const LinkDelay& delay);
+
+ private:
+  Rng rng_;
 };
 
 /// Running statistics of what a link did: counts, observed loss, bursts of drops.

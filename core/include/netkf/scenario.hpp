@@ -12,49 +12,16 @@
 #include <variant>
 #include <vector>
 
+#include "netkf/link.hpp"
 #include "netkf/types.hpp"
 
 namespace netkf {
-
-/// i.i.d. drops: each sample is lost with probability `loss` (arrival rate λ = 1 - loss).
-struct BernoulliLink {
-  double loss = 0.0;
-  bool operator==(const BernoulliLink&) const = default;
-};
-
-/// Two-state Gilbert-Elliott chain, one transition per sample.
-/// p = P(good -> bad), r = P(bad -> good); loss_good / loss_bad = P(drop) in each state.
-struct GilbertElliottLink {
-  double p = 0.0;
-  double r = 1.0;
-  double loss_good = 0.0;
-  double loss_bad = 1.0;
-  bool operator==(const GilbertElliottLink&) const = default;
-};
-
-using LinkModel = std::variant<BernoulliLink, GilbertElliottLink>;
-
-/// Stationary probability that a sample is dropped.
-double stationary_loss(const LinkModel& model);
-/// Mean length of a run of consecutive drops (infinite if the link never delivers).
-double mean_burst_length(const LinkModel& model);
-/// "bernoulli" or "gilbert_elliott".
-std::string link_model_name(const LinkModel& model);
-/// Throws std::invalid_argument naming the offending parameter when a probability is outside
-/// [0,1] (or NaN), or when a Gilbert-Elliott chain has p = r = 0. The one link validation of
-/// scenario files, `netkf ctl`, the dashboard and the channel's control topic.
-void validate_link_model(const LinkModel& model);
-/// The model's parameters by name, as in a scenario file: {loss} for Bernoulli;
-/// {p, r, loss_good, loss_bad} for Gilbert-Elliott.
-std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model);
-/// One line: "bernoulli loss=0.3", "gilbert_elliott p=0.05 r=0.5 loss_good=0 loss_bad=1".
-std::string describe_link_model(const LinkModel& model);
 
 struct SensorSpec {
   int id = 0;
   Matrix C;  // C_i (m_i x n)
   Matrix R;  // R_i (m_i x m_i), symmetric positive definite
-  LinkModel link = BernoulliLink{};
+  LinkSpec link;  // what happens to its samples on the way (loss, delay)
 };
 
 /// LQG feedback u = -gain x̂_{k|k}; either given, or computed from LQR weights.
@@ -79,6 +46,20 @@ struct EstimatorSpec {
   double divergence_trace_bound = 1e6;     // Tr P above this => state "diverging"
 };
 
+/// A change of one link at a given period (the scenario's `events:`, or a replayed live
+/// session): `set` applies its keys from the first sample of period `at_period`; a ramp
+/// moves each numeric key of `keys` linearly from its value at `at_period` to the value
+/// given, one step per period, reaching it at at_period + ramp_periods.
+struct LinkEvent {
+  enum class Kind { set, ramp };
+  std::int64_t at_period = 0;  // K
+  int link = 0;                // sensor id of the link
+  Kind kind = Kind::set;
+  LinkKeys keys;
+  std::int64_t ramp_periods = 0;
+  bool operator==(const LinkEvent&) const = default;
+};
+
 struct Scenario {
   std::string name;
   std::string source;          // file the scenario was loaded from (for messages)
@@ -87,6 +68,7 @@ struct Scenario {
   PlantSpec plant;
   std::vector<SensorSpec> sensors;
   EstimatorSpec estimator;
+  std::vector<LinkEvent> events;  // in the order they apply (stable by at_period)
 
   int state_dim() const { return static_cast<int>(plant.A.rows()); }
   /// The sampling period in seconds.
@@ -99,6 +81,24 @@ class ScenarioError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
+
+/// The scenario as the estimator sees it: every link replaced by its effective loss model at
+/// the scenario's deadline, without delay (a sample later than the deadline is never fused,
+/// so it counts as lost; netkf/link.hpp, effective_loss_model). The theory and the offline
+/// simulation take this; their link analyses read `link.loss` only.
+Scenario with_effective_links(const Scenario& scenario);
+
+/// Indexes of `events` in the order they apply: by at_period, ties in list order.
+std::vector<std::size_t> event_application_order(const std::vector<LinkEvent>& events);
+/// Parse an `events:` file (the format `--record` writes: a mapping with one key,
+/// `events`, or a bare list) for `scenario`'s links and period; errors as FILE:LINE:COL.
+std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const Scenario& scenario);
+/// The events as YAML text in the scenario's `events:` format (what --record writes).
+std::string events_to_yaml(const std::vector<LinkEvent>& events);
+/// Add `replayed` to the scenario's events: at the same period a replayed event applies
+/// before the scenario's own (a journaled live change happened before the timeline's step
+/// in the run it was recorded from). Validates the result.
+void add_replayed_events(Scenario& scenario, const std::vector<LinkEvent>& replayed);
 
 /// Load and validate a scenario file. Throws ScenarioError("FILE:LINE:COL: message").
 Scenario load_scenario_file(const std::filesystem::path& path);

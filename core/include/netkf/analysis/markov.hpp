@@ -45,7 +45,8 @@ struct MarkovOptions {
 };
 
 /// Criterion for the sensors with their configured links (Bernoulli or Gilbert-Elliott,
-/// links independent of each other).
+/// links independent of each other). Reads each link's loss model only: pass the sensors of
+/// with_effective_links() when links have delay.
 MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
                                            const MarkovOptions& options = {});
 

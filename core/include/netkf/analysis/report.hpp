@@ -26,6 +26,15 @@ struct SweepPoint {
   std::optional<double> upper_trace;  // Tr V̄ (nullopt: unbounded or undecided)
 };
 
+/// What the estimator receives of one link: the loss model's stationary loss, the share of
+/// delivered samples in time for the deadline, and their product.
+struct LinkArrival {
+  int sensor_id = 0;
+  double loss = 0.0;               // stationary loss of the configured model
+  double in_time = 1.0;            // P(delay <= deadline)
+  double effective_arrival_rate = 1.0;  // (1 − loss) · in_time
+};
+
 struct AnalysisReport {
   double spectral_radius = 0.0;
   Verdict stable = Verdict::unknown;
@@ -35,6 +44,7 @@ struct AnalysisReport {
   std::optional<CriticalRates> critical_rate;  // all links Bernoulli with one shared rate
   std::optional<double> markov_criterion;      // max_i α_i² limsup P(R_N(i))^{1/N}
   std::optional<double> second_order_criterion;  // Thm 12 closed form (cross-check), when it applies
+  std::vector<LinkArrival> links;      // per link, in the scenario's order
   std::vector<std::string> notes;
   std::vector<RegionPoint> region;     // filled with AnalyzeOptions::region (two sensors)
   std::vector<SweepPoint> sweep;       // filled with AnalyzeOptions::sweep

@@ -1,0 +1,153 @@
+#pragma once
+// The link: what happens to one sensor's samples between the sensor and the estimator.
+// One type for every layer (scenario files, the channel emulator, the wire, `netkf ctl`,
+// the dashboard, metrics, the theory): it owns its parameters, their one validation, their
+// names as a person writes them (the "link keys" of docs/scenario-format.md), their
+// description and the stationary statistics the theory needs.
+//
+// A link is a loss model (Bernoulli or Gilbert-Elliott, one draw per sample) followed by a
+// delay (i.i.d. per delivered sample). A sample that arrives after the estimator fused its
+// period is late and never fused, so for the estimator a link with deadline D delivers a
+// sample with probability (1 - loss) · P(delay <= D): see effective_loss_model().
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+namespace netkf {
+
+/// i.i.d. drops: each sample is lost with probability `loss` (arrival rate λ = 1 - loss).
+struct BernoulliLink {
+  double loss = 0.0;
+  bool operator==(const BernoulliLink&) const = default;
+};
+
+/// Two-state Gilbert-Elliott chain, one transition per sample.
+/// p = P(good -> bad), r = P(bad -> good); loss_good / loss_bad = P(drop) in each state.
+struct GilbertElliottLink {
+  double p = 0.0;
+  double r = 1.0;
+  double loss_good = 0.0;
+  double loss_bad = 1.0;
+  bool operator==(const GilbertElliottLink&) const = default;
+};
+
+/// How a link drops samples.
+using LinkModel = std::variant<BernoulliLink, GilbertElliottLink>;
+
+/// The shape of a link's delay around its base delay (netem's names and meanings).
+enum class DelayDistribution {
+  uniform,       // uniform on [delay - jitter, delay + jitter]
+  normal,        // mean delay, standard deviation jitter
+  pareto,        // delay + jitter · Z, Z = (4/3)(U^(-1/3) - 3/2): Pareto, shape 3, mean 0 (netem's table)
+  paretonormal,  // delay + jitter · (Φ⁻¹(q)/4 + (3/4)·Z(q)), one quantile q for both (netem's table)
+};
+
+/// How long a delivered sample is held. A drawn delay below 0 is 0.
+struct LinkDelay {
+  double delay_ms = 0.0;   // base delay (the mean for every distribution)
+  double jitter_ms = 0.0;  // spread: half-width (uniform), standard deviation (normal), scale (pareto*)
+  DelayDistribution distribution = DelayDistribution::uniform;
+  bool operator==(const LinkDelay&) const = default;
+  /// No delay at all: samples are relayed at once.
+  bool none() const { return delay_ms == 0.0 && jitter_ms == 0.0; }
+};
+
+/// One link: loss model and delay.
+struct LinkSpec {
+  LinkModel loss;
+  LinkDelay delay;
+
+  LinkSpec() = default;
+  // Implicit: a loss model alone is a link without delay.
+  LinkSpec(LinkModel model) : loss(model) {}  // NOLINT(google-explicit-constructor)
+  LinkSpec(BernoulliLink model) : loss(model) {}  // NOLINT(google-explicit-constructor)
+  LinkSpec(GilbertElliottLink model) : loss(model) {}  // NOLINT(google-explicit-constructor)
+  LinkSpec(LinkModel model, LinkDelay d) : loss(model), delay(d) {}
+  bool operator==(const LinkSpec&) const = default;
+};
+
+/// A link parameter refused, naming its key ("loss", "mean_burst", "delay_ms", ...), so a
+/// scenario file can point at the key's line and `ctl` / the dashboard can name it.
+class LinkError : public std::invalid_argument {
+ public:
+  LinkError(std::string key, const std::string& message) : std::invalid_argument(message), key_(std::move(key)) {}
+  const std::string& key() const { return key_; }
+
+ private:
+  std::string key_;
+};
+
+/// One link key as written by a person: a number, or a word (`model`, `delay_distribution`).
+struct LinkKey {
+  std::string name;
+  std::variant<double, std::string> value;
+  bool operator==(const LinkKey&) const = default;
+};
+using LinkKeys = std::vector<LinkKey>;
+
+/// Every key a link understands, in the order documented.
+const std::vector<std::string>& link_key_names();
+/// True for keys whose value is a word (model, delay_distribution).
+bool link_key_is_word(const std::string& name);
+
+/// The link `current` with `keys` applied; the keys not given keep their values. Rules
+/// (docs/scenario-format.md, "Links"): giving `model` rebuilds the loss model from the keys
+/// given (its required keys must be there); without it the keys change the current model's
+/// parameters. A Gilbert-Elliott link may be given by p, r, loss_good, loss_bad or by the
+/// user's form loss + mean_burst (the simple Gilbert channel: loss_good 0, loss_bad 1,
+/// r = 1/mean_burst, p = r·loss/(1 − loss)); the forms do not mix. The result is validated.
+/// Throws LinkError naming the first offending key; `current` is unchanged either way.
+LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys);
+/// A link from keys alone (`model` required).
+LinkSpec link_from_keys(const LinkKeys& keys);
+/// The whole link as keys (model, its parameters, delay_ms, jitter_ms, delay_distribution):
+/// apply_link_keys(anything, link_keys(l)) == l.
+LinkKeys link_keys(const LinkSpec& link);
+/// The current value of a numeric key (for a Gilbert-Elliott link also `loss` and
+/// `mean_burst` in the user's form). Throws LinkError when the key does not apply.
+double link_key_value(const LinkSpec& link, const std::string& name);
+
+/// Throws LinkError when a probability is outside [0,1] (or NaN), a Gilbert-Elliott chain
+/// has p = r = 0, or a delay is negative, not finite or above a minute. The one validation.
+void validate_link(const LinkSpec& link);
+/// The loss model's part of validate_link().
+void validate_link_model(const LinkModel& model);
+
+/// Stationary probability that a sample is dropped.
+double stationary_loss(const LinkModel& model);
+/// Mean length of a run of consecutive drops (infinite if the link never delivers).
+double mean_burst_length(const LinkModel& model);
+/// "bernoulli" or "gilbert_elliott".
+std::string link_model_name(const LinkModel& model);
+/// The model's parameters by name, as in a scenario file: {loss} for Bernoulli;
+/// {p, r, loss_good, loss_bad} for Gilbert-Elliott.
+std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model);
+/// One line: "bernoulli loss=0.3", "gilbert_elliott p=0.05 r=0.5 loss_good=0 loss_bad=1
+/// (loss 0.09091, mean burst 2)".
+std::string describe_link_model(const LinkModel& model);
+/// The loss model's description, then the delay when there is one ("delay 6±4 ms uniform").
+std::string describe_link(const LinkSpec& link);
+
+/// "uniform", "normal", "pareto", "paretonormal"; parse throws LinkError on anything else.
+std::string delay_distribution_name(DelayDistribution d);
+DelayDistribution parse_delay_distribution(const std::string& name);
+
+/// P(delay <= deadline_ms): the chance that a delivered sample is in time.
+double probability_within(const LinkDelay& delay, double deadline_ms);
+/// The delay of a standard quantile q in [0,1) (the inverse of probability_within): the
+/// delay process draws q uniformly and returns this.
+double delay_quantile(const LinkDelay& delay, double q);
+
+/// The loss model the estimator sees when a sample later than `deadline_ms` counts as lost:
+/// Bernoulli 1 − (1 − loss)·P(delay ≤ D); Gilbert-Elliott with loss_good and loss_bad
+/// thinned the same way (the delay is drawn independently of the chain, so the arrivals
+/// are again a Gilbert-Elliott chain with the same p, r). Exact for i.i.d. delays; not for
+/// delays that depend on the chain's state or on each other.
+LinkModel effective_loss_model(const LinkSpec& link, double deadline_ms);
+/// 1 − stationary loss of the effective model: the link's effective arrival rate.
+double effective_arrival_rate(const LinkSpec& link, double deadline_ms);
+
+}  // namespace netkf
