@@ -36,7 +36,7 @@ double stationary_loss(const LinkModel& model) {
   if (const auto* b = std::get_if<BernoulliLink>(&model)) return b->loss;
   const auto& g = std::get<GilbertElliottLink>(model);
   const GoodBad pi = stationary_distribution(g);
-  // (r·loss_good + p·loss_bad)/(p + r)   (DESIGN.md, "Gilbert-Elliott")
+  // (r·loss_good + p·loss_bad)/(p + r)   (docs/scenario-format.md, "Gilbert-Elliott")
   return pi.good * g.loss_good + pi.bad * g.loss_bad;
 }
 

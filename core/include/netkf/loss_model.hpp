@@ -1,5 +1,5 @@
 #pragma once
-// Seeded packet-loss processes for one link (DESIGN.md, "Bernoulli" / "Gilbert-Elliott").
+// Seeded packet-loss processes for one link (docs/scenario-format.md, "Bernoulli" / "Gilbert-Elliott").
 #include <cstdint>
 #include <variant>
 
