@@ -1,5 +1,5 @@
 #pragma once
-// The CSV recordings of a live run (DESIGN.md, "netkf launch FILE --record OUT.csv").
+// The CSV recordings of a live run (docs/architecture.md, "Recordings: netkf launch FILE --record OUT.csv").
 // Rows are formatted on the caller's (main) thread from records queued by the DDS
 // callbacks, so no file I/O ever blocks a DDS thread.
 #include <cstdint>

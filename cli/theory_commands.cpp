@@ -1,5 +1,5 @@
 // `netkf analyze` and `netkf simulate`: the theory toolkit beside the live network
-// (DESIGN.md, "Contracts": the JSON keys are fixed there).
+// (docs/architecture.md, "Contracts": the JSON keys are fixed there).
 #include <cmath>
 #include <iomanip>
 #include <iostream>

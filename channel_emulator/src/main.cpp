@@ -6,7 +6,7 @@
 // Threads: samples are decided and relayed on the DDS receive thread (one draw and a write:
 // cheaper than the context switch of a hand-off, see endpoints.hpp); link changes and status
 // run on the io thread. One mutex guards the links.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/steady_timer.hpp>

@@ -8,7 +8,7 @@
 //   z⁺ = z + K(v − C z) = −[(I − K C) e − K v] = −e⁺          (Sinopoli eq. 14-15)
 // and the prediction z_{k+1} = A z⁺ − w = −(A e⁺ + w) = −e_{k+1}. P and the gains do not
 // depend on the data, so they are the filter's own, and the errors have the same law as
-// x − x̂ computed from a simulated plant (published-numbers.md, Fig. 7) — but with all
+// x − x̂ computed from a simulated plant (docs/validation.md, "Fig. 7") — but with all
 // their digits: the numbers stay O(|e|) instead of O(α^k).
 #include "netkf/monte_carlo.hpp"
 

@@ -1,4 +1,4 @@
-// Reading a scenario from YAML (DESIGN.md, "Scenario file"): structure and types are
+// Reading a scenario from YAML (docs/scenario-format.md): structure and types are
 // checked here, while walking the document, so that every message can carry the
 // line and column of the offending node; the meaning (dimensions, definiteness,
 // probabilities, duplicate ids, ...) is checked by validate_scenario() with the

@@ -71,7 +71,7 @@ fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
   udp->interfaceWhiteList.emplace_back("127.0.0.1");
   // How many participants per host find each other through the initial peers
-  // (dds-notes.md: >= 32; a launch with 64 sensors has ~70 participants).
+  // (docs/dds-notes.md: >= 32; a launch with 64 sensors has ~70 participants).
   udp->maxInitialPeersRange = 128;
   qos.transport().user_transports.push_back(shm);
   qos.transport().user_transports.push_back(udp);

@@ -7,7 +7,7 @@
 // update when a sample completes its period: microseconds, and a hand-off would add a context
 // switch per sample to the latency; see endpoints.hpp). Ticks, the deadline and the status log
 // run on the io thread, which owns the timers. One mutex guards the estimator core.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/steady_timer.hpp>

@@ -1,8 +1,8 @@
-// plant_node: the stand-in for the physical world (DESIGN.md). Each period T it steps
+// plant_node: the stand-in for the physical world (docs/architecture.md). Each period T it steps
 // x_{k+1} = A x_k + B u_k + w_k and publishes the truth (netkf/truth) and the sample
 // clock with the applied input (netkf/tick). The period is driven by an absolute-deadline
 // steady_timer (t_k = t_0 + k T), so periods do not drift.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/steady_timer.hpp>

@@ -3,7 +3,7 @@
 // One process is one sensor by default; `--sensor-id` repeated hosts several sensors on one
 // DDS participant (a gateway in front of many sensors, or a dense network on a small machine):
 // each keeps its own C_i, R_i and noise stream and publishes its own samples.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <set>

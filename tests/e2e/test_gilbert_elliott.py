@@ -1,6 +1,6 @@
 """Gilbert-Elliott link (p=0.1, r=0.3, loss_good=0, loss_bad=1): observed loss and mean
 burst length within tolerance of theory: stationary loss p/(p+r) = 0.25, mean burst
-1/r = 3.33 (DESIGN.md, Gilbert-Elliott)."""
+1/r = 3.33 (docs/scenario-format.md, Gilbert-Elliott)."""
 import json
 import math
 import os

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <utility>  // before Asio (dds-notes.md)
+#include <utility>  // before Asio (docs/dds-notes.md)
 
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
@@ -139,7 +139,7 @@ TEST(ChannelOverDds, DropsExactlyAsTheSeededModelDecides) {
       if (offline.on_sample(id) == netkf::nodes::ChannelLinks::Verdict::delivered) expected.emplace(id, k);
       ASSERT_TRUE(raw.write(dds::make_measurement(id, k, dds::steady_now_ns(), netkf::Vector{{double(k)}})));
     }
-    // Pace the writer well below what a loaded 2-core machine relays (dds-notes.md: a keep-last
+    // Pace the writer well below what a loaded 2-core machine relays (docs/dds-notes.md: a keep-last
     // writer that outruns its reader loses samples, which here would look like link drops).
     std::this_thread::sleep_for(1ms);
   }

@@ -1,4 +1,4 @@
-// EstimatorCore: period fusion semantics (DESIGN.md, estimator_node) driven by explicit
+// EstimatorCore: period fusion semantics (docs/architecture.md, "estimator_node") driven by explicit
 // calls and a fake clock. Expected numbers come from the scalar Kalman recursion written
 // out here by hand (information form of the fused update, Sinopoli eqs. 14-16 /
 // multi-sensor paper Thm 1), independent of core's implementation.

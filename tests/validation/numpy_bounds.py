@@ -122,7 +122,7 @@ def main():
             exact = exact_rate_1d_blocks(A, sensors)
             if exact is not None:
                 compare("critical_rate.exact", out["critical_rate"]["exact"], exact, 1e-5)
-    # DESIGN.md contract: the keys exist; bad input gives a clear error and a non-zero status.
+    # docs/architecture.md contract: the keys exist; bad input gives a clear error and a non-zero status.
     keys = {"spectral_radius", "stable", "expected_covariance", "critical_rate", "markov_criterion", "notes"}
     for path in sorted(data.glob("*.yaml")):
         out = json.loads(subprocess.run([netkf, "analyze", str(path), "--json", "--no-lmi"], check=True,

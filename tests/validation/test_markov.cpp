@@ -1,6 +1,6 @@
 // Markov (Gilbert-Elliott) losses: multi-sensor paper Thm 4/7/9/12 and Rohr-Marelli-Fu
 // Lemma 4.1 / Thm 4.1. Expected values: the closed forms published for these cases
-// (published-numbers.md), an independent count of drop bursts on the real loss process,
+// (docs/validation.md), an independent count of drop bursts on the real loss process,
 // and Monte Carlo of the real filter.
 #include <gtest/gtest.h>
 

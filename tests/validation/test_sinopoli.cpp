@@ -1,6 +1,6 @@
 // Sinopoli et al., "Kalman filtering with intermittent observations": the paper's numbers
 // (Sec. IV, V) and independent closed forms. Expected values come from the paper or from
-// ../shared/reference/published-numbers.md (computed independently), never from netkf.
+// docs/validation.md (computed independently), never from netkf.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,7 +30,7 @@ TEST(Sinopoli, ScalarCriticalRateBothBoundsAre036) {
 }
 
 TEST(Sinopoli, ScalarBoundsAtRate06) {
-  // S̄ solves S = 0.4·1.5625 S + 1 => S = 1/0.375; V̄ = 7.3266 (published-numbers.md).
+  // S̄ solves S = 0.4·1.5625 S + 1 => S = 1/0.375; V̄ = 7.3266 (docs/validation.md).
   const auto report = analyze(netkf::testing::sinopoli_scalar(0.6));
   ASSERT_TRUE(report.lower_trace && report.upper_trace);
   EXPECT_NEAR(*report.lower_trace, 1.0 / 0.375, 1e-9);
@@ -70,7 +70,7 @@ TEST(Sinopoli, MimoSingleUnstableEigenvalueCriticalRate036) {
 }
 
 TEST(Sinopoli, MimoAtFullArrivalIsTheStandardRiccatiTrace) {
-  // published-numbers.md: at λ = 1, Tr V̄ = trace of the steady-state Riccati solution = 5573.87.
+  // docs/validation.md: at λ = 1, Tr V̄ = trace of the steady-state Riccati solution = 5573.87.
   const auto report = analyze(netkf::testing::sinopoli_mimo(1.0));
   ASSERT_TRUE(report.upper_trace.has_value());
   EXPECT_NEAR(*report.upper_trace, 5573.87, 0.01);
@@ -108,7 +108,7 @@ TEST(Sinopoli, SectionVStaticGainNumbersNeedAEqualsMinus125) {
     EXPECT_NEAR(predictor_gain(A, C, R, Vss.V)(0, 0), expected_Kss, 0.005) << "A = " << a;
   };
   check(-1.25, 7.32, -0.93, -0.70);   // the paper's numbers
-  check(-1.5, 41.85, -1.415, -0.976);  // what A = −1.5 would give (published-numbers.md)
+  check(-1.5, 41.85, -1.415, -0.976);  // what A = −1.5 would give (docs/validation.md)
 }
 
 TEST(Sinopoli, StaticGainPredictorWithKLambdaAchievesVbar) {

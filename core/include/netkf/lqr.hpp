@@ -1,5 +1,5 @@
 #pragma once
-// Steady-state LQR gain for the optional LQG loop (DESIGN.md, "plant_node"): the
+// Steady-state LQR gain for the optional LQG loop (docs/architecture.md, "plant_node"): the
 // estimator's controller applies u_k = -L x̂_{k|k}. By the separation principle the
 // gain does not change the estimation error, so any stabilising L keeps the papers'
 // theory intact; LQR is just a principled way to pick one from weights.

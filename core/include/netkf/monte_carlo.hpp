@@ -1,11 +1,11 @@
 #pragma once
-// Offline Monte Carlo of the intermittent Kalman filter (DESIGN.md `netkf simulate`):
+// Offline Monte Carlo of the intermittent Kalman filter (docs/architecture.md, `netkf simulate`):
 // N runs × T steps of the core filter with the real loss processes, seeded from the
 // scenario, on a worker pool. Deterministic given the seed, whatever the thread count
 // (runs are grouped in fixed chunks and reduced in chunk order).
 //
 // Precision with unstable A: the state grows like α^t, so x − x̂ computed from x loses
-// every digit after a few hundred steps (published-numbers.md, Fig. 7). The runs
+// every digit after a few hundred steps (docs/validation.md, "Fig. 7"). The runs
 // therefore simulate the estimation error directly; see monte_carlo.cpp for why this is
 // the same filter and the same law.
 #include <cstdint>

@@ -1,6 +1,6 @@
 #pragma once
-// The scenario model: everything a run of netkf is configured by (see DESIGN.md,
-// "Scenario file"). Loading validates every field and reports problems as
+// The scenario model: everything a run of netkf is configured by (see
+// docs/scenario-format.md). Loading validates every field and reports problems as
 // ScenarioError with "file:line:col: what is wrong".
 #include <cstdint>
 #include <filesystem>
@@ -119,7 +119,7 @@ void validate_scenario(const Scenario& scenario);
 
 // ---- Additions (scenario engineer) -------------------------------------------------
 //
-// Scenario file keys (DESIGN.md, "Scenario file"); anything else is an error, so typos
+// Scenario file keys (docs/scenario-format.md); anything else is an error, so typos
 // are caught. Required: period_ms, plant.A, plant.Q, sensors (at least one), and per
 // sensor id, C, R, link.model plus the model's parameters (bernoulli: loss;
 // gilbert_elliott: p, r). Optional, with defaults:

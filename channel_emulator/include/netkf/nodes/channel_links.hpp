@@ -1,5 +1,5 @@
 #pragma once
-// The channel emulator's links (DESIGN.md, channel_emulator): one seeded loss process per
+// The channel emulator's links (docs/architecture.md, "channel_emulator"): one seeded loss process per
 // sensor, tunable at runtime. A change applies from the next sample on.
 #include <cstdint>
 #include <map>

@@ -1,6 +1,6 @@
 #pragma once
 // `netkf analyze`: everything the papers say about a scenario, in one report
-// (DESIGN.md "netkf analyze FILE --json" lists the keys).
+// (docs/architecture.md, "netkf analyze FILE --json" lists the keys).
 #include <optional>
 #include <string>
 #include <vector>

@@ -1,7 +1,7 @@
 #pragma once
 // What every node main shares: the common flags (--scenario, --domain, --dds-profile,
 // --log-level), spdlog set-up on stderr, and the participant options they resolve to.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>

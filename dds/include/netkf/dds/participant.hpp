@@ -2,8 +2,8 @@
 // Participant creation with the project's DDS profile.
 // Default: localhost only, set IN CODE (so a forgotten environment variable can never
 // make a launch multicast): builtin transports off; shared memory + UDPv4 whitelisted
-// to 127.0.0.1 (maxInitialPeersRange 64); metatraffic unicast 127.0.0.1, no multicast;
-// initial peers 127.0.0.1 (dds-notes.md, "Keeping discovery on loopback").
+// to 127.0.0.1 (maxInitialPeersRange 128); metatraffic unicast 127.0.0.1, no multicast;
+// initial peers 127.0.0.1 (docs/dds-notes.md, "Keeping discovery on loopback").
 // A user picks another profile (e.g. deploy/dds/discovery-server.xml) with a file:
 // --dds-profile FILE or NETKF_DDS_PROFILE, never by editing code.
 #include <cstdint>

@@ -1,5 +1,5 @@
 #pragma once
-// The estimator's period logic (DESIGN.md, estimator_node), without DDS or clocks: the node
+// The estimator's period logic (docs/architecture.md, "estimator_node"), without DDS or clocks: the node
 // passes every event with the current steady time in ns, so tests drive it with a fake clock.
 //
 // Period k opens when tick k arrives (deadline = arrival + deadline_ms). It is fused exactly

@@ -1,5 +1,5 @@
 #pragma once
-// The plant (DESIGN.md, plant_node): x_{k+1} = A x_k + B u_k + w_k, w_k ~ N(0, Q),
+// The plant (docs/architecture.md, "plant_node"): x_{k+1} = A x_k + B u_k + w_k, w_k ~ N(0, Q),
 // x_0 ~ N(x0, P0) (Sinopoli eq. 1; the estimator's prior is x̂_{0|-1} = x0, P_{0|-1} = P0).
 // No DDS, no clock: the node calls step() once per period.
 #include <cstdint>

@@ -1,5 +1,5 @@
 #pragma once
-// One sensor (DESIGN.md, sensor_node): y_{i,k} = C_i x_k + v_{i,k}, v_{i,k} ~ N(0, R_i)
+// One sensor (docs/architecture.md, "sensor_node"): y_{i,k} = C_i x_k + v_{i,k}, v_{i,k} ~ N(0, R_i)
 // (Liu-Goldsmith eq. 2 / multi-sensor paper eq. 2). It knows only its own C_i, R_i.
 #include <cstdint>
 #include <optional>

@@ -2,7 +2,7 @@
 // Implementation of netkf::dds::post_to (kept apart so endpoints.hpp stays readable).
 #include <functional>
 #include <memory>
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, dds-notes.md)
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/post.hpp>
 
