@@ -22,13 +22,13 @@ json schema_object(json properties, std::vector<std::string> required) {
 json number_array() { return json{{"type", "array"}, {"items", {{"type", "number"}}}}; }
 json nullable_number() { return json{{"type", json::array({"number", "null"})}}; }
 
+// Every link key (netkf/link.hpp): a link is shown and set by the names of a scenario file.
 json link_model_schema() {
-  return json{{"model", {{"type", "string"}, {"enum", {"bernoulli", "gilbert_elliott"}}}},
-              {"loss", {{"type", "number"}}},
-              {"p", {{"type", "number"}}},
-              {"r", {{"type", "number"}}},
-              {"loss_good", {{"type", "number"}}},
-              {"loss_bad", {{"type", "number"}}}};
+  json props = json::object();
+  for (const auto& name : link_key_names()) props[name] = {{"type", link_key_is_word(name) ? "string" : "number"}};
+  props["model"]["enum"] = {"bernoulli", "gilbert_elliott"};
+  props["delay_distribution"]["enum"] = {"uniform", "normal", "pareto", "paretonormal"};
+  return props;
 }
 
 json assessment_schema() {
@@ -77,7 +77,9 @@ std::vector<Channel> make_channels() {
   for (const char* counter : {"sensor_id", "samples_in", "delivered", "dropped", "samples_total", "delivered_total",
                               "dropped_total", "last_request_id"})
     status_props[counter] = {{"type", "integer"}};
+  status_props["held"] = {{"type", "integer"}};
   status_props["stationary_loss"] = {{"type", "number"}};
+  status_props["in_time"] = {{"type", "number"}};
   status_props["observed_loss"] = {{"type", "number"}};
   status_props["mean_burst_length"] = nullable_number();
   status_props["configured_arrival_rate"] = {{"type", "number"}};
@@ -117,9 +119,20 @@ std::vector<Channel> make_channels() {
   return c;
 }
 
-json link_model_json(const LinkModel& model) {
-  json j{{"model", link_model_name(model)}};
-  for (const auto& [name, value] : link_parameters(model)) j[name] = value;
+// The link by its keys; a Gilbert-Elliott link also in the user's form (loss, mean_burst).
+json link_json(const LinkSpec& link) {
+  json j = json::object();
+  for (const auto& k : link_keys(link)) {
+    if (const auto* word = std::get_if<std::string>(&k.value)) {
+      j[k.name] = *word;
+    } else {
+      j[k.name] = number_or_null(std::get<double>(k.value));
+    }
+  }
+  if (std::holds_alternative<GilbertElliottLink>(link.loss)) {
+    j["loss"] = number_or_null(stationary_loss(link.loss));
+    j["mean_burst"] = number_or_null(mean_burst_length(link.loss));
+  }
   return j;
 }
 
@@ -192,10 +205,6 @@ std::optional<std::pair<int, std::string>> split_parameter_name(const std::strin
   return std::make_pair(std::stoi(id_text), name.substr(dot + 1));
 }
 
-bool is_link_parameter(const std::string& p) {
-  return p == "model" || p == "loss" || p == "p" || p == "r" || p == "loss_good" || p == "loss_bad";
-}
-
 }  // namespace
 
 const std::vector<Channel>& channels() {
@@ -236,7 +245,7 @@ json status_message(LiveEvent::Level level, const std::string& message) {
 json scenario_message(const Scenario& scenario) {
   json sensors = json::array();
   for (const auto& s : scenario.sensors)
-    sensors.push_back({{"id", s.id}, {"measurement_dim", s.C.rows()}, {"link", link_model_json(s.link)}});
+    sensors.push_back({{"id", s.id}, {"measurement_dim", s.C.rows()}, {"link", link_json(s.link)}});
   return json{{"name", scenario.name},
               {"period_ms", scenario.period_ms},
               {"state_dim", scenario.state_dim()},
@@ -256,9 +265,11 @@ json estimate_message(const EstimateRecord& e) {
 json truth_message(const TruthRecord& t) { return json{{"k", t.k}, {"t", t.t}, {"x", t.x}}; }
 
 json link_status_message(const LinkView& l) {
-  json j = link_model_json(l.model);
+  json j = link_json(l.link);
   j["sensor_id"] = l.sensor_id;
-  j["stationary_loss"] = number_or_null(stationary_loss(l.model));
+  j["stationary_loss"] = number_or_null(stationary_loss(l.link.loss));
+  j["in_time"] = number_or_null(l.in_time);
+  j["held"] = l.held;
   j["samples_in"] = l.samples_in;
   j["delivered"] = l.delivered;
   j["dropped"] = l.dropped;
@@ -357,9 +368,12 @@ ClientMessage parse_client_message(std::string_view text) {
 json link_parameter_values(const LinkView& link, const std::optional<std::string>& id) {
   json list = json::array();
   const std::string prefix = "link." + std::to_string(link.sensor_id) + ".";
-  list.push_back({{"name", prefix + "model"}, {"value", link_model_name(link.model)}});
-  for (const auto& [name, value] : link_parameters(link.model))
-    list.push_back({{"name", prefix + name}, {"value", value}, {"type", "float64"}});
+  const json keys = link_json(link.link);  // named: items() refers into it
+  for (const auto& [name, value] : keys.items()) {
+    json p{{"name", prefix + name}, {"value", value}};
+    if (value.is_number()) p["type"] = "float64";
+    list.push_back(std::move(p));
+  }
   json j{{"op", "parameterValues"}, {"parameters", std::move(list)}};
   if (id) j["id"] = *id;
   return j;
@@ -389,97 +403,48 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
   for (const auto& [name, value] : request.parameters) {
     const auto parts = split_parameter_name(name);
     if (!parts) {
-      refused.push_back({-1, std::nullopt, "unknown parameter '" + name.substr(0, 80) + "' (expected link.ID.NAME)"});
+      refused.push_back({-1, std::nullopt, {}, "unknown parameter '" + name.substr(0, 80) + "' (expected link.ID.NAME)"});
       continue;
     }
     by_link[parts->first][parts->second] = value;
   }
   std::vector<LinkChange> out;
   for (auto& [sensor_id, values] : by_link) {
-    LinkChange change{sensor_id, std::nullopt, {}};
+    LinkChange change{sensor_id, std::nullopt, {}, {}};
     const LinkView* link = nullptr;
     for (const auto& l : links)
       if (l.sensor_id == sensor_id) link = &l;
-    auto refuse = [&](std::string why) {
-      change.refusal = "link " + std::to_string(sensor_id) + ": " + std::move(why);
-      out.push_back(change);
-    };
     if (!link) {
-      refuse("unknown link (no sensor with that id)");
+      change.refusal = "link " + std::to_string(sensor_id) + ": unknown link (no sensor with that id)";
+      out.push_back(change);
       continue;
     }
+    // The values become link keys by their JSON type; the link type judges them (names,
+    // types, combinations, ranges), exactly as for a scenario file or `netkf ctl`.
+    LinkKeys keys;
     std::string problem;
-    std::string model_name = link_model_name(link->model);
-    std::map<std::string, double> numbers;
     for (const auto& [param, value] : values) {
-      if (!is_link_parameter(param)) {
-        problem = "unknown parameter '" + param.substr(0, 40) + "' (model, loss, p, r, loss_good, loss_bad)";
+      // A model equal to the link's changes nothing by itself (a panel sends it along).
+      if (param == "model" && value.is_string() && value.get<std::string>() == link_model_name(link->link.loss)) continue;
+      if (value.is_string()) {
+        keys.push_back({param, value.get<std::string>().substr(0, 64)});
+      } else if (value.is_number()) {
+        keys.push_back({param, value.get<double>()});
+      } else {
+        problem = param.substr(0, 40) + " must be a number or a name";
         break;
       }
-      if (param == "model") {
-        if (!value.is_string()) {
-          problem = "model must be \"bernoulli\" or \"gilbert_elliott\"";
-          break;
-        }
-        model_name = value.get<std::string>();
-        if (model_name != "bernoulli" && model_name != "gilbert_elliott") {
-          problem = "unknown model '" + model_name.substr(0, 40) + "' (bernoulli or gilbert_elliott)";
-          break;
-        }
-        continue;
+    }
+    if (problem.empty()) {
+      try {
+        change.link = apply_link_keys(link->link, keys);
+        change.keys = std::move(keys);
+      } catch (const LinkError& e) {
+        problem = e.what();
       }
-      if (!value.is_number()) {
-        problem = param + " must be a number";
-        break;
-      }
-      numbers[param] = value.get<double>();
     }
-    if (!problem.empty()) {
-      refuse(problem);
-      continue;
-    }
-    // Start from the current model's parameters when the model stays; a new model needs
-    // its defining parameters (as `netkf ctl set-link` does).
-    const bool same_model = model_name == link_model_name(link->model);
-    auto value_of = [&](const std::string& name, std::optional<double> fallback) -> std::optional<double> {
-      if (auto it = numbers.find(name); it != numbers.end()) return it->second;
-      return fallback;
-    };
-    LinkModel model;
-    if (model_name == "bernoulli") {
-      const auto* current = std::get_if<BernoulliLink>(&link->model);
-      const auto loss = value_of("loss", same_model && current ? std::optional<double>(current->loss) : std::nullopt);
-      if (!loss) {
-        refuse("switching to bernoulli needs link." + std::to_string(sensor_id) + ".loss");
-        continue;
-      }
-      for (const auto& [name, v] : numbers)
-        if (name != "loss") problem = name + " is not a parameter of the bernoulli model";
-      model = BernoulliLink{*loss};
-    } else {
-      const auto* current = std::get_if<GilbertElliottLink>(&link->model);
-      const GilbertElliottLink base = same_model && current ? *current : GilbertElliottLink{};
-      const auto p = value_of("p", same_model ? std::optional<double>(base.p) : std::nullopt);
-      const auto r = value_of("r", same_model ? std::optional<double>(base.r) : std::nullopt);
-      if (!p || !r) {
-        refuse("switching to gilbert_elliott needs link." + std::to_string(sensor_id) + ".p and .r");
-        continue;
-      }
-      if (numbers.count("loss")) problem = "loss is not a parameter of the gilbert_elliott model (p, r, loss_good, loss_bad)";
-      model = GilbertElliottLink{*p, *r, *value_of("loss_good", base.loss_good), *value_of("loss_bad", base.loss_bad)};
-    }
-    if (!problem.empty()) {
-      refuse(problem);
-      continue;
-    }
-    try {
-      validate_link_model(model);  // the one validation every path uses (NaN, outside [0, 1])
-    } catch (const std::exception& e) {
-      refuse(e.what());
-      continue;
-    }
-    change.model = model;
-    out.push_back(change);
+    if (!problem.empty()) change.refusal = "link " + std::to_string(sensor_id) + ": " + problem;
+    out.push_back(std::move(change));
   }
   out.insert(out.end(), refused.begin(), refused.end());
   return out;

@@ -81,21 +81,24 @@ using ClientMessage = std::variant<Subscribe, Unsubscribe, GetParameters, SetPar
 /// `op`, an op this server does not support, a field of the wrong type or out of range).
 ClientMessage parse_client_message(std::string_view text);
 
-// ---- parameters: link.ID.model, link.ID.loss, link.ID.p, link.ID.r, link.ID.loss_good, link.ID.loss_bad
-/// The links' current parameters (each link's model and the parameters of that model);
+// ---- parameters: link.ID.KEY for every link key (docs/scenario-format.md, "Links"): model,
+// loss, p, r, loss_good, loss_bad, mean_burst, delay_ms, jitter_ms, delay_distribution
+/// The links' current parameters (each link's keys; a Gilbert-Elliott link in both forms);
 /// `names` empty: all of them; names that do not exist are left out.
 nlohmann::json parameter_values(const std::vector<LinkView>& links, const std::vector<std::string>& names,
                                 const std::optional<std::string>& id);
 /// The parameters of one link only.
 nlohmann::json link_parameter_values(const LinkView& link, const std::optional<std::string>& id);
 
-/// One link's requested change: the new model, or why it is refused (then nothing changes).
+/// One link's requested change: the keys to send and the link they make of the current one,
+/// or why it is refused (then nothing changes).
 struct LinkChange {
   int sensor_id = 0;
-  std::optional<LinkModel> model;
-  std::string refusal;  // set when model is empty
+  std::optional<LinkKeys> keys;
+  LinkSpec link;        // the link after the change (when keys is set)
+  std::string refusal;  // set when keys is empty
 };
-/// Group a setParameters by link and build each link's new model from its current one.
+/// Group a setParameters by link and check each link's keys against its current link.
 /// Names that are not link.ID.NAME of a known link and parameter are refused (sensor_id
 /// then is the id named, or -1 when none could be read).
 std::vector<LinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links);

@@ -74,12 +74,6 @@ bool offers_subprotocol(beast::string_view header, const std::string& wanted) {
   return false;
 }
 
-bool is_loopback(const std::string& address) {
-  error_code ec;
-  const auto a = net::ip::make_address(address, ec);
-  return !ec && a.is_loopback();
-}
-
 struct Frame {
   std::string data;
   bool binary = false;

@@ -1,5 +1,8 @@
 #include "live_bus.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "netkf/dds/dds.hpp"
 
 namespace netkf::cli {
@@ -34,6 +37,7 @@ struct LiveBus::Impl {
   std::unique_ptr<dds::Reader<wire::Estimate>> estimate;
   std::unique_ptr<dds::Reader<wire::Measurement>> delivered;
   std::unique_ptr<dds::Reader<wire::LinkStatus>> link_status;
+  std::unique_ptr<dds::Reader<wire::LinkChange>> link_change;
   std::unique_ptr<dds::Reader<wire::LinkControlReply>> link_reply;
   std::unique_ptr<dds::Writer<wire::LinkControl>> link_control;
 
@@ -43,6 +47,7 @@ struct LiveBus::Impl {
     link_control.reset();
     link_reply.reset();
     link_status.reset();
+    link_change.reset();
     delivered.reset();
     estimate.reset();
     truth.reset();
@@ -95,8 +100,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
           LinkStatusRecord r;
           r.sensor_id = w.sensor_id();
           try {
-            r.model = dds::link_model_of(w);
-            validate_link_model(r.model);
+            r.link = dds::link_of(w);  // validated
           } catch (const std::exception& e) {
             return invalid(std::string("link status rejected: ") + e.what());
           }
@@ -110,6 +114,25 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
           r.dropped_total = w.dropped_total();
           r.last_request_id = w.last_request_id();
           r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
+          r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
+          r.held = w.held();
+          cb(std::move(r));
+        }));
+  }
+  if (h.link_change) {
+    impl_->link_change = std::make_unique<dds::Reader<wire::LinkChange>>(
+        impl_->participant, dds::topics::link_change,
+        dds::post_to<wire::LinkChange>(ex, [cb = h.link_change, invalid](wire::LinkChange w) {
+          LinkChangeRecord r;
+          r.sensor_id = w.sensor_id();
+          r.at_period = static_cast<std::int64_t>(w.at_period());
+          r.origin = w.origin();
+          r.request_id = w.request_id();
+          try {
+            r.link = dds::from_wire(w.link());
+          } catch (const std::exception& e) {
+            return invalid(std::string("link change rejected: ") + e.what());
+          }
           cb(std::move(r));
         }));
   }
@@ -128,9 +151,9 @@ LiveBus::~LiveBus() = default;
 
 int LiveBus::domain() const { return impl_->participant.domain(); }
 
-bool LiveBus::send_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model) {
+bool LiveBus::send_link_control(std::uint64_t request_id, int sensor_id, const LinkKeys& keys) {
   if (!impl_->link_control) return false;
-  return impl_->link_control->write(dds::make_link_control(request_id, sensor_id, model));
+  return impl_->link_control->write(dds::make_link_control(request_id, sensor_id, keys));
 }
 
 int LiveBus::link_control_readers() const { return impl_->link_control ? impl_->link_control->matched() : 0; }

@@ -28,6 +28,7 @@ struct BusHandlers {
   std::function<void(EstimateRecord&&)> estimate;
   std::function<void(DeliveredRecord&&)> delivered;
   std::function<void(LinkStatusRecord&&)> link_status;
+  std::function<void(LinkChangeRecord&&)> link_change;
   std::function<void(LinkReplyRecord&&)> link_reply;
   /// Called with a message when a sample failed validation (counted, not used).
   std::function<void(const std::string&)> invalid;
@@ -42,8 +43,8 @@ class LiveBus {
   LiveBus& operator=(const LiveBus&) = delete;
 
   int domain() const;
-  /// Publish a link change; false when DDS refused it.
-  bool send_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model);
+  /// Publish a link change (the keys to change); false when DDS refused it.
+  bool send_link_control(std::uint64_t request_id, int sensor_id, const LinkKeys& keys);
   /// Readers of the link-control topic (the channel emulator) currently matched.
   int link_control_readers() const;
   /// Writers matched on the link-reply topic.

@@ -65,6 +65,8 @@ class Recording {
       periods_out_.open(*periods_file, std::ios::trunc);
       if (!periods_out_) fail(2, "cannot write " + *periods_file + ": " + std::strerror(errno));
       periods_out_ << PeriodCsvRecorder::header(scenario.state_dim()) << "\n";
+      events_file_ = *periods_file + ".events.yaml";
+      write_events();  // an empty journal too: a replay of a run without changes is valid
     }
     if (samples_file) {
       samples_out_.open(*samples_file, std::ios::trunc);
@@ -73,6 +75,20 @@ class Recording {
     }
   }
   bool wants_samples() const { return samples_out_.is_open(); }
+  /// Live changes (ctl, dashboard) with the period they applied from: written next to the
+  /// periods file as FILE.events.yaml, which `netkf launch --events` replays.
+  void link_change(const LinkChangeRecord& c) {
+    if (!events_file_ || c.origin != "request") return;
+    LinkEvent e;
+    e.at_period = c.at_period;
+    e.link = c.sensor_id;
+    e.keys = link_keys(c.link);  // the whole link: a replay sets exactly what the run had
+    for (const auto& seen : journal_)
+      if (seen.request_id == c.request_id && seen.event == e) return;  // transient-local repeats
+    journal_.push_back({c.request_id, std::move(e)});
+    journal_changed_ = true;
+  }
+  std::optional<std::string> events_file() const { return events_file_; }
   void truth(const TruthRecord& t) {
     if (periods_out_.is_open()) periods_.add_truth(t);
   }
@@ -92,10 +108,27 @@ class Recording {
       samples_.flush(samples_out_);
       samples_out_.flush();
     }
+    if (journal_changed_) write_events();
   }
   std::uint64_t rows() const { return periods_.rows_written(); }
 
  private:
+  struct Journaled {
+    std::uint64_t request_id;
+    LinkEvent event;
+  };
+  void write_events() {
+    // Rewritten whole (it is small) so that the file is complete whenever the launch stops.
+    std::vector<LinkEvent> events;
+    for (const auto& j : journal_) events.push_back(j.event);
+    std::ofstream out(*events_file_, std::ios::trunc);
+    out << "# Live link changes of a netkf run, with the period each applied from.\n"
+           "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n"
+        << events_to_yaml(events);
+    if (!out) fail(2, "cannot write " + *events_file_ + ": " + std::strerror(errno));
+    journal_changed_ = false;
+  }
+
   static int max_measurement_dim(const Scenario& s) {
     int m = 0;
     for (const auto& sensor : s.sensors) m = std::max(m, static_cast<int>(sensor.C.rows()));
@@ -105,6 +138,9 @@ class Recording {
   SampleCsvRecorder samples_;
   std::ofstream periods_out_;
   std::ofstream samples_out_;
+  std::optional<std::string> events_file_;
+  std::vector<Journaled> journal_;
+  bool journal_changed_ = false;
 };
 
 /// Handlers that feed a recording and, when given, the launch's live views.
@@ -119,6 +155,12 @@ BusHandlers recording_handlers(Recording& recording, LiveViews* views, std::uint
     if (views) views->estimate(e);
   };
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
+  if (recording.events_file() || views) {
+    h.link_change = [&recording, views](LinkChangeRecord&& c) {
+      recording.link_change(c);
+      if (views) views->link_change(c);
+    };
+  }
   if (views) {
     h.link_status = [views](LinkStatusRecord&& l) { views->link_status(l); };
     h.link_reply = [views](LinkReplyRecord&& r) { views->link_reply(r); };
@@ -148,6 +190,7 @@ struct LaunchOptions {
   double duration = 0.0;  // 0: until Ctrl-C
   std::optional<std::string> record;
   std::optional<std::string> record_samples;
+  std::optional<std::string> events;  // replay: an events file (what --record journaled)
   NetworkOptions network;
   std::string log_level = "warn";
   std::string restart_policy = "restart";
@@ -177,7 +220,17 @@ std::string random_token() {
 }
 
 int run_launch(const LaunchOptions& o) {
-  const Scenario scenario = load_or_default(o.scenario);
+  const Scenario scenario = [&] {
+    Scenario s = load_or_default(o.scenario);
+    if (o.events) {
+      try {
+        add_replayed_events(s, load_events_file(*o.events, s));
+      } catch (const std::exception& e) {
+        fail(2, e.what());
+      }
+    }
+    return s;
+  }();
   const RestartPolicy policy = parse_restart_policy(o.restart_policy);
 
   // The children read the effective scenario from a private temporary file.
@@ -219,8 +272,8 @@ int run_launch(const LaunchOptions& o) {
   std::unique_ptr<LiveViews> views;
   try {
     views = std::make_unique<LiveViews>(io, scenario, view_options,
-                                        [&bus](std::uint64_t id, int sensor_id, const LinkModel& model) {
-                                          return bus && bus->send_link_control(id, sensor_id, model);
+                                        [&bus](std::uint64_t id, int sensor_id, const LinkKeys& keys) {
+                                          return bus && bus->send_link_control(id, sensor_id, keys);
                                         });
   } catch (const std::exception& e) {
     fail(2, e.what());
@@ -433,7 +486,6 @@ bool run_until(boost::asio::io_context& io, const std::function<bool()>& done, s
 
 nlohmann::json link_json(const LinkStatusRecord& l) {
   nlohmann::json j{{"sensor_id", l.sensor_id},
-                   {"model", link_model_name(l.model)},
                    {"samples_in", l.samples_in},
                    {"delivered", l.delivered},
                    {"dropped", l.dropped},
@@ -442,10 +494,16 @@ nlohmann::json link_json(const LinkStatusRecord& l) {
                    {"samples_total", l.samples_total},
                    {"delivered_total", l.delivered_total},
                    {"dropped_total", l.dropped_total},
+                   {"held", l.held},
                    {"last_request_id", l.last_request_id}};
-  for (const auto& [name, value] : link_parameters(l.model)) j[name] = value;
-  j["stationary_loss"] = stationary_loss(l.model);
-  j["arrival_rate"] = 1.0 - stationary_loss(l.model);
+  for (const auto& k : link_keys(l.link)) {
+    if (const auto* word = std::get_if<std::string>(&k.value)) j[k.name] = *word;
+    else j[k.name] = std::get<double>(k.value);
+  }
+  j["stationary_loss"] = stationary_loss(l.link.loss);
+  if (std::holds_alternative<GilbertElliottLink>(l.link.loss)) j["mean_burst"] = mean_burst_length(l.link.loss);
+  j["in_time"] = l.in_time;
+  j["arrival_rate"] = (1.0 - stationary_loss(l.link.loss)) * l.in_time;  // what reaches the estimator in time
   if (!l.rejection_reason.empty()) j["last_rejection"] = l.rejection_reason;
   return j;
 }
@@ -456,8 +514,77 @@ struct CtlOptions {
   int sensor_id = 0;
   std::optional<double> bernoulli;
   std::vector<double> gilbert_elliott;
+  std::optional<std::string> model;
+  std::optional<double> loss;
+  std::optional<double> mean_burst;
+  std::optional<double> delay;
+  std::optional<double> jitter;
+  std::optional<std::string> distribution;
+  std::vector<std::string> set;  // KEY=VALUE
   bool json = false;
 };
+
+/// The link keys a `ctl set-link` asks for. Names and number syntax are checked here (exit 2);
+/// whether they make a valid link with the link's current state is the channel's answer.
+LinkKeys ctl_link_keys(const CtlOptions& o) {
+  LinkKeys keys;
+  if (o.bernoulli) {
+    keys.push_back({"model", std::string("bernoulli")});
+    keys.push_back({"loss", *o.bernoulli});
+  }
+  if (!o.gilbert_elliott.empty()) {
+    if (o.gilbert_elliott.size() != 2 && o.gilbert_elliott.size() != 4)
+      fail(2, "--gilbert-elliott takes P R [LOSS_GOOD LOSS_BAD] (2 or 4 numbers), got " +
+                  std::to_string(o.gilbert_elliott.size()));
+    keys.push_back({"model", std::string("gilbert_elliott")});
+    keys.push_back({"p", o.gilbert_elliott[0]});
+    keys.push_back({"r", o.gilbert_elliott[1]});
+    if (o.gilbert_elliott.size() == 4) {
+      keys.push_back({"loss_good", o.gilbert_elliott[2]});
+      keys.push_back({"loss_bad", o.gilbert_elliott[3]});
+    }
+  }
+  if (o.model) keys.push_back({"model", *o.model});
+  if (o.loss) keys.push_back({"loss", *o.loss});
+  if (o.mean_burst) keys.push_back({"mean_burst", *o.mean_burst});
+  if (o.delay) keys.push_back({"delay_ms", *o.delay});
+  if (o.jitter) keys.push_back({"jitter_ms", *o.jitter});
+  if (o.distribution) keys.push_back({"delay_distribution", *o.distribution});
+  for (const auto& kv : o.set) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0) fail(2, "--set takes KEY=VALUE, got '" + kv + "'");
+    const std::string name = kv.substr(0, eq);
+    const std::string text = kv.substr(eq + 1);
+    if (link_key_is_word(name)) {
+      keys.push_back({name, text});
+      continue;
+    }
+    std::size_t used = 0;
+    double value = 0.0;
+    try {
+      value = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != text.size()) fail(2, "--set " + name + ": '" + text + "' is not a number");
+    keys.push_back({name, value});
+  }
+  if (keys.empty())
+    fail(2, "give what to change: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD LOSS_BAD], --loss, "
+            "--mean-burst, --delay, --jitter, --distribution, --model or --set KEY=VALUE");
+  // Names, duplicates and word/number kinds: the link type's own check, on a link of the
+  // model asked for (or of each model) so that only the current state is left to the channel.
+  std::string first_problem;
+  for (const LinkSpec& probe : {LinkSpec(BernoulliLink{0.5}), LinkSpec(GilbertElliottLink{0.1, 0.5, 0.0, 1.0})}) {
+    try {
+      (void)apply_link_keys(probe, keys);
+      return keys;
+    } catch (const LinkError& e) {
+      if (first_problem.empty()) first_problem = e.what();
+    }
+  }
+  fail(2, "invalid link change: " + first_problem);
+}
 
 int run_ctl_status(const CtlOptions& o) {
   boost::asio::io_context io;
@@ -490,31 +617,7 @@ int run_ctl_status(const CtlOptions& o) {
 }
 
 int run_ctl_set_link(const CtlOptions& o) {
-  LinkModel model;
-  if (o.bernoulli && !o.gilbert_elliott.empty()) fail(2, "give either --bernoulli or --gilbert-elliott, not both");
-  if (o.bernoulli) {
-    model = BernoulliLink{*o.bernoulli};
-  } else if (o.gilbert_elliott.size() == 2 || o.gilbert_elliott.size() == 4) {
-    GilbertElliottLink g;
-    g.p = o.gilbert_elliott[0];
-    g.r = o.gilbert_elliott[1];
-    if (o.gilbert_elliott.size() == 4) {
-      g.loss_good = o.gilbert_elliott[2];
-      g.loss_bad = o.gilbert_elliott[3];
-    }
-    model = g;
-  } else if (!o.gilbert_elliott.empty()) {
-    fail(2, "--gilbert-elliott takes P R [LOSS_GOOD LOSS_BAD] (2 or 4 numbers), got " +
-                std::to_string(o.gilbert_elliott.size()));
-  } else {
-    fail(2, "give the new model: --bernoulli LOSS or --gilbert-elliott P R [LOSS_GOOD LOSS_BAD]");
-  }
-  // Reject bad parameters here, before anything is sent.
-  try {
-    validate_link_model(model);
-  } catch (const std::exception& e) {
-    fail(2, std::string("invalid link model: ") + e.what());
-  }
+  const LinkKeys keys = ctl_link_keys(o);
 
   boost::asio::io_context io;
   std::optional<LinkReplyRecord> reply;
@@ -545,7 +648,7 @@ int run_ctl_set_link(const CtlOptions& o) {
   if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
     fail(3, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
                 number_text(o.timeout) + " s (is a network running? netkf launch)");
-  if (!bus->send_link_control(request_id, o.sensor_id, model)) fail(3, "DDS refused to send the link change");
+  if (!bus->send_link_control(request_id, o.sensor_id, keys)) fail(3, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
     fail(3, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
@@ -553,9 +656,14 @@ int run_ctl_set_link(const CtlOptions& o) {
   if (!reply->applied) fail(4, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
-  std::cout << "link " << o.sensor_id << ": applied " << describe_link_model(model) << " (request " << request_id
-            << ", arrival rate " << 1.0 - stationary_loss(model) << ")\n";
-  if (acknowledged) std::cout << render_link_table({*acknowledged});
+  if (acknowledged) {
+    const auto& l = *acknowledged;
+    std::cout << "link " << o.sensor_id << ": applied " << describe_link(l.link) << " (request " << request_id
+              << ", effective arrival rate " << (1.0 - stationary_loss(l.link.loss)) * l.in_time << ")\n";
+    std::cout << render_link_table({l});
+  } else {
+    std::cout << "link " << o.sensor_id << ": applied (request " << request_id << ")\n";
+  }
   return 0;
 }
 
@@ -582,7 +690,13 @@ void add_launch_command(CLI::App& app) {
   cmd->add_option("scenario", o->scenario, "Scenario YAML (default: built-in three-sensor scenario)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
-  cmd->add_option("--record", o->record, "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state");
+  cmd->add_option("--record", o->record,
+                  "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state; and the live link changes "
+                  "to FILE.events.yaml (replay with --events)");
+  cmd->add_option("--events", o->events,
+                  "Replay link changes: an events file (as --record writes FILE.events.yaml); at the same period "
+                  "they apply before the scenario's own events")
+      ->check(CLI::ExistingFile);
   cmd->add_option("--record-samples", o->record_samples,
                   "Write every delivered measurement: k,sensor_id,stamp,fused,y..");
   o->network.add_to(cmd);
@@ -638,13 +752,23 @@ void add_ctl_command(CLI::App& app) {
   auto o = std::make_shared<CtlOptions>();
   auto* cmd = app.add_subcommand("ctl", "Tune links of a running network and show their status");
   cmd->require_subcommand(1);
-  auto* set = cmd->add_subcommand("set-link", "Change one link's loss model from the next sample on");
+  auto* set = cmd->add_subcommand(
+      "set-link", "Change one link from its next sample on: only what is given changes (e.g. --delay keeps the loss)");
   set->add_option("id", o->sensor_id, "Sensor id of the link")->required();
   auto* b = set->add_option("--bernoulli", o->bernoulli, "i.i.d. drops with probability LOSS");
   auto* ge = set->add_option("--gilbert-elliott", o->gilbert_elliott,
                              "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
                  ->expected(2, 4);
   b->excludes(ge);
+  set->add_option("--model", o->model, "bernoulli or gilbert_elliott (with the keys of that model)");
+  set->add_option("--loss", o->loss,
+                  "Loss: a bernoulli link's P(drop), or a gilbert_elliott link's stationary loss (with --mean-burst)");
+  set->add_option("--mean-burst", o->mean_burst,
+                  "gilbert_elliott by the user's form: mean length of a run of drops (>= 1), with --loss");
+  set->add_option("--delay", o->delay, "Base delay of a delivered sample, ms");
+  set->add_option("--jitter", o->jitter, "Spread of the delay, ms (half-width, sd or scale: see --distribution)");
+  set->add_option("--distribution", o->distribution, "Delay distribution: uniform, normal, pareto, paretonormal");
+  set->add_option("--set", o->set, "Any link key: KEY=VALUE (docs/scenario-format.md, \"Links\"); repeatable");
   o->network.add_to(set);
   set->add_option("--timeout", o->timeout, "Seconds to wait for the channel emulator's answer")->check(timeout_seconds());
   set->callback([o] {

@@ -29,6 +29,22 @@ LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>())
                                .Name("netkf_link_configured_loss")
                                .Help("Stationary loss probability of the link's current model")
                                .Register(r);
+  link_delay_ = &BuildGauge()
+                     .Name("netkf_link_delay_seconds")
+                     .Help("Base delay of the link's current configuration")
+                     .Register(r);
+  link_jitter_ = &BuildGauge()
+                      .Name("netkf_link_jitter_seconds")
+                      .Help("Delay spread of the link's current configuration (half-width, sd or scale)")
+                      .Register(r);
+  link_in_time_ = &BuildGauge()
+                       .Name("netkf_link_in_time_probability")
+                       .Help("P(delay <= the estimator's deadline) of the link's current configuration")
+                       .Register(r);
+  link_held_ = &BuildGauge()
+                    .Name("netkf_link_held_samples")
+                    .Help("Delivered samples the channel is holding for their delay")
+                    .Register(r);
   link_observed_loss_ = &BuildGauge()
                              .Name("netkf_link_observed_loss")
                              .Help("Fraction of samples dropped since the link's model was set")
@@ -86,7 +102,11 @@ void LiveMetrics::update(const LiveSnapshot& s) {
     advance(link_samples_->Add(labels), l.samples_total, totals.samples);
     advance(link_delivered_->Add(labels), l.delivered_total, totals.delivered);
     advance(link_dropped_->Add(labels), l.dropped_total, totals.dropped);
-    link_configured_loss_->Add(labels).Set(stationary_loss(l.model));
+    link_configured_loss_->Add(labels).Set(stationary_loss(l.link.loss));
+    link_delay_->Add(labels).Set(l.link.delay.delay_ms / 1000.0);
+    link_jitter_->Add(labels).Set(l.link.delay.jitter_ms / 1000.0);
+    link_in_time_->Add(labels).Set(l.in_time);
+    link_held_->Add(labels).Set(static_cast<double>(l.held));
     link_observed_loss_->Add(labels).Set(l.observed_loss);
   }
   if (s.period) {

@@ -46,6 +46,10 @@ class LiveMetrics {
   prometheus::Family<prometheus::Counter>* link_delivered_;
   prometheus::Family<prometheus::Counter>* link_dropped_;
   prometheus::Family<prometheus::Gauge>* link_configured_loss_;
+  prometheus::Family<prometheus::Gauge>* link_delay_;
+  prometheus::Family<prometheus::Gauge>* link_jitter_;
+  prometheus::Family<prometheus::Gauge>* link_in_time_;
+  prometheus::Family<prometheus::Gauge>* link_held_;
   prometheus::Family<prometheus::Gauge>* link_observed_loss_;
   prometheus::Family<prometheus::Counter>* restarts_;
   prometheus::Gauge* period_;

@@ -18,8 +18,9 @@ LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
   for (const auto& sensor : scenario_.sensors) {
     LinkView view;
     view.sensor_id = sensor.id;
-    view.model = sensor.link;
-    view.configured_arrival_rate = 1.0 - stationary_loss(sensor.link);
+    view.link = sensor.link;
+    view.in_time = probability_within(sensor.link.delay, scenario_.deadline_ms());
+    view.configured_arrival_rate = effective_arrival_rate(sensor.link, scenario_.deadline_ms());
     snapshot_.links.push_back(view);
   }
 }
@@ -108,7 +109,7 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
     const std::string source = own != own_requests_.end() ? own->second : "netkf ctl or another client";
     if (status.rejection_reason.empty())
       raise(LiveEvent::Level::info, "link " + std::to_string(status.sensor_id) + ": " +
-                                        describe_link_model(status.model) + " (from " + source + ")");
+                                        describe_link(status.link) + " (from " + source + ")");
     else
       raise(LiveEvent::Level::error, "link " + std::to_string(status.sensor_id) + ": change refused by the channel (" +
                                          status.rejection_reason + ", from " + source + ")");
@@ -121,7 +122,9 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
   } else if (status.samples_in > 0 && (!same_model || !view->observed_arrival_rate)) {
     view->observed_arrival_rate = 1.0 - status.observed_loss;
   }
-  view->model = status.model;
+  view->link = status.link;
+  view->in_time = status.in_time;
+  view->held = status.held;
   view->reported = true;
   view->samples_in = status.samples_in;
   view->delivered = status.delivered;
@@ -131,16 +134,23 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
   view->samples_total = status.samples_total;
   view->delivered_total = status.delivered_total;
   view->dropped_total = status.dropped_total;
-  view->configured_arrival_rate = 1.0 - stationary_loss(status.model);
+  view->configured_arrival_rate = effective_arrival_rate(status.link, scenario_.deadline_ms());
   view->last_request_id = status.last_request_id;
   view->rejection_reason = status.rejection_reason;
+}
+
+void LiveModel::add_link_change(const LinkChangeRecord& change) {
+  // Requests are announced by the status that answers them; the timeline only here.
+  if (change.origin != "timeline") return;
+  raise(LiveEvent::Level::info, "timeline: link " + std::to_string(change.sensor_id) + " from period " +
+                                    std::to_string(change.at_period) + ": " + describe_link(change.link));
 }
 
 Scenario LiveModel::configured_scenario() const {
   Scenario s = scenario_;
   for (auto& sensor : s.sensors)
     for (const auto& l : snapshot_.links)
-      if (l.sensor_id == sensor.id) sensor.link = l.model;
+      if (l.sensor_id == sensor.id) sensor.link = l.link;
   return s;
 }
 

@@ -22,6 +22,8 @@ class LiveModel {
   void add_truth(const TruthRecord& truth);
   void add_estimate(const EstimateRecord& estimate);
   void add_link_status(const LinkStatusRecord& status);
+  /// A journaled link change (the timeline's show up in the event log).
+  void add_link_change(const LinkChangeRecord& change);
   void count_invalid() { ++snapshot_.invalid_samples; }
 
   /// Request ids that this process sent itself, so that a change can name its source.

@@ -45,7 +45,9 @@ struct DeliveredRecord {
 /// One link of the channel emulator, as it last reported itself.
 struct LinkStatusRecord {
   int sensor_id = 0;
-  LinkModel model;
+  LinkSpec link;
+  double in_time = 1.0;          // theory: P(delay <= deadline)
+  std::uint64_t held = 0;        // delivered samples waiting out their delay
   // Since the current model was set (they describe the model shown):
   std::uint64_t samples_in = 0;
   std::uint64_t delivered = 0;
@@ -58,6 +60,16 @@ struct LinkStatusRecord {
   std::uint64_t dropped_total = 0;
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;  // empty when the last request was applied
+};
+
+/// One entry of the channel's link journal: the link after a change, and the period of the
+/// first sample it applied to.
+struct LinkChangeRecord {
+  int sensor_id = 0;
+  std::int64_t at_period = 0;
+  std::string origin;            // "request" | "timeline"
+  std::uint64_t request_id = 0;
+  LinkSpec link;
 };
 
 /// The channel's answer to one link change request.

@@ -30,7 +30,9 @@ struct PeriodView {
 /// One link as the channel last reported it, with the rates the theory needs.
 struct LinkView {
   int sensor_id = 0;
-  LinkModel model;                 // as reported by the channel (the scenario's until then)
+  LinkSpec link;                   // as reported by the channel (the scenario's until then)
+  double in_time = 1.0;            // theory: P(delay <= deadline) of `link`
+  std::uint64_t held = 0;          // delivered samples the channel is holding (delay)
   bool reported = false;           // a status from the channel has arrived
   std::uint64_t samples_in = 0;    // since the model was set
   std::uint64_t delivered = 0;
@@ -40,7 +42,7 @@ struct LinkView {
   std::uint64_t samples_total = 0;  // since the channel started
   std::uint64_t delivered_total = 0;
   std::uint64_t dropped_total = 0;
-  double configured_arrival_rate = 1.0;          // λ_i = 1 − stationary loss of `model`
+  double configured_arrival_rate = 1.0;          // λ_i = (1 − stationary loss) · in_time: the effective rate
   std::optional<double> observed_arrival_rate;   // delivered / samples over the last report interval
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;                  // of the last request (empty: applied)

@@ -31,14 +31,16 @@ void render_assessment(std::ostringstream& out, const char* label, const Assessm
 std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
   std::ostringstream out;
   char line[256];
-  std::snprintf(line, sizeof line, "%-6s %-52s %8s %10s %10s %10s %9s %7s\n", "link", "model", "cfg λ", "samples",
-                "delivered", "dropped", "obs loss", "burst");
+  std::snprintf(line, sizeof line, "%-6s %8s %8s %10s %10s %10s %9s %7s %6s  %s\n", "link", "in time", "eff λ",
+                "samples", "delivered", "dropped", "obs loss", "burst", "held", "link");
   out << line;
   for (const auto& l : links) {
-    std::snprintf(line, sizeof line, "%-6d %-52s %8.4f %10llu %10llu %10llu %9.4f %7.3f\n", l.sensor_id,
-                  describe_link_model(l.model).c_str(), 1.0 - stationary_loss(l.model),
+    // eff λ: the arrival rate the estimator gets, (1 − loss) · P(delay <= deadline).
+    std::snprintf(line, sizeof line, "%-6d %8.4f %8.4f %10llu %10llu %10llu %9.4f %7.3f %6llu  %s\n", l.sensor_id,
+                  l.in_time, (1.0 - stationary_loss(l.link.loss)) * l.in_time,
                   static_cast<unsigned long long>(l.samples_in), static_cast<unsigned long long>(l.delivered),
-                  static_cast<unsigned long long>(l.dropped), l.observed_loss, l.mean_burst_length);
+                  static_cast<unsigned long long>(l.dropped), l.observed_loss, l.mean_burst_length,
+                  static_cast<unsigned long long>(l.held), describe_link(l.link).c_str());
     out << line;
     if (!l.rejection_reason.empty())
       out << "       last request " << l.last_request_id << " rejected: " << l.rejection_reason << "\n";
@@ -60,13 +62,13 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   } else {
     out << "waiting for the first estimate...\n";
   }
-  // Per link: configured and observed arrival rate (λ_i = 1 − loss).
-  out << "  link  configured                                           λ cfg   λ obs\n";
+  // Per link: configured (effective: (1 − loss) · P(delay <= deadline)) and observed arrival rate.
+  out << "  link   λ cfg   λ obs  configured\n";
   for (const auto& l : s.links) {
-    char line[200];
-    std::snprintf(line, sizeof line, "  %-5d %-52s %6.3f  %6s\n", l.sensor_id, describe_link_model(l.model).c_str(),
-                  l.configured_arrival_rate,
-                  l.observed_arrival_rate ? fmt(*l.observed_arrival_rate, true).c_str() : "-");
+    char line[256];
+    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %s\n", l.sensor_id, l.configured_arrival_rate,
+                  l.observed_arrival_rate ? fmt(*l.observed_arrival_rate, true).c_str() : "-",
+                  describe_link(l.link).c_str());
     out << line;
   }
   if (!s.theory.ready) {

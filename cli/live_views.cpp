@@ -85,7 +85,7 @@ void LiveViews::link_status(const LinkStatusRecord& status) {
     if (l.sensor_id != status.sensor_id) continue;
     if (dashboard_) dashboard_->publish(dashboard::ChannelId::link_status, dashboard::link_status_message(l), wall_ns(), l.sensor_id);
     for (const auto& b : before) {
-      if (b.sensor_id == l.sensor_id && (!b.reported || !(b.model == l.model))) {
+      if (b.sensor_id == l.sensor_id && (!b.reported || !(b.link == l.link))) {
         theory_due_ = true;  // the configured operating point moved: reassess now
         if (dashboard_) dashboard_->broadcast_parameter_values(dashboard::link_parameter_values(l, std::nullopt));
       }
@@ -104,7 +104,7 @@ void LiveViews::link_reply(const LinkReplyRecord& reply) {
   for (const auto& l : model_.snapshot().links)
     if (l.sensor_id == change.sensor_id) current = l;
   if (reply.applied) {
-    current.model = change.model;  // the channel's status with the new model follows
+    current.link = change.link;  // the channel's status with the new link follows
     dashboard_->send_to(change.client, dashboard::link_parameter_values(current, change.id));
   } else {
     dashboard_->send_to(change.client,
@@ -113,6 +113,11 @@ void LiveViews::link_reply(const LinkReplyRecord& reply) {
                                                                                reply.reason));
     if (change.id) dashboard_->send_to(change.client, dashboard::link_parameter_values(current, change.id));
   }
+}
+
+void LiveViews::link_change(const LinkChangeRecord& change) {
+  model_.add_link_change(change);
+  emit_events();
 }
 
 void LiveViews::invalid_sample(const std::string& what) {
@@ -144,20 +149,20 @@ void LiveViews::on_set_parameters(DashboardServer::ClientId client, const dashbo
     const LinkView* current = nullptr;
     for (const auto& l : model_.snapshot().links)
       if (l.sensor_id == change.sensor_id) current = &l;
-    if (!change.model) {
+    if (!change.keys) {
       dashboard_->send_to(client, dashboard::status_message(LiveEvent::Level::error, change.refusal));
       if (request.id && current) dashboard_->send_to(client, dashboard::link_parameter_values(*current, request.id));
       continue;
     }
     const std::uint64_t request_id = next_request_id_++;
     model_.note_own_request(request_id, "dashboard");
-    if (!send_link_control_ || !send_link_control_(request_id, change.sensor_id, *change.model)) {
+    if (!send_link_control_ || !send_link_control_(request_id, change.sensor_id, *change.keys)) {
       dashboard_->send_to(client, dashboard::status_message(LiveEvent::Level::error,
                                                             "link " + std::to_string(change.sensor_id) +
                                                                 ": the change could not be sent (no channel emulator?)"));
       continue;
     }
-    pending_[request_id] = {client, request.id, change.sensor_id, *change.model, Clock::now() + kLinkChangeTimeout};
+    pending_[request_id] = {client, request.id, change.sensor_id, change.link, Clock::now() + kLinkChangeTimeout};
   }
 }
 

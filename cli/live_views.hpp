@@ -34,7 +34,7 @@ struct LiveViewsOptions {
 
 class LiveViews {
  public:
-  using SendLinkControl = std::function<bool(std::uint64_t request_id, int sensor_id, const LinkModel& model)>;
+  using SendLinkControl = std::function<bool(std::uint64_t request_id, int sensor_id, const LinkKeys& keys)>;
   using Clock = std::chrono::steady_clock;
 
   /// Throws std::runtime_error when the dashboard cannot listen (e.g. its port is taken).
@@ -46,6 +46,7 @@ class LiveViews {
   void estimate(const EstimateRecord& estimate);
   void link_status(const LinkStatusRecord& status);
   void link_reply(const LinkReplyRecord& reply);
+  void link_change(const LinkChangeRecord& change);
   void invalid_sample(const std::string& what);
 
   /// A line of the launch's own log (supervisor events): printed, or kept on the screen.
@@ -86,7 +87,7 @@ class LiveViews {
     DashboardServer::ClientId client;
     std::optional<std::string> id;
     int sensor_id;
-    LinkModel model;
+    LinkSpec link;  // what the link becomes when the channel applies it
     Clock::time_point deadline;
   };
   std::map<std::uint64_t, PendingChange> pending_;

@@ -121,7 +121,7 @@ void add_analyze_command(CLI::App& app) {
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("analyze", "What the papers predict for a scenario: bounds, critical rates, regions");
   cmd->add_option("scenario", args->file, "scenario YAML file")->required();
-  cmd->add_flag("--json", args->json, "print one JSON object (DESIGN.md contract)");
+  cmd->add_flag("--json", args->json, "print one JSON object (keys: docs/architecture.md, 'Contracts')");
   cmd->add_flag("--region", args->region, "two sensors: stability region bounds over a grid of lambda1");
   cmd->add_flag("--sweep", args->sweep, "Tr S-bar and Tr V-bar over a grid of the shared arrival rate");
   cmd->add_option("--points", args->points, "grid points for --sweep / --region")->check(CLI::Range(2, 10001));
@@ -212,7 +212,7 @@ void add_simulate_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "worker threads (0: all cores)")->check(CLI::Range(0, 1024));
   cmd->add_option("--kernel", args->kernel, "auto | reference (the core filter) | fast (fixed-size)")
       ->check(CLI::IsMember({"auto", "reference", "fast"}));
-  cmd->add_flag("--json", args->json, "print one JSON object (DESIGN.md contract)");
+  cmd->add_flag("--json", args->json, "print one JSON object (keys: docs/architecture.md, 'Contracts')");
   cmd->add_option("--plot", args->plot, "write mean Tr P and squared error against k (PNG or SVG) with gnuplot");
   cmd->callback([args] {
     const Scenario s = load_or_fail("simulate", args->file);

@@ -1,42 +1,126 @@
 #include "netkf/nodes/channel_links.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace netkf::nodes {
+
+const char* to_string(AppliedLinkChange::Origin origin) {
+  return origin == AppliedLinkChange::Origin::request ? "request" : "timeline";
+}
 
 ChannelLinks::ChannelLinks(const Scenario& scenario) {
   for (const auto& s : scenario.sensors) {
     LinkReport r;
     r.sensor_id = s.id;
-    r.model = s.link;
-    links_.emplace(s.id, Link{LinkLossProcess(s.link, derive_seed(scenario.seed, "link", static_cast<std::uint64_t>(s.id))),
-                              std::move(r)});
+    r.link = s.link;
+    const auto id = static_cast<std::uint64_t>(s.id);
+    links_.emplace(s.id, Link{LinkLossProcess(s.link.loss, derive_seed(scenario.seed, "link", id)),
+                              LinkDelayProcess(derive_seed(scenario.seed, "link-delay", id)), std::move(r), {}, 0,
+                              std::nullopt, std::nullopt, 0});
+  }
+  for (const std::size_t i : event_application_order(scenario.events)) {
+    const LinkEvent& e = scenario.events[i];
+    if (auto it = links_.find(e.link); it != links_.end()) it->second.timeline.push_back(e);
   }
 }
 
-ChannelLinks::Verdict ChannelLinks::on_sample(int sensor_id) {
+void ChannelLinks::set_link(Link& link, const LinkSpec& spec, bool reset_statistics) {
+  link.loss.set_model(spec.loss);  // keeps a Gilbert-Elliott chain's state (unlike netem)
+  link.report.link = spec;
+  if (reset_statistics) link.report.stats = LinkStatistics{};
+}
+
+void ChannelLinks::apply_due(Link& link, std::int64_t k) {
+  const int id = link.report.sensor_id;
+  if (link.unjournaled_request) {
+    // The request was applied between the previous sample and this one: it took effect here.
+    changes_.push_back({id, k, AppliedLinkChange::Origin::request, *link.unjournaled_request, link.report.link, {}});
+    link.unjournaled_request.reset();
+  }
+  while (link.next_event < link.timeline.size() && link.timeline[link.next_event].at_period <= k) {
+    const LinkEvent& e = link.timeline[link.next_event++];
+    AppliedLinkChange change{id, k, AppliedLinkChange::Origin::timeline, 0, link.report.link, {}};
+    try {
+      if (e.kind == LinkEvent::Kind::set || e.ramp_periods == 0) {
+        change.link = apply_link_keys(link.report.link, e.keys);
+        set_link(link, change.link, true);
+        link.ramp.reset();  // a set ends a running ramp: the latest instruction wins
+      } else {
+        Ramp ramp{k, e.ramp_periods, {}, e.keys};
+        for (const auto& key : e.keys) ramp.from.emplace_back(key.name, link_key_value(link.report.link, key.name));
+        (void)apply_link_keys(link.report.link, e.keys);  // the target must be a valid link now
+        link.ramp = std::move(ramp);
+      }
+    } catch (const LinkError& err) {
+      // Only a live change can make a checked timeline inapplicable (e.g. another model).
+      change.failure = err.what();
+    }
+    changes_.push_back(std::move(change));
+  }
+}
+
+void ChannelLinks::step_ramp(Link& link, std::int64_t k) {
+  if (!link.ramp) return;
+  const Ramp& ramp = *link.ramp;
+  const double fraction =
+      std::min(1.0, static_cast<double>(k - ramp.start_period) / static_cast<double>(ramp.periods));
+  LinkKeys keys;
+  for (std::size_t i = 0; i < ramp.to.size(); ++i) {
+    const double from = ramp.from[i].second;
+    const double to = std::get<double>(ramp.to[i].value);
+    keys.push_back({ramp.to[i].name, fraction >= 1.0 ? to : from + (to - from) * fraction});
+  }
+  const int id = link.report.sensor_id;
+  try {
+    set_link(link, apply_link_keys(link.report.link, keys), false);
+  } catch (const LinkError& err) {
+    changes_.push_back({id, k, AppliedLinkChange::Origin::timeline, 0, link.report.link, err.what()});
+    link.ramp.reset();
+    return;
+  }
+  if (fraction >= 1.0) {
+    changes_.push_back({id, k, AppliedLinkChange::Origin::timeline, 0, link.report.link, {}});
+    link.ramp.reset();
+  }
+}
+
+SampleFate ChannelLinks::on_sample(int sensor_id, std::int64_t k) {
   auto it = links_.find(sensor_id);
   if (it == links_.end()) {
     ++unknown_sensor_samples_;
-    return Verdict::unknown_sensor;
+    return {Verdict::unknown_sensor, 0.0};
   }
-  const bool dropped = it->second.process.next_dropped();
-  it->second.report.stats.record(dropped);
-  it->second.report.lifetime.record(dropped);
-  return dropped ? Verdict::dropped : Verdict::delivered;
+  Link& link = it->second;
+  apply_due(link, k);
+  step_ramp(link, k);
+  ++link.samples_seen;
+  const bool dropped = link.loss.next_dropped();
+  link.report.stats.record(dropped);
+  link.report.lifetime.record(dropped);
+  if (dropped) return {Verdict::dropped, 0.0};
+  return {Verdict::delivered, link.delay.next_delay_ms(link.report.link.delay)};
 }
 
-LinkChangeResult ChannelLinks::apply(std::uint64_t request_id, int sensor_id, const LinkModel& model) {
+ChannelLinks::Verdict ChannelLinks::on_sample(int sensor_id) {
+  const auto it = links_.find(sensor_id);
+  return on_sample(sensor_id, it == links_.end() ? 0 : it->second.samples_seen).verdict;
+}
+
+LinkChangeResult ChannelLinks::request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys) {
   auto it = links_.find(sensor_id);
   if (it == links_.end()) return reject(request_id, sensor_id, "unknown sensor id " + std::to_string(sensor_id));
+  Link& link = it->second;
+  LinkSpec next;
   try {
-    it->second.process.set_model(model);  // validates; throws and changes nothing when invalid
-  } catch (const std::exception& e) {
+    next = apply_link_keys(link.report.link, keys);  // validates; throws and changes nothing when invalid
+  } catch (const LinkError& e) {
     return reject(request_id, sensor_id, e.what());
   }
-  LinkReport& r = it->second.report;
-  r.model = model;
-  r.stats = LinkStatistics{};
+  set_link(link, next, true);
+  link.ramp.reset();  // the operator's word ends a ramp in progress
+  link.unjournaled_request = request_id;
+  LinkReport& r = link.report;
   r.last_request_id = request_id;
   r.last_request_rejected = false;
   r.reject_reason.clear();
@@ -51,6 +135,12 @@ LinkChangeResult ChannelLinks::reject(std::uint64_t request_id, int sensor_id, c
     r.reject_reason = reason;
   }
   return LinkChangeResult{request_id, sensor_id, false, reason};
+}
+
+std::vector<AppliedLinkChange> ChannelLinks::take_changes() {
+  std::vector<AppliedLinkChange> out;
+  out.swap(changes_);
+  return out;
 }
 
 std::vector<LinkReport> ChannelLinks::reports() const {

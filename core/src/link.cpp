@@ -234,6 +234,12 @@ double standard_cdf(DelayDistribution d, double z) {
 
 }  // namespace
 
+std::string link_error_at(const std::string& path, const LinkError& error) {
+  const std::string what = error.what();
+  if (!error.key().empty() && what.rfind(error.key() + " ", 0) == 0) return path + "." + what;
+  return path + ": " + what;
+}
+
 // ---- keys -------------------------------------------------------------------------
 
 const std::vector<std::string>& link_key_names() {

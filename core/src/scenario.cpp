@@ -228,7 +228,7 @@ class Validator {
     try {
       validate_link(spec);  // the link type's one validation (netkf/link.hpp)
     } catch (const LinkError& e) {
-      fail(at + "." + e.key(), at + "." + e.what());
+      fail(at + "." + e.key(), link_error_at(at, e));
     }
   }
 
@@ -254,7 +254,7 @@ class Validator {
         }
         link->second = apply_link_keys(link->second, e.keys);
       } catch (const LinkError& err) {
-        fail(keys_at + "." + err.key(), keys_at + ": " + err.what());
+        fail(keys_at + "." + err.key(), link_error_at(keys_at, err));
       }
     }
   }

@@ -330,7 +330,7 @@ class Loader {
   }
 
   [[noreturn]] void fail_link(const LinkError& e, const YAML::Node& node, const std::string& at) const {
-    fail(mark_of(node, child(at, e.key())), at + ": " + e.what());
+    fail(mark_of(node, child(at, e.key())), link_error_at(at, e));
   }
 
   LinkSpec read_link(const YAML::Node& node, const std::string& at) {

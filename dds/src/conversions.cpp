@@ -151,82 +151,97 @@ EstimateRecord from_wire(const wire::Estimate& e, int state_dim) {
   return r;
 }
 
-wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model) {
+wire::LinkSpec to_wire(const LinkSpec& link) {
+  wire::LinkSpec w;
+  w.model(link_model_name(link.loss));
+  if (const auto* b = std::get_if<BernoulliLink>(&link.loss)) {
+    w.loss(b->loss);
+  } else {
+    const auto& g = std::get<GilbertElliottLink>(link.loss);
+    w.p(g.p);
+    w.r(g.r);
+    w.loss_good(g.loss_good);
+    w.loss_bad(g.loss_bad);
+  }
+  w.delay_ms(link.delay.delay_ms);
+  w.jitter_ms(link.delay.jitter_ms);
+  w.delay_distribution(delay_distribution_name(link.delay.distribution));
+  return w;
+}
+
+LinkSpec from_wire(const wire::LinkSpec& w) {
+  // Through the link's keys: the same names, checks and messages as a file or `ctl`.
+  LinkKeys keys{{"model", w.model()}};
+  if (w.model() == "bernoulli") {
+    keys.push_back({"loss", w.loss()});
+  } else {
+    keys.push_back({"p", w.p()});
+    keys.push_back({"r", w.r()});
+    keys.push_back({"loss_good", w.loss_good()});
+    keys.push_back({"loss_bad", w.loss_bad()});
+  }
+  keys.push_back({"delay_ms", w.delay_ms()});
+  keys.push_back({"jitter_ms", w.jitter_ms()});
+  keys.push_back({"delay_distribution", w.delay_distribution()});
+  try {
+    return link_from_keys(keys);
+  } catch (const LinkError& e) {
+    throw ConversionError(std::string("link: ") + e.what());
+  }
+}
+
+wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, const LinkKeys& keys) {
   wire::LinkControl c;
   c.request_id(request_id);
   c.sensor_id(sensor_id);
-  c.model(link_model_name(model));
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-    c.loss(b->loss);
-  } else {
-    const auto& g = std::get<GilbertElliottLink>(model);
-    c.p(g.p);
-    c.r(g.r);
-    c.loss_good(g.loss_good);
-    c.loss_bad(g.loss_bad);
+  std::vector<wire::LinkKey> out;
+  for (const auto& k : keys) {
+    wire::LinkKey w;
+    w.name(k.name);
+    if (const auto* word = std::get_if<std::string>(&k.value)) {
+      w.word(*word);
+    } else {
+      w.number(std::get<double>(k.value));
+    }
+    out.push_back(std::move(w));
   }
+  c.keys(std::move(out));
   return c;
 }
 
-namespace {
-void check_probability(double v, const char* name) {
-  if (!std::isfinite(v) || v < 0.0 || v > 1.0) {
-    throw ConversionError(std::string(name) + " must be a probability in [0,1], got " + std::to_string(v));
+LinkKeys link_keys_of(const wire::LinkControl& control) {
+  LinkKeys keys;
+  for (const auto& w : control.keys()) {
+    // The key's own kind decides which field counts: a word key with an empty word is
+    // reported as such by the link's validation, never read as the number 0.
+    if (link_key_is_word(w.name())) {
+      keys.push_back({w.name(), w.word()});
+    } else {
+      keys.push_back({w.name(), w.number()});
+    }
   }
-}
-}  // namespace
-
-LinkModel to_link_model(const wire::LinkControl& c) {
-  if (c.model() == "bernoulli") {
-    check_probability(c.loss(), "loss");
-    return BernoulliLink{c.loss()};
-  }
-  if (c.model() == "gilbert_elliott") {
-    check_probability(c.p(), "p");
-    check_probability(c.r(), "r");
-    check_probability(c.loss_good(), "loss_good");
-    check_probability(c.loss_bad(), "loss_bad");
-    return GilbertElliottLink{c.p(), c.r(), c.loss_good(), c.loss_bad()};
-  }
-  throw ConversionError("unknown link model '" + c.model() + "' (expected bernoulli or gilbert_elliott)");
+  return keys;
 }
 
-void set_link_model(wire::LinkStatus& status, const LinkModel& model) {
-  status.model(link_model_name(model));
-  status.loss(0.0);
-  status.p(0.0);
-  status.r(0.0);
-  status.loss_good(0.0);
-  status.loss_bad(0.0);
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-    status.loss(b->loss);
-  } else {
-    const auto& g = std::get<GilbertElliottLink>(model);
-    status.p(g.p);
-    status.r(g.r);
-    status.loss_good(g.loss_good);
-    status.loss_bad(g.loss_bad);
-  }
-  status.stationary_loss(stationary_loss(model));
-}
-
-wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
-                                  const LinkStatistics& lifetime, std::uint64_t last_request_id, bool last_request_rejected,
-                                  const std::string& reject_reason, std::int64_t stamp_ns) {
+wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_ns) {
   wire::LinkStatus s;
-  s.sensor_id(sensor_id);
-  set_link_model(s, model);
-  s.samples_in(stats.samples());
-  s.delivered(stats.delivered());
-  s.dropped(stats.dropped());
-  s.observed_loss(stats.observed_loss());
-  s.mean_burst_length(stats.mean_burst_length());
-  s.samples_total(lifetime.samples());
-  s.delivered_total(lifetime.delivered());
-  s.dropped_total(lifetime.dropped());
-  s.last_request_id(last_request_id);
-  s.last_request_rejected(last_request_rejected);
-  s.reject_reason(reject_reason);
+  s.sensor_id(f.sensor_id);
+  s.link(to_wire(f.link));
+  s.stationary_loss(stationary_loss(f.link.loss));
+  s.theory_mean_burst(mean_burst_length(f.link.loss));
+  s.in_time(f.in_time);
+  s.samples_in(f.stats.samples());
+  s.delivered(f.stats.delivered());
+  s.dropped(f.stats.dropped());
+  s.observed_loss(f.stats.observed_loss());
+  s.mean_burst_length(f.stats.mean_burst_length());
+  s.samples_total(f.lifetime.samples());
+  s.delivered_total(f.lifetime.delivered());
+  s.dropped_total(f.lifetime.dropped());
+  s.last_request_id(f.last_request_id);
+  s.last_request_rejected(f.last_request_rejected);
+  s.reject_reason(f.reject_reason);
+  s.held(f.held);
   s.stamp_ns(stamp_ns);
   return s;
 }
@@ -241,11 +256,18 @@ wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sen
   return r;
 }
 
-LinkModel link_model_of(const wire::LinkStatus& status) {
-  if (status.model() == "bernoulli") return BernoulliLink{status.loss()};
-  if (status.model() == "gilbert_elliott")
-    return GilbertElliottLink{status.p(), status.r(), status.loss_good(), status.loss_bad()};
-  throw ConversionError("unknown link model '" + status.model() + "'");
+LinkSpec link_of(const wire::LinkStatus& status) { return from_wire(status.link()); }
+
+wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
+                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns) {
+  wire::LinkChange c;
+  c.sensor_id(sensor_id);
+  c.at_period(at_period);
+  c.origin(origin);
+  c.request_id(request_id);
+  c.link(to_wire(link));
+  c.stamp_ns(stamp_ns);
+  return c;
 }
 
 }  // namespace netkf::dds

@@ -11,6 +11,7 @@ template class Writer<wire::ControlInput>;
 template class Writer<wire::LinkControl>;
 template class Writer<wire::LinkControlReply>;
 template class Writer<wire::LinkStatus>;
+template class Writer<wire::LinkChange>;
 template class Reader<wire::Truth>;
 template class Reader<wire::Tick>;
 template class Reader<wire::Measurement>;
@@ -19,4 +20,5 @@ template class Reader<wire::ControlInput>;
 template class Reader<wire::LinkControl>;
 template class Reader<wire::LinkControlReply>;
 template class Reader<wire::LinkStatus>;
+template class Reader<wire::LinkChange>;
 }  // namespace netkf::dds

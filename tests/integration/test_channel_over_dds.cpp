@@ -62,16 +62,14 @@ class Relay {
                                              })),
         control_(participant_, dds::topics::link_control,
                  dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) {
-                   netkf::nodes::LinkChangeResult r;
-                   try {
-                     r = links_.apply(c.request_id(), c.sensor_id(), dds::to_link_model(c));
-                   } catch (const std::exception& e) {
-                     r = links_.reject(c.request_id(), c.sensor_id(), e.what());
-                   }
+                   const netkf::nodes::LinkChangeResult r =
+                       links_.request(c.request_id(), c.sensor_id(), dds::link_keys_of(c));
                    reply_.write(dds::make_link_control_reply(r.request_id, r.sensor_id, r.applied, r.reason));
                    for (const auto& rep : links_.reports())
-                     status_.write(dds::make_link_status(rep.sensor_id, rep.model, rep.stats, rep.lifetime, rep.last_request_id,
-                                                         rep.last_request_rejected, rep.reject_reason, 0));
+                     status_.write(dds::make_link_status({rep.sensor_id, rep.link, 1.0, rep.stats, rep.lifetime,
+                                                          rep.last_request_id, rep.last_request_rejected,
+                                                          rep.reject_reason, 0},
+                                                         0));
                  })),
         work_(io_.get_executor()),
         thread_([this] { io_.run(); }) {}
@@ -178,14 +176,13 @@ TEST(ChannelOverDds, LinkControlChangesTheLinkAndRepliesAndRejectsBadRequests) {
   ASSERT_TRUE(sink.wait_for_matched(1, 10s));
   ASSERT_TRUE(relay.wait_for_delivered_readers(1, 10s));
 
-  control.write(dds::make_link_control(1, 1, netkf::BernoulliLink{1.0}));
-  wire::LinkControl bad = dds::make_link_control(2, 1, netkf::BernoulliLink{0.0});
-  bad.loss(1.5);
-  control.write(bad);
-  wire::LinkControl unknown_model = dds::make_link_control(3, 1, netkf::BernoulliLink{0.0});
-  unknown_model.model("pareto");
-  control.write(unknown_model);
-  control.write(dds::make_link_control(4, 9, netkf::BernoulliLink{0.0}));
+  const auto bernoulli = [](double loss) {
+    return netkf::LinkKeys{{"model", std::string("bernoulli")}, {"loss", loss}};
+  };
+  control.write(dds::make_link_control(1, 1, bernoulli(1.0)));
+  control.write(dds::make_link_control(2, 1, bernoulli(1.5)));
+  control.write(dds::make_link_control(3, 1, {{"model", std::string("pareto")}, {"loss", 0.0}}));
+  control.write(dds::make_link_control(4, 9, bernoulli(0.0)));
   {
     std::unique_lock lock(c.m);
     ASSERT_TRUE(c.cv.wait_for(lock, 10s, [&] { return c.replies.size() >= 4; }));

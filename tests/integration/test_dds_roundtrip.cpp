@@ -127,11 +127,12 @@ TEST(DdsRoundTrip, ControlInput) {
 }
 
 TEST(DdsRoundTrip, LinkControlAndReply) {
-  const netkf::LinkModel ge = netkf::GilbertElliottLink{0.05, 0.4, 0.02, 0.9};
-  const auto got = roundtrip(dds::topics::link_control, dds::make_link_control(17, 2, ge));
+  const netkf::LinkKeys keys{{"model", std::string("gilbert_elliott")}, {"p", 0.05},        {"r", 0.4},
+                             {"loss_good", 0.02},                         {"loss_bad", 0.9}, {"jitter_ms", 1.0 / 3.0}};
+  const auto got = roundtrip(dds::topics::link_control, dds::make_link_control(17, 2, keys));
   EXPECT_EQ(got.request_id(), 17u);
   EXPECT_EQ(got.sensor_id(), 2);
-  EXPECT_EQ(dds::to_link_model(got), ge);
+  EXPECT_EQ(dds::link_keys_of(got), keys);
   const auto reply = dds::make_link_control_reply(17, 2, false, "loss must be in [0,1]");
   EXPECT_EQ(roundtrip(dds::topics::link_control_reply, reply), reply);
 }
@@ -142,7 +143,8 @@ TEST(DdsRoundTrip, LinkStatusReachesLateJoiners) {
   dds::Writer<wire::LinkStatus> writer(a, dds::topics::link_status);
   netkf::LinkStatistics stats;
   for (bool d : {true, true, false, true, false}) stats.record(d);
-  const auto sent = dds::make_link_status(2, netkf::BernoulliLink{0.3}, stats, stats, 4, false, "", 1);
+  const netkf::LinkSpec link{netkf::BernoulliLink{0.3}, {4.0, 2.0, netkf::DelayDistribution::uniform}};
+  const auto sent = dds::make_link_status({2, link, 0.75, stats, stats, 4, false, "", 0}, 1);
   ASSERT_TRUE(writer.write(sent));
   dds::Participant b(options("status-late-joiner"));
   Inbox<wire::LinkStatus> inbox;
@@ -154,7 +156,25 @@ TEST(DdsRoundTrip, LinkStatusReachesLateJoiners) {
   EXPECT_EQ(got.dropped(), 3u);
   EXPECT_DOUBLE_EQ(got.observed_loss(), 0.6);
   EXPECT_DOUBLE_EQ(got.mean_burst_length(), 1.5);  // runs of drops: 2 and 1
-  EXPECT_EQ(netkf::dds::link_model_of(got), netkf::LinkModel(netkf::BernoulliLink{0.3}));
+  EXPECT_EQ(netkf::dds::link_of(got), link);
+}
+
+TEST(DdsRoundTrip, LinkJournalReachesLateJoiners) {
+  // The journal is transient-local too: a recorder that joins late still gets every change.
+  dds::Participant a(options("journal-writer"));
+  dds::Writer<wire::LinkChange> writer(a, dds::topics::link_change);
+  const netkf::LinkSpec link{netkf::GilbertElliottLink{0.05, 0.2, 0.0, 1.0}, {}};
+  ASSERT_TRUE(writer.write(dds::make_link_change(3, 312, "request", 9, link, 1)));
+  ASSERT_TRUE(writer.write(dds::make_link_change(3, 600, "timeline", 0, netkf::BernoulliLink{0.1}, 2)));
+  dds::Participant b(options("journal-late-joiner"));
+  Inbox<wire::LinkChange> inbox;
+  dds::Reader<wire::LinkChange> reader(b, dds::topics::link_change, inbox.callback());
+  ASSERT_TRUE(inbox.wait_for(2, 10s));
+  const auto got = inbox.take();
+  EXPECT_EQ(got[0].at_period(), 312u);
+  EXPECT_EQ(got[0].origin(), "request");
+  EXPECT_EQ(dds::from_wire(got[0].link()), link);
+  EXPECT_EQ(got[1].origin(), "timeline");
 }
 
 TEST(DdsParticipant, RunsInsideThePrivateNetworkNamespace) {

@@ -3,13 +3,21 @@
 // closed forms (stationary loss p/(p+r) and mean burst 1/r for loss_good=0, loss_bad=1).
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "netkf/nodes/channel_links.hpp"
+#include "netkf/nodes/release_queue.hpp"
 
 namespace {
 
 using netkf::nodes::ChannelLinks;
+using netkf::nodes::SampleFate;
+
+netkf::LinkKeys loss_keys(double loss) { return {{"model", std::string("bernoulli")}, {"loss", loss}}; }
 
 netkf::Scenario links_scenario() {
   netkf::Scenario s;
@@ -17,6 +25,8 @@ netkf::Scenario links_scenario() {
   s.seed = 1234;
   s.plant.A = netkf::Matrix::Identity(1, 1);
   s.plant.Q = netkf::Matrix::Identity(1, 1);
+  s.plant.x0 = netkf::Vector::Zero(1);
+  s.plant.P0 = netkf::Matrix::Identity(1, 1);
   for (int id : {1, 2, 3}) {
     netkf::SensorSpec sp;
     sp.id = id;
@@ -67,7 +77,7 @@ TEST(ChannelLogic, SeededPerLinkAndReproducible) {
 TEST(ChannelLogic, ChangeAppliesFromTheNextSampleAndResetsStatistics) {
   ChannelLinks links(links_scenario());
   for (int i = 0; i < 50; ++i) links.on_sample(2);
-  auto res = links.apply(7, 2, netkf::BernoulliLink{1.0});
+  auto res = links.request(7, 2, loss_keys(1.0));
   EXPECT_TRUE(res.applied);
   EXPECT_TRUE(res.reason.empty());
   for (int i = 0; i < 100; ++i) EXPECT_EQ(links.on_sample(2), ChannelLinks::Verdict::dropped);
@@ -75,28 +85,139 @@ TEST(ChannelLogic, ChangeAppliesFromTheNextSampleAndResetsStatistics) {
   EXPECT_EQ(r->stats.samples(), 100u);
   EXPECT_EQ(r->last_request_id, 7u);
   EXPECT_FALSE(r->last_request_rejected);
-  EXPECT_EQ(std::get<netkf::BernoulliLink>(r->model).loss, 1.0);
-  links.apply(8, 2, netkf::BernoulliLink{0.0});
+  EXPECT_EQ(std::get<netkf::BernoulliLink>(r->link.loss).loss, 1.0);
+  links.request(8, 2, loss_keys(0.0));
   for (int i = 0; i < 100; ++i) EXPECT_EQ(links.on_sample(2), ChannelLinks::Verdict::delivered);
 }
 
 TEST(ChannelLogic, BadRequestsChangeNothing) {
   ChannelLinks links(links_scenario());
-  auto res = links.apply(3, 1, netkf::BernoulliLink{1.5});
+  auto res = links.request(3, 1, loss_keys(1.5));
   EXPECT_FALSE(res.applied);
   EXPECT_NE(res.reason.find("loss"), std::string::npos) << res.reason;
   const auto* r = links.report(1);
-  EXPECT_EQ(std::get<netkf::BernoulliLink>(r->model).loss, 0.3);
+  EXPECT_EQ(std::get<netkf::BernoulliLink>(r->link.loss).loss, 0.3);
   EXPECT_TRUE(r->last_request_rejected);
   EXPECT_EQ(r->last_request_id, 3u);
 
-  auto unknown = links.apply(4, 42, netkf::BernoulliLink{0.1});
+  auto unknown = links.request(4, 42, loss_keys(0.1));
   EXPECT_FALSE(unknown.applied);
   EXPECT_NE(unknown.reason.find("unknown sensor"), std::string::npos);
 
   EXPECT_EQ(links.on_sample(42), ChannelLinks::Verdict::unknown_sensor);
   EXPECT_EQ(links.unknown_sensor_samples(), 1u);
   EXPECT_EQ(links.reports().size(), 3u);
+}
+
+TEST(ChannelLogic, ADelayChangeKeepsTheLossModelAndItsChainState) {
+  // Two identical channels; one also gets a delay on link 3 (Gilbert-Elliott) at sample 500.
+  // The loss decisions must stay identical (a delay never touches the loss stream or chain).
+  ChannelLinks plain(links_scenario()), delayed(links_scenario());
+  for (std::int64_t k = 0; k < 2000; ++k) {
+    if (k == 500) {
+      const auto res = delayed.request(1, 3, {{"delay_ms", 6.0}, {"jitter_ms", 4.0}});
+      ASSERT_TRUE(res.applied) << res.reason;
+    }
+    const SampleFate a = plain.on_sample(3, k);
+    const SampleFate b = delayed.on_sample(3, k);
+    ASSERT_EQ(a.verdict, b.verdict) << "period " << k;
+    if (b.verdict == SampleFate::Verdict::delivered && k >= 500) {
+      EXPECT_GE(b.delay_ms, 2.0);
+      EXPECT_LE(b.delay_ms, 10.0);
+    }
+  }
+  const auto* r = delayed.report(3);
+  EXPECT_TRUE(std::holds_alternative<netkf::GilbertElliottLink>(r->link.loss));
+  EXPECT_EQ(r->link.delay.delay_ms, 6.0);
+}
+
+TEST(ChannelLogic, ALiveChangeIsJournaledAtThePeriodOfTheLinksNextSample) {
+  ChannelLinks links(links_scenario());
+  for (std::int64_t k = 0; k < 10; ++k) links.on_sample(1, k);
+  ASSERT_TRUE(links.request(5, 1, loss_keys(0.9)).applied);
+  EXPECT_TRUE(links.take_changes().empty());  // the period is not known yet
+  links.on_sample(2, 10);                     // another link's sample says nothing about link 1
+  EXPECT_TRUE(links.take_changes().empty());
+  links.on_sample(1, 10);
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].sensor_id, 1);
+  EXPECT_EQ(changes[0].at_period, 10);
+  EXPECT_EQ(changes[0].request_id, 5u);
+  EXPECT_EQ(changes[0].origin, netkf::nodes::AppliedLinkChange::Origin::request);
+  EXPECT_EQ(std::get<netkf::BernoulliLink>(changes[0].link.loss).loss, 0.9);
+}
+
+TEST(ChannelLogic, AReplayedJournalMakesTheSameDecisionsAsTheLiveSession) {
+  // Live: requests at arbitrary moments between samples. Replay: the journal as events.
+  auto scenario = links_scenario();
+  ChannelLinks live(scenario);
+  std::vector<std::pair<int, std::int64_t>> live_delivered;
+  std::vector<netkf::LinkEvent> journal;
+  for (std::int64_t k = 0; k < 3000; ++k) {
+    if (k == 700) live.request(11, 3, {{"mean_burst", 8.0}, {"loss", 0.4}});
+    if (k == 1200) live.request(12, 1, {{"delay_ms", 3.0}, {"jitter_ms", 1.0}});
+    if (k == 2500) live.request(13, 2, loss_keys(0.05));
+    for (int id : {1, 2, 3}) {
+      if (live.on_sample(id, k).verdict == SampleFate::Verdict::delivered) live_delivered.emplace_back(id, k);
+    }
+    for (const auto& c : live.take_changes())
+      journal.push_back({c.at_period, c.sensor_id, netkf::LinkEvent::Kind::set, netkf::link_keys(c.link.loss), 0});
+  }
+  ASSERT_EQ(journal.size(), 3u);
+  netkf::add_replayed_events(scenario, journal);
+  ChannelLinks replay(scenario);
+  std::vector<std::pair<int, std::int64_t>> replay_delivered;
+  for (std::int64_t k = 0; k < 3000; ++k)
+    for (int id : {1, 2, 3})
+      if (replay.on_sample(id, k).verdict == SampleFate::Verdict::delivered) replay_delivered.emplace_back(id, k);
+  EXPECT_EQ(live_delivered, replay_delivered);
+}
+
+TEST(ChannelLogic, TimelineSetsAndRampsApplyFromTheFirstSampleOfTheirPeriod) {
+  auto scenario = links_scenario();
+  scenario.events.push_back({300, 2, netkf::LinkEvent::Kind::set, {{"loss", 1.0}}, 0});
+  scenario.events.push_back({600, 2, netkf::LinkEvent::Kind::set, {{"loss", 0.0}}, 0});
+  scenario.events.push_back({1000, 1, netkf::LinkEvent::Kind::ramp, {{"loss", 0.8}}, 10});
+  netkf::validate_scenario(scenario);
+  ChannelLinks links(scenario);
+  for (std::int64_t k = 0; k < 1100; ++k) {
+    const auto fate = links.on_sample(2, k);
+    if (k >= 300 && k < 600) {
+      EXPECT_EQ(fate.verdict, SampleFate::Verdict::dropped) << k;
+    } else if (k >= 600) {
+      EXPECT_EQ(fate.verdict, SampleFate::Verdict::delivered) << k;
+    }
+    links.on_sample(1, k);
+    // The ramp: loss 0.3 at period 1000, then linearly to 0.8 at period 1010.
+    const double loss = std::get<netkf::BernoulliLink>(links.report(1)->link.loss).loss;
+    if (k < 1000) {
+      EXPECT_EQ(loss, 0.3);
+    } else if (k <= 1010) {
+      EXPECT_NEAR(loss, 0.3 + 0.5 * static_cast<double>(k - 1000) / 10.0, 1e-12) << k;
+    } else {
+      EXPECT_EQ(loss, 0.8);
+    }
+  }
+}
+
+TEST(ReleaseQueue, ReleasesInTimeOrderTiesFirstInFirstOut) {
+  netkf::nodes::ReleaseQueue<int> q;
+  const auto t0 = netkf::nodes::ReleaseQueue<int>::Clock::time_point{} + std::chrono::seconds(100);
+  using std::chrono::milliseconds;
+  EXPECT_TRUE(q.hold(t0 + milliseconds(12), 1, 1));   // first: earliest
+  EXPECT_TRUE(q.hold(t0 + milliseconds(4), 2, 2));    // earlier: the timer must move
+  EXPECT_FALSE(q.hold(t0 + milliseconds(8), 1, 3));
+  EXPECT_FALSE(q.hold(t0 + milliseconds(8), 1, 4));   // same time as 3: after it
+  EXPECT_EQ(q.held(1), 3u);
+  EXPECT_EQ(q.held(2), 1u);
+  EXPECT_TRUE(q.take_due(t0 + milliseconds(3)).empty());
+  EXPECT_EQ(q.take_due(t0 + milliseconds(8)), (std::vector<int>{2, 3, 4}));
+  EXPECT_EQ(*q.next_release(), t0 + milliseconds(12));
+  EXPECT_EQ(q.take_due(t0 + milliseconds(20)), (std::vector<int>{1}));
+  EXPECT_EQ(q.size(), 0u);
+  EXPECT_EQ(q.held(1), 0u);
+  EXPECT_FALSE(q.next_release());
 }
 
 }  // namespace

@@ -63,7 +63,7 @@ TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
   EXPECT_EQ(j["fused"], json({1, 3}));
   // A link that never delivers has an infinite mean burst: null, not an invalid JSON token.
   LinkView l = three_links()[0];
-  l.model = BernoulliLink{1.0};
+  l.link = BernoulliLink{1.0};
   l.mean_burst_length = std::numeric_limits<double>::infinity();
   const json s = link_status_message(l);
   EXPECT_TRUE(s["mean_burst_length"].is_null());
@@ -117,14 +117,18 @@ TEST(DashboardProtocol, ParameterValuesAreTheCurrentModelsOfEveryLink) {
   EXPECT_EQ(all["id"], "q");
   std::map<std::string, json> values;
   for (const auto& p : all["parameters"]) values[p["name"]] = p["value"];
-  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link);
+  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link.loss);
   EXPECT_EQ(values["link.1.model"], "bernoulli");
-  EXPECT_EQ(values["link.1.loss"], std::get<BernoulliLink>(default_scenario().sensors[0].link).loss);
+  EXPECT_EQ(values["link.1.loss"], std::get<BernoulliLink>(default_scenario().sensors[0].link.loss).loss);
   EXPECT_EQ(values["link.3.model"], "gilbert_elliott");
   EXPECT_EQ(values["link.3.p"], ge.p);
   EXPECT_EQ(values["link.3.loss_bad"], ge.loss_bad);
   EXPECT_FALSE(values.count("link.1.p"));  // only the current model's parameters
-  EXPECT_FALSE(values.count("link.3.loss"));
+  // A Gilbert-Elliott link also in the user's form: its stationary loss and mean burst.
+  EXPECT_DOUBLE_EQ(values["link.3.loss"], ge.p / (ge.p + ge.r) * ge.loss_bad + ge.r / (ge.p + ge.r) * ge.loss_good);
+  EXPECT_TRUE(values.count("link.3.mean_burst"));
+  EXPECT_EQ(values["link.2.delay_ms"], 0.0);
+  EXPECT_EQ(values["link.2.delay_distribution"], "uniform");
   const json some = parameter_values(three_links(), {"link.2.loss", "link.9.loss"}, std::nullopt);
   ASSERT_EQ(some["parameters"].size(), 1u);
   EXPECT_EQ(some["parameters"][0]["name"], "link.2.loss");
@@ -135,21 +139,36 @@ TEST(DashboardProtocol, ALinksParametersBecomeOneChange) {
   auto changes = link_changes(set({{"link.2.loss", 0.97}}), three_links());
   ASSERT_EQ(changes.size(), 1u);
   EXPECT_EQ(changes[0].sensor_id, 2);
-  EXPECT_EQ(changes[0].model, LinkModel(BernoulliLink{0.97}));
+  EXPECT_EQ(changes[0].link, LinkSpec(BernoulliLink{0.97}));
+  EXPECT_EQ(*changes[0].keys, (LinkKeys{{"loss", 0.97}}));  // only what changes travels
   // Switching model: Gilbert-Elliott needs p and r; loss_good / loss_bad default to 0 / 1.
   changes = link_changes(set({{"link.1.model", "gilbert_elliott"}, {"link.1.p", 0.1}, {"link.1.r", 0.4}}), three_links());
   ASSERT_EQ(changes.size(), 1u);
-  EXPECT_EQ(changes[0].model, LinkModel(GilbertElliottLink{0.1, 0.4, 0.0, 1.0}));
+  EXPECT_EQ(changes[0].link, LinkSpec(GilbertElliottLink{0.1, 0.4, 0.0, 1.0}));
   // Same model: given parameters replace the current ones, the others stay.
-  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link);
+  const auto ge = std::get<GilbertElliottLink>(default_scenario().sensors[2].link.loss);
   changes = link_changes(set({{"link.3.loss_good", 0.05}}), three_links());
-  ASSERT_TRUE(changes[0].model);
-  EXPECT_EQ(changes[0].model, LinkModel(GilbertElliottLink{ge.p, ge.r, 0.05, ge.loss_bad}));
+  ASSERT_TRUE(changes[0].keys);
+  EXPECT_EQ(changes[0].link, LinkSpec(GilbertElliottLink{ge.p, ge.r, 0.05, ge.loss_bad}));
+  // A delay keeps the loss model; the user's form of Gilbert-Elliott sets p and r.
+  changes = link_changes(set({{"link.3.delay_ms", 6.0}, {"link.3.jitter_ms", 4.0}}), three_links());
+  ASSERT_TRUE(changes[0].keys) << changes[0].refusal;
+  EXPECT_EQ(changes[0].link.loss, LinkModel(ge));
+  EXPECT_EQ(changes[0].link.delay.delay_ms, 6.0);
+  changes = link_changes(set({{"link.2.model", "gilbert_elliott"}, {"link.2.loss", 0.2}, {"link.2.mean_burst", 5.0}}),
+                         three_links());
+  ASSERT_TRUE(changes[0].keys) << changes[0].refusal;
+  // r = 1/mean_burst, p = r·loss/(1 − loss): 0.2 and 0.05 (to rounding).
+  const auto& g = std::get<GilbertElliottLink>(changes[0].link.loss);
+  EXPECT_DOUBLE_EQ(g.r, 0.2);
+  EXPECT_DOUBLE_EQ(g.p, 0.05);
+  EXPECT_EQ(g.loss_good, 0.0);
+  EXPECT_EQ(g.loss_bad, 1.0);
   // Two links in one request: two independent changes.
   changes = link_changes(set({{"link.1.loss", 0.3}, {"link.2.loss", 2.0}}), three_links());
   ASSERT_EQ(changes.size(), 2u);
-  EXPECT_TRUE(changes[0].model);
-  EXPECT_FALSE(changes[1].model);
+  EXPECT_TRUE(changes[0].keys);
+  EXPECT_FALSE(changes[1].keys);
 }
 
 TEST(DashboardProtocol, RefusedValuesChangeNothingAndSayWhy) {
@@ -157,25 +176,28 @@ TEST(DashboardProtocol, RefusedValuesChangeNothingAndSayWhy) {
   const std::vector<std::pair<std::vector<std::pair<std::string, json>>, std::string>> cases = {
       {{{"link.2.loss", 1.5}}, "loss must be a probability"},
       {{{"link.2.loss", -0.1}}, "loss must be a probability"},
-      {{{"link.2.loss", json(nan)}}, "loss must be a probability"},
+      {{{"link.2.loss", json(nan)}}, "loss must be a finite number"},
       {{{"link.2.loss", nullptr}}, "loss must be a number"},  // NaN cannot travel as JSON text: null
       {{{"link.2.loss", "0.5"}}, "loss must be a number"},
       {{{"link.9.loss", 0.5}}, "link 9: unknown link"},
-      {{{"link.2.delay", 0.5}}, "unknown parameter 'delay'"},
+      {{{"link.2.delay", 0.5}}, "unknown link key 'delay'"},
+      {{{"link.2.delay_ms", -1.0}}, "delay_ms must be in [0, 60000] ms"},
+      {{{"link.2.delay_distribution", "cauchy"}}, "unknown delay_distribution 'cauchy'"},
+      {{{"link.3.loss", 0.9}, {"link.3.mean_burst", 2.0}}, "a mean burst of 2 allows a loss of at most 0.666667"},
       {{{"speed", 3}}, "unknown parameter 'speed'"},
       {{{"link.x.loss", 0.1}}, "unknown parameter 'link.x.loss'"},
-      {{{"link.2.model", "markov"}}, "unknown model 'markov'"},
-      {{{"link.2.model", "gilbert_elliott"}, {"link.2.p", 0.1}}, "needs link.2.p and .r"},
-      {{{"link.3.model", "bernoulli"}}, "needs link.3.loss"},
-      {{{"link.2.p", 0.1}}, "p is not a parameter of the bernoulli model"},
-      {{{"link.3.loss", 0.1}}, "loss is not a parameter of the gilbert_elliott model"},
+      {{{"link.2.model", "markov"}}, "unknown link model 'markov'"},
+      {{{"link.2.model", "gilbert_elliott"}, {"link.2.p", 0.1}}, "a gilbert_elliott link needs p and r"},
+      {{{"link.3.model", "bernoulli"}}, "a bernoulli link needs loss"},
+      {{{"link.2.p", 0.1}}, "p is a gilbert_elliott key"},
+      {{{"link.3.loss", 0.1}, {"link.3.p", 0.1}}, "not both"},
       {{{"link.3.r", 1.2}}, "r must be a probability"},
       {{{"link.3.p", 0.0}, {"link.3.r", 0.0}}, "p and r cannot both be 0"},
   };
   for (const auto& [params, reason] : cases) {
     const auto changes = link_changes(set(params), three_links());
     ASSERT_EQ(changes.size(), 1u) << reason;
-    EXPECT_FALSE(changes[0].model) << reason;
+    EXPECT_FALSE(changes[0].keys) << reason;
     EXPECT_NE(changes[0].refusal.find(reason), std::string::npos) << changes[0].refusal;
   }
 }

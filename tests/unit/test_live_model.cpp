@@ -20,7 +20,7 @@ LinkStatusRecord link_status(int id, LinkModel model, std::uint64_t samples, std
                              std::uint64_t request = 0) {
   LinkStatusRecord l;
   l.sensor_id = id;
-  l.model = model;
+  l.link = model;
   l.samples_in = samples;
   l.delivered = delivered;
   l.dropped = samples - delivered;
@@ -84,7 +84,7 @@ TEST(LiveModel, ObservedRateFollowsTheLastReportInterval) {
   EXPECT_DOUBLE_EQ((*model.observed_rates())[1], 0.5);
   // The configured rate is the channel's model, not the scenario's.
   EXPECT_DOUBLE_EQ(model.snapshot().links[1].configured_arrival_rate, 0.8);
-  EXPECT_EQ(model.configured_scenario().sensors[1].link, LinkModel(BernoulliLink{0.2}));
+  EXPECT_EQ(model.configured_scenario().sensors[1].link, LinkSpec(BernoulliLink{0.2}));
 }
 
 TEST(LiveModel, ALinkChangeNamesItsSource) {

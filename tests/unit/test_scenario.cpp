@@ -105,7 +105,7 @@ void expect_same_scenario(const netkf::Scenario& a, const netkf::Scenario& b, do
     EXPECT_EQ(a.sensors[i].id, b.sensors[i].id);
     expect_matrix_near(a.sensors[i].C, b.sensors[i].C, tol, "C");
     expect_matrix_near(a.sensors[i].R, b.sensors[i].R, tol, "R");
-    expect_link_near(a.sensors[i].link, b.sensors[i].link, tol, "link");
+    expect_link_near(a.sensors[i].link.loss, b.sensors[i].link.loss, tol, "link");
   }
   EXPECT_EQ(a.estimator.deadline_ms, b.estimator.deadline_ms);
   EXPECT_NEAR(a.estimator.divergence_trace_bound, b.estimator.divergence_trace_bound,
@@ -343,7 +343,7 @@ TEST(DeployScenarios, SinopoliMimoAndGeneral) {
   EXPECT_EQ(mimo.sensors[0].C, M({{1, 0, 2}}));
   EXPECT_EQ(mimo.sensors[0].R, M({{2.5}}));
   // Above λ_c = 0.36 (single unstable eigenvalue 1.25).
-  EXPECT_GT(1.0 - drop_probability(mimo.sensors[0].link), 1.0 - 1.0 / (1.25 * 1.25));
+  EXPECT_GT(1.0 - drop_probability(mimo.sensors[0].link.loss), 1.0 - 1.0 / (1.25 * 1.25));
 
   const auto general = netkf::load_scenario_file(kDeploy / "sinopoli-general.yaml");
   EXPECT_EQ(general.plant.A, M({{1.25, 0}, {1, 1.1}}));
@@ -359,28 +359,28 @@ TEST(DeployScenarios, LiuGoldsmithExamples) {
   EXPECT_EQ(case1.sensors[1].C, M({{1, 0}, {1, 1}}));
   EXPECT_EQ(case1.sensors[0].R, 2.5 * netkf::Matrix::Identity(2, 2));
   // Case 1 closed form: λ2c = max(0, 1 - 1/(α²(1-λ1))), α = 1.25.
-  const double l1 = 1.0 - drop_probability(case1.sensors[0].link);
-  const double l2 = 1.0 - drop_probability(case1.sensors[1].link);
+  const double l1 = 1.0 - drop_probability(case1.sensors[0].link.loss);
+  const double l2 = 1.0 - drop_probability(case1.sensors[1].link.loss);
   EXPECT_GT(l2, std::max(0.0, 1.0 - 1.0 / (1.25 * 1.25 * (1.0 - l1))));
 
   const auto diag = netkf::load_scenario_file(kDeploy / "liu-goldsmith-diag.yaml");
   EXPECT_EQ(diag.plant.A, M({{2.5, 0}, {0, 1.5}}));
   EXPECT_EQ(diag.sensors[0].C, M({{1, 0}}));
   EXPECT_EQ(diag.sensors[1].C, M({{0, 1}}));
-  EXPECT_GT(1.0 - drop_probability(diag.sensors[0].link), 0.84);
-  EXPECT_GT(1.0 - drop_probability(diag.sensors[1].link), 5.0 / 9.0);
+  EXPECT_GT(1.0 - drop_probability(diag.sensors[0].link.loss), 0.84);
+  EXPECT_GT(1.0 - drop_probability(diag.sensors[1].link.loss), 5.0 / 9.0);
 
   const auto fig5 = netkf::load_scenario_file(kDeploy / "liu-goldsmith-fig5.yaml");
   EXPECT_EQ(fig5.plant.A, M({{1.25, 0}, {1, 1.1}}));
   EXPECT_EQ(fig5.sensors[0].C, M({{1, 0}}));
   EXPECT_EQ(fig5.sensors[1].C, M({{1, 1}}));
-  EXPECT_NEAR(2.0 - drop_probability(fig5.sensors[0].link) - drop_probability(fig5.sensors[1].link), 0.5, 1e-15);
+  EXPECT_NEAR(2.0 - drop_probability(fig5.sensors[0].link.loss) - drop_probability(fig5.sensors[1].link.loss), 0.5, 1e-15);
 }
 
 TEST(DeployScenarios, MarkovGilbertAndBelowCritical) {
   const auto gilbert = netkf::load_scenario_file(kDeploy / "markov-gilbert-scalar.yaml");
   expect_sinopoli_scalar_plant(gilbert);
-  const auto& g = std::get<netkf::GilbertElliottLink>(gilbert.sensors[0].link);
+  const auto& g = std::get<netkf::GilbertElliottLink>(gilbert.sensors[0].link.loss);
   EXPECT_EQ(g.loss_good, 0.0);
   EXPECT_EQ(g.loss_bad, 1.0);
   EXPECT_GT(g.r, 0.36);  // α²(1 - r) < 1
@@ -388,7 +388,7 @@ TEST(DeployScenarios, MarkovGilbertAndBelowCritical) {
   const auto below = netkf::load_scenario_file(kDeploy / "below-critical.yaml");
   expect_sinopoli_scalar_plant(below);
   EXPECT_FALSE(below.plant.control);
-  EXPECT_GT(drop_probability(below.sensors[0].link), 1.0 / (1.25 * 1.25));  // λ < λ_c = 0.36
+  EXPECT_GT(drop_probability(below.sensors[0].link.loss), 1.0 / (1.25 * 1.25));  // λ < λ_c = 0.36
 }
 
 // ---------------------------------------------------------------------------------
@@ -406,7 +406,7 @@ TEST(DefaultScenario, IsTheDemoTheDesignAsksFor) {
   EXPECT_TRUE(s.period_ms == 10 || s.period_ms == 20);
   ASSERT_EQ(s.sensors.size(), 3u);
   int bernoulli = 0;
-  for (const auto& sensor : s.sensors) bernoulli += std::holds_alternative<netkf::BernoulliLink>(sensor.link);
+  for (const auto& sensor : s.sensors) bernoulli += std::holds_alternative<netkf::BernoulliLink>(sensor.link.loss);
   EXPECT_EQ(bernoulli, 2);
   const double alpha = spectral_radius(s.plant.A);
   EXPECT_GT(alpha, 1.0);  // open-loop unstable
@@ -493,9 +493,9 @@ TEST(ProgrammaticValidation, EachProblemIsNamed) {
   EXPECT_THAT(validation_error([](Scenario& s) { s.sensors[1].id = 1; }),
               HasSubstr("duplicate sensor id 1 in sensors[1] (first at sensors[0].id)"));
   EXPECT_THAT(validation_error([](Scenario& s) { s.sensors[0].link = netkf::BernoulliLink{1.3}; }),
-              HasSubstr("sensors[0].link.loss must be in [0,1], got 1.3"));
+              HasSubstr("sensors[0].link.loss must be a probability in [0, 1], got 1.3"));
   EXPECT_THAT(validation_error([](Scenario& s) { s.sensors[1].link = netkf::GilbertElliottLink{std::nan(""), 0.5, 0, 1}; }),
-              HasSubstr("sensors[1].link.p must be in [0,1], got nan"));
+              HasSubstr("sensors[1].link.p must be a probability in [0, 1], got nan"));
   EXPECT_THAT(validation_error([](Scenario& s) { s.sensors.clear(); }), HasSubstr("sensors must list at least one sensor"));
   EXPECT_THAT(validation_error([](Scenario& s) { s.plant.x0 = netkf::Vector::Zero(3); }),
               HasSubstr("plant.x0 must have 2 entries to match A, got 3"));

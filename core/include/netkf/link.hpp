@@ -80,6 +80,10 @@ class LinkError : public std::invalid_argument {
   std::string key_;
 };
 
+/// The error said at a key path: "sensors[0].link.loss must be ..." when the message starts
+/// with its key, else "sensors[0].link: message".
+std::string link_error_at(const std::string& path, const LinkError& error);
+
 /// One link key as written by a person: a number, or a word (`model`, `delay_distribution`).
 struct LinkKey {
   std::string name;

@@ -77,22 +77,35 @@ EstimateRecord from_wire(const wire::Estimate& e, int state_dim = -1);
 FilterState filter_state_from_string(const std::string& s);
 
 // ---- links ----
-/// Build a link change request.
-wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, const LinkModel& model);
-/// The model a request asks for; throws ConversionError on an unknown model name, a
-/// non-finite number or a probability outside [0,1] (message names the parameter).
-LinkModel to_link_model(const wire::LinkControl& c);
-/// Fill model name + parameters of a status (unused parameters are 0).
-void set_link_model(wire::LinkStatus& status, const LinkModel& model);
-/// A full link status: model, theory, what the link did since the model was set (`stats`)
-/// and since the channel started (`lifetime`).
-wire::LinkStatus make_link_status(int sensor_id, const LinkModel& model, const LinkStatistics& stats,
-                                  const LinkStatistics& lifetime, std::uint64_t last_request_id, bool last_request_rejected,
-                                  const std::string& reject_reason, std::int64_t stamp_ns);
+/// A whole link on the wire and back; from_wire validates (ConversionError naming the key).
+wire::LinkSpec to_wire(const LinkSpec& link);
+LinkSpec from_wire(const wire::LinkSpec& link);
+/// A link change request: the keys to change.
+wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, const LinkKeys& keys);
+/// The keys a request carries (names and values as sent; the channel validates them
+/// against the link with apply_link_keys).
+LinkKeys link_keys_of(const wire::LinkControl& control);
+/// A full link status: the link, its theory (in_time = P(delay <= deadline)), what the link
+/// did since its model was set (`stats`) and since the channel started (`lifetime`).
+struct LinkStatusFacts {
+  int sensor_id = 0;
+  LinkSpec link;
+  double in_time = 1.0;
+  LinkStatistics stats;
+  LinkStatistics lifetime;
+  std::uint64_t last_request_id = 0;
+  bool last_request_rejected = false;
+  std::string reject_reason;
+  std::uint64_t held = 0;
+};
+wire::LinkStatus make_link_status(const LinkStatusFacts& facts, std::int64_t stamp_ns);
+/// The link a status describes (throws ConversionError when it is not a valid link).
+LinkSpec link_of(const wire::LinkStatus& status);
 /// The answer to one link change request.
 wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
                                                const std::string& reason);
-/// The model a status describes (throws ConversionError on an unknown model name).
-LinkModel link_model_of(const wire::LinkStatus& status);
+/// One entry of the link journal.
+wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
+                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns);
 
 }  // namespace netkf::dds

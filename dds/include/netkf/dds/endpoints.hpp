@@ -163,6 +163,7 @@ extern template class Writer<wire::ControlInput>;
 extern template class Writer<wire::LinkControl>;
 extern template class Writer<wire::LinkControlReply>;
 extern template class Writer<wire::LinkStatus>;
+extern template class Writer<wire::LinkChange>;
 extern template class Reader<wire::Truth>;
 extern template class Reader<wire::Tick>;
 extern template class Reader<wire::Measurement>;
@@ -171,6 +172,7 @@ extern template class Reader<wire::ControlInput>;
 extern template class Reader<wire::LinkControl>;
 extern template class Reader<wire::LinkControlReply>;
 extern template class Reader<wire::LinkStatus>;
+extern template class Reader<wire::LinkChange>;
 
 /// A reader callback that moves each sample into `handler` on `executor` (an Asio
 /// io_context executor or strand), so the node's logic runs on its own thread:

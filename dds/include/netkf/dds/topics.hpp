@@ -68,6 +68,7 @@ template <> struct PubSubTypeOf<wire::ControlInput> { using type = wire::Control
 template <> struct PubSubTypeOf<wire::LinkControl> { using type = wire::LinkControlPubSubType; };
 template <> struct PubSubTypeOf<wire::LinkControlReply> { using type = wire::LinkControlReplyPubSubType; };
 template <> struct PubSubTypeOf<wire::LinkStatus> { using type = wire::LinkStatusPubSubType; };
+template <> struct PubSubTypeOf<wire::LinkChange> { using type = wire::LinkChangePubSubType; };
 
 namespace topics {
 // plant -> sensors, recorders: ground truth x_k (the estimator never subscribes).
@@ -90,6 +91,9 @@ inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {tr
 inline constexpr Topic<wire::LinkControlReply> link_control_reply{"netkf/link/reply", {true, false, 64}};
 // channel emulator -> everyone, transient-local so `netkf ctl status` sees it on joining.
 inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true, true, 256}};
+// channel emulator -> everyone: each link change with the period it applied from (the
+// journal `--record` turns into an events file); transient-local so a late recorder has it.
+inline constexpr Topic<wire::LinkChange> link_change{"netkf/link/change", {true, true, 1024}};
 }  // namespace topics
 
 }  // namespace netkf::dds
