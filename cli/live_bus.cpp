@@ -21,6 +21,7 @@ EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) 
   r.trace_P_pred = e.trace_P_pred;
   r.fused = e.fused;
   r.late = e.late;
+  r.late_sensors = e.late_sensors;
   r.late_total = e.late_total;
   r.rejected = static_cast<std::uint32_t>(e.rejected_total);
   r.state = to_string(e.state);

@@ -1,6 +1,7 @@
 // `netkf launch`, `netkf ctl`, `netkf record`: the live network seen from the command line.
 // launch spawns and supervises the node processes (launch_supervisor), records and shows
-// status from DDS (live_bus, record_csv, live_status). ctl tunes links at runtime.
+// status from DDS (live_bus, record_csv, live_status), and at the end of the run writes its
+// summary and evaluates the user's pass/fail checks (run_summary). ctl tunes links at runtime.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
 
 #include <boost/asio/io_context.hpp>
@@ -30,6 +31,7 @@
 #include "live_views.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
+#include "run_summary.hpp"
 
 namespace netkf::cli {
 
@@ -143,16 +145,19 @@ class Recording {
   bool journal_changed_ = false;
 };
 
-/// Handlers that feed a recording and, when given, the launch's live views.
-BusHandlers recording_handlers(Recording& recording, LiveViews* views, std::uint64_t& invalid) {
+/// Handlers that feed a recording and, when given, the launch's live views and its run summary.
+BusHandlers recording_handlers(Recording& recording, LiveViews* views, RunSummaryBuilder* summary,
+                               std::uint64_t& invalid) {
   BusHandlers h;
-  h.truth = [&recording, views](TruthRecord&& t) {
+  h.truth = [&recording, views, summary](TruthRecord&& t) {
     recording.truth(t);
     if (views) views->truth(t);
+    if (summary) summary->add_truth(t);
   };
-  h.estimate = [&recording, views](EstimateRecord&& e) {
+  h.estimate = [&recording, views, summary](EstimateRecord&& e) {
     recording.estimate(e);
     if (views) views->estimate(e);
+    if (summary) summary->add_estimate(e);
   };
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
   if (recording.events_file() || views) {
@@ -161,10 +166,13 @@ BusHandlers recording_handlers(Recording& recording, LiveViews* views, std::uint
       if (views) views->link_change(c);
     };
   }
-  if (views) {
-    h.link_status = [views](LinkStatusRecord&& l) { views->link_status(l); };
-    h.link_reply = [views](LinkReplyRecord&& r) { views->link_reply(r); };
+  if (views || summary) {
+    h.link_status = [views, summary](LinkStatusRecord&& l) {
+      if (summary) summary->add_link_status(l);
+      if (views) views->link_status(l);
+    };
   }
+  if (views) h.link_reply = [views](LinkReplyRecord&& r) { views->link_reply(r); };
   h.invalid = [views, &invalid](const std::string& what) {
     ++invalid;
     if (views) views->invalid_sample(what);
@@ -202,6 +210,8 @@ struct LaunchOptions {
   std::string dashboard = "8470";  // port, or "off"
   std::optional<std::string> dashboard_bind;
   std::vector<std::string> dashboard_allow_origins;
+  std::vector<std::string> checks;  // "NAME<VALUE", evaluated at the end of the run
+  std::optional<std::string> summary;
 };
 
 /// "8", "2.5", "1e+03": a number as a person writes it.
@@ -219,6 +229,34 @@ std::string random_token() {
   return buf;
 }
 
+/// The end of a run that asked for checks or a summary, once everything is recorded: the
+/// checks' table on stdout, the summary's JSON in its file. Returns why the run fails its
+/// checks (a check failed, the summary could not be written), or nothing.
+std::optional<std::string> conclude_run(const RunSummaryBuilder& builder, const std::vector<Check>& checks,
+                                        const Scenario& scenario, const std::string& end,
+                                        const std::optional<std::string>& summary_file, std::ofstream& summary_out) {
+  const auto results = evaluate_checks(checks, builder.summary());
+  if (!results.empty()) std::cout << render_check_table(results) << std::flush;
+  std::optional<std::string> failure;
+  if (!all_passed(results)) {
+    std::size_t failed = 0;
+    for (const auto& r : results) failed += !r.passed;
+    failure = std::to_string(failed) + " of " + std::to_string(results.size()) + " checks failed";
+  }
+  if (summary_file) {
+    nlohmann::ordered_json j{{"scenario", scenario.name}, {"end", end}};
+    const auto body = summary_json(builder.summary(), results);
+    for (const auto& item : body.items()) j[item.key()] = item.value();
+    summary_out << j.dump(2) << "\n";
+    summary_out.flush();
+    if (!summary_out) {
+      const std::string why = "cannot write the summary to " + *summary_file + ": " + std::strerror(errno);
+      failure = failure ? *failure + "; " + why : why;
+    }
+  }
+  return failure;
+}
+
 int run_launch(const LaunchOptions& o) {
   const Scenario scenario = [&] {
     Scenario s = load_or_default(o.scenario);
@@ -232,6 +270,29 @@ int run_launch(const LaunchOptions& o) {
     return s;
   }();
   const RestartPolicy policy = parse_restart_policy(o.restart_policy);
+
+  // Checks and the summary file are the user's input: a mistake in them is exit 2 before
+  // anything starts, not a failed check after a long run.
+  std::vector<Check> checks;
+  {
+    std::vector<int> link_ids;
+    for (const auto& sensor : scenario.sensors) link_ids.push_back(sensor.id);
+    for (const auto& text : o.checks) {
+      try {
+        checks.push_back(parse_check(text, link_ids));
+      } catch (const std::invalid_argument& e) {
+        fail(2, e.what());
+      }
+    }
+  }
+  std::ofstream summary_out;
+  if (o.summary) {
+    summary_out.open(*o.summary, std::ios::trunc);
+    if (!summary_out) fail(2, "cannot write " + *o.summary + ": " + std::strerror(errno));
+  }
+  // Only a run that asks for it keeps the summary's records (a latency per period).
+  std::unique_ptr<RunSummaryBuilder> summary;
+  if (o.summary || !checks.empty()) summary = std::make_unique<RunSummaryBuilder>(scenario);
 
   // The children read the effective scenario from a private temporary file.
   const auto scenario_path =
@@ -281,7 +342,7 @@ int run_launch(const LaunchOptions& o) {
   std::uint64_t invalid_samples = 0;
   try {
     bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"),
-                                    recording_handlers(recording, views.get(), invalid_samples),
+                                    recording_handlers(recording, views.get(), summary.get(), invalid_samples),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
@@ -346,6 +407,8 @@ int run_launch(const LaunchOptions& o) {
   report(started);
   if (supervisor.failed()) {
     supervisor.stop_all();
+    // CI still gets its summary and a verdict per check (all unmeasured) before the failure.
+    if (summary) conclude_run(*summary, checks, scenario, "failure: " + supervisor.failure_reason(), o.summary, summary_out);
     fail(1, supervisor.failure_reason());
   }
   if (o.pid_file) {
@@ -408,15 +471,24 @@ int run_launch(const LaunchOptions& o) {
   signals.cancel();
   bus.reset();
 
-  std::cerr << "netkf launch: stopped (" <<
-      (end == End::duration ? "duration reached" : end == End::signal ? "signal" :
-       end == End::finished ? supervisor.finished_reason() : "failure") << "); "
-            << views->model().snapshot().estimates << " estimates seen";
+  const std::string end_text = end == End::duration   ? "duration reached"
+                               : end == End::signal   ? "signal"
+                               : end == End::finished ? supervisor.finished_reason()
+                                                      : "failure";
+  std::cerr << "netkf launch: stopped (" << end_text << "); " << views->model().snapshot().estimates
+            << " estimates seen";
   if (o.record) std::cerr << ", " << recording.rows() << " rows in " << *o.record;
   std::cerr << "\n";
   if (views->model().saw_non_finite() || invalid_samples > 0)
     std::cerr << "netkf launch: WARNING: " << invalid_samples << " invalid samples were rejected\n";
+  // Checks are judged after everything is recorded; a run that failed keeps its own failure.
+  std::optional<std::string> checks_failure;
+  if (summary)
+    checks_failure = conclude_run(*summary, checks, scenario,
+                                  end == End::failed ? "failure: " + supervisor.failure_reason() : end_text,
+                                  o.summary, summary_out);
   if (end == End::failed) fail(1, supervisor.failure_reason());
+  if (checks_failure) fail(1, *checks_failure);
   return 0;
 }
 
@@ -438,7 +510,7 @@ int run_record(const RecordOptions& o) {
   std::unique_ptr<LiveBus> bus;
   try {
     bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"),
-                                    recording_handlers(recording, nullptr, invalid_samples), false);
+                                    recording_handlers(recording, nullptr, nullptr, invalid_samples), false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -743,6 +815,14 @@ void add_launch_command(CLI::App& app) {
                   "printed at start");
   cmd->add_option("--dashboard-allow-origin", o->dashboard_allow_origins,
                   "Also accept WebSocket connections from pages of this origin (e.g. a Foxglove web app); repeatable");
+  // One value per --check: a check must never swallow the scenario file that follows it.
+  cmd->add_option("--check", o->checks,
+                  "Pass/fail check at the end of the run on a summary quantity: NAME<VALUE (or <=, >, >=), e.g. "
+                  "'rms_error<0.8', 'link.2.observed_loss<0.35'; repeatable; exit 1 when one fails")
+      ->allow_extra_args(false);
+  cmd->add_option("--summary", o->summary,
+                  "Write the run's summary (rms_error, late_fraction, per-link counts, latency, every check's "
+                  "verdict) as JSON to FILE at the end of the run");
   cmd->callback([o] {
     if (const int rc = run_launch(*o); rc != 0) throw CLI::RuntimeError(rc);
   });

@@ -27,6 +27,7 @@ struct EstimateRecord {
   double trace_P_pred = 0.0;   // Tr P_{k|k-1} (what the theory's S̄, V̄ bound)
   std::vector<int> fused;      // sensor ids fused for k (sorted)
   std::uint32_t late = 0;      // samples that arrived during k for periods already fused
+  std::vector<int> late_sensors;  // the sensor id of each of them (late == its size)
   std::uint64_t late_total = 0;
   std::uint32_t rejected = 0;
   std::string state;           // "ok" / "diverging"

@@ -118,7 +118,11 @@ wire::Estimate to_wire(const EstimateRecord& e) {
   w.x_hat(to_wire(e.x_hat));
   w.P(to_wire_row_major(e.P));
   w.fused(std::vector<int32_t>(e.fused.begin(), e.fused.end()));
+  if (e.late != e.late_sensors.size())
+    throw ConversionError("estimate: late (" + std::to_string(e.late) + ") is not the number of late_sensors (" +
+                          std::to_string(e.late_sensors.size()) + ")");
   w.late(e.late);
+  w.late_sensors(std::vector<int32_t>(e.late_sensors.begin(), e.late_sensors.end()));
   w.late_total(e.late_total);
   w.rejected_total(e.rejected_total);
   w.state(to_string(e.state));
@@ -141,7 +145,12 @@ EstimateRecord from_wire(const wire::Estimate& e, int state_dim) {
   if (!std::isfinite(e.trace_P_pred())) throw ConversionError("estimate: non-finite trace_P_pred");
   r.trace_P_pred = e.trace_P_pred();
   r.fused.assign(e.fused().begin(), e.fused().end());
+  // One entry per late sample: a count that disagrees with its list is a broken sender.
+  if (e.late() != e.late_sensors().size())
+    throw ConversionError("estimate: late (" + std::to_string(e.late()) + ") is not the number of late_sensors (" +
+                          std::to_string(e.late_sensors().size()) + ")");
   r.late = e.late();
+  r.late_sensors.assign(e.late_sensors().begin(), e.late_sensors().end());
   r.late_total = e.late_total();
   r.rejected_total = e.rejected_total();
   r.state = filter_state_from_string(e.state());

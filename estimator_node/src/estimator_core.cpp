@@ -81,6 +81,11 @@ std::optional<std::uint64_t> EstimatorCore::open_period() const {
 
 void EstimatorCore::count_rejection(SampleRejection reason) { reject(reason); }
 
+void EstimatorCore::count_late(int sensor_id) {
+  ++late_total_;
+  late_since_publish_.push_back(sensor_id);
+}
+
 void EstimatorCore::predict_with(const Vector& applied_input) {
   if (input_dim_ > 0) {
     // x̂_{k|k-1} = A x̂_{k-1|k-1} + B u_{k-1}: an absent input means the plant applied zero.
@@ -105,8 +110,7 @@ void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
   }
   // Buffered samples of periods before k can no longer be fused: they count as late.
   for (auto it = future_.begin(); it != future_.end() && it->first < k;) {
-    late_total_ += it->second.size();
-    late_since_publish_ += static_cast<std::uint32_t>(it->second.size());
+    for (const auto& [id, b] : it->second) count_late(id);
     it = future_.erase(it);
   }
   open_ = std::move(p);
@@ -135,8 +139,10 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   e.P = filter_.P();
   e.trace_P_pred = trace_P_pred;
   e.fused = result.fused_ids;
-  e.late = late_since_publish_;
-  late_since_publish_ = 0;
+  // One list is the count and the ids: `late` can never disagree with `late_sensors`.
+  e.late_sensors = std::move(late_since_publish_);
+  late_since_publish_.clear();
+  e.late = static_cast<std::uint32_t>(e.late_sensors.size());
   e.late_total = late_total_;
   e.rejected_total = rejected_total();
   e.state = filter_.state();
@@ -200,8 +206,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
   }
   // A sample for a fused period (or one before the first tick seen) is late: lost.
   if ((last_fused_ && k <= *last_fused_) || (open_ && k < open_->k)) {
-    ++late_total_;
-    ++late_since_publish_;
+    count_late(sensor_id);
     return out;
   }
   if (open_ && k == open_->k) {

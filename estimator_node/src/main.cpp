@@ -127,6 +127,7 @@ class EstimatorNode {
       r.trace_P_pred = e.trace_P_pred;
       r.fused = e.fused;
       r.late = e.late;
+      r.late_sensors = e.late_sensors;
       r.late_total = e.late_total;
       r.rejected_total = e.rejected_total;
       r.state = e.state;

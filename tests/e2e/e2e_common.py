@@ -63,7 +63,9 @@ def workdir(name):
 class Launch:
     """`netkf launch` in the background; ended (and its children with it) on exit."""
 
-    def __init__(self, scenario, duration, outdir, record=True, samples=False, extra=()):
+    def __init__(self, scenario, duration, outdir, record=True, samples=False, extra=(), own_stdout=False):
+        """own_stdout: keep launch's stdout (e.g. the checks' table) apart from its log, in
+        self.stdout_path, instead of merging it into the log."""
         self.record = os.path.join(outdir, "periods.csv") if record else None
         self.samples = os.path.join(outdir, "samples.csv") if samples else None
         self.pid_file = os.path.join(outdir, "pids.txt")
@@ -79,8 +81,11 @@ class Launch:
         cmd += list(extra)
         print("$", " ".join(cmd), flush=True)
         self.log = open(self.log_path, "w")
+        self.stdout_path = os.path.join(outdir, "stdout.txt") if own_stdout else None
+        self.stdout_file = open(self.stdout_path, "w") if own_stdout else None
         # Own session: the fixture can signal launch and everything it spawned.
-        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+        self.proc = subprocess.Popen(cmd, stdout=self.stdout_file or self.log, stderr=subprocess.STDOUT if not own_stdout
+                                     else self.log, start_new_session=True)
         self.started = time.monotonic()
 
     def wait(self, timeout):
@@ -122,8 +127,16 @@ class Launch:
         return pids
 
     def output(self):
-        self.log.flush()
+        if not self.log.closed:  # also readable after the run's `with` block
+            self.log.flush()
         with open(self.log_path) as f:
+            return f.read()
+
+    def stdout(self):
+        """What launch wrote to its stdout (own_stdout=True)."""
+        if not self.stdout_file.closed:
+            self.stdout_file.flush()
+        with open(self.stdout_path) as f:
             return f.read()
 
     def __enter__(self):
@@ -139,6 +152,10 @@ class Launch:
         self.stop()
         text = self.output()
         self.log.close()
+        if self.stdout_file:
+            print("---- launch stdout ----")
+            print(self.stdout(), end="", flush=True)
+            self.stdout_file.close()
         print("---- launch output (tail) ----")
         print("\n".join(text.splitlines()[-40:]), flush=True)
         return False

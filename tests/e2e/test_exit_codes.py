@@ -21,6 +21,10 @@ cases = [
     (("launch", "--duration", "-1"), 2),
     (("launch", "--dashboard", "99999"), 2),
     (("launch", "--sensors-per-process", "0"), 2),
+    (("launch", "--check", "nonsense<1"), 2),  # an unknown name: refused before anything starts
+    (("launch", "--check", "rms_error"), 2),  # no comparison
+    (("launch", "--check", "link.99.late<1"), 2),  # no link 99 in the default scenario
+    (("launch", "--summary", "/nonexistent-dir/summary.json"), 2),
     (("analyze", good, "--no-such-flag"), 2),
     (("ctl", "set-link", "2", "--bernoulli", "1.5"), 2),
     (("ctl", "set-link", "2"), 2),

@@ -74,6 +74,22 @@ TEST(Conversions, EstimateRefusesNonFiniteAndBadShapes) {
   EXPECT_THROW(dds::from_wire(w), dds::ConversionError);
 }
 
+TEST(Conversions, EstimateLateCountIsItsListOfSensors) {
+  dds::EstimateRecord r;
+  r.x_hat = netkf::Vector{{1.0}};
+  r.P = netkf::Matrix::Identity(1, 1);
+  r.late = 2;
+  r.late_sensors = {2};  // one id for two late samples: inconsistent
+  EXPECT_THROW(dds::to_wire(r), dds::ConversionError);
+  r.late_sensors = {2, 2};  // the same sensor late twice
+  auto w = dds::to_wire(r);
+  EXPECT_EQ(w.late(), 2u);
+  EXPECT_EQ(w.late_sensors(), (std::vector<int32_t>{2, 2}));
+  EXPECT_EQ(dds::from_wire(w).late_sensors, (std::vector<int>{2, 2}));
+  w.late(3);  // a sender whose count disagrees with its list
+  EXPECT_THROW(dds::from_wire(w), dds::ConversionError);
+}
+
 TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
   const netkf::LinkKeys keys{{"model", std::string("gilbert_elliott")}, {"loss", 0.2}, {"mean_burst", 5.0},
                              {"delay_ms", 6.0}, {"delay_distribution", std::string("pareto")}};

@@ -103,6 +103,7 @@ TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
   r.P = netkf::Matrix{{2.0 / 3.0, 0.1}, {0.2, 5.0 / 9.0}};  // not symmetric: checks row-major order
   r.fused = {1, 3};
   r.late = 2;
+  r.late_sensors = {3, 1};  // in order of arrival, not sorted
   r.late_total = 10;
   r.rejected_total = 4;
   r.state = netkf::FilterState::diverging;
@@ -115,6 +116,7 @@ TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
   EXPECT_EQ(got.P, r.P);
   EXPECT_EQ(got.fused, r.fused);
   EXPECT_EQ(got.late, r.late);
+  EXPECT_EQ(got.late_sensors, r.late_sensors);
   EXPECT_EQ(got.late_total, r.late_total);
   EXPECT_EQ(got.rejected_total, r.rejected_total);
   EXPECT_EQ(got.state, r.state);

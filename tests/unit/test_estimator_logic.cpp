@@ -103,6 +103,7 @@ TEST(EstimatorLogic, LateSamplesAreCountedNotFused) {
   auto second = core.on_deadline(18 * kMs);
   ASSERT_EQ(second.size(), 1u);
   EXPECT_EQ(second[0].late, 1u);
+  EXPECT_EQ(second[0].late_sensors, std::vector<int>{2});
   EXPECT_EQ(second[0].late_total, 1u);
   EXPECT_TRUE(second[0].fused.empty());
   // The late sample did not enter period 1: pure open-loop prediction of period 0's posterior.
@@ -110,6 +111,35 @@ TEST(EstimatorLogic, LateSamplesAreCountedNotFused) {
   const Scalar p1 = predict(p0, 1.2, 1.0);
   EXPECT_NEAR(second[0].x_hat(0), p1.x, 1e-12);
   EXPECT_NEAR(second[0].P(0, 0), p1.P, 1e-12);
+}
+
+TEST(EstimatorLogic, LateSamplesNameTheirSensorsOncePerSample) {
+  // Both ways a sample becomes late: buffered for a period before the first tick seen, and
+  // arriving for a period already fused. `late` is the number of ids listed, per estimate.
+  EstimatorCore core(scalar_scenario());
+  EXPECT_TRUE(core.on_sample(2, 3, v1(1.0), 0, 0).empty());  // no tick yet: buffered
+  core.on_tick(5, Vector(), 1 * kMs);                       // period 3 can never be fused now
+  core.on_sample(1, 5, v1(0.8), 0, 2 * kMs);
+  auto first = core.on_sample(2, 5, v1(0.9), 0, 3 * kMs);
+  ASSERT_EQ(first.size(), 1u);
+  EXPECT_EQ(first[0].late_sensors, std::vector<int>{2});
+  EXPECT_EQ(first[0].late, 1u);
+  // Period 5 is fused: sensor 1 twice (a duplicate of a late sample is still late), then 2.
+  core.on_sample(1, 5, v1(0.8), 0, 4 * kMs);
+  core.on_sample(1, 4, v1(0.8), 0, 5 * kMs);
+  core.on_sample(2, 5, v1(0.8), 0, 6 * kMs);
+  core.on_tick(6, Vector(), 10 * kMs);
+  auto second = core.on_deadline(18 * kMs);
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_EQ(second[0].late_sensors, (std::vector<int>{1, 1, 2}));
+  EXPECT_EQ(second[0].late, 3u);
+  EXPECT_EQ(second[0].late_total, 4u);
+  // Nothing late since: the next estimate lists nobody.
+  core.on_tick(7, Vector(), 20 * kMs);
+  auto third = core.on_deadline(28 * kMs);
+  ASSERT_EQ(third.size(), 1u);
+  EXPECT_TRUE(third[0].late_sensors.empty());
+  EXPECT_EQ(third[0].late, 0u);
 }
 
 TEST(EstimatorLogic, FutureSamplesWaitForTheirTick) {

@@ -61,6 +61,7 @@ struct EstimateRecord {
   double trace_P_pred = 0.0;    // Tr P_{k|k-1}
   std::vector<int> fused;       // sensor ids fused for k (sorted)
   std::uint32_t late = 0;       // samples that arrived during period k for periods already fused
+  std::vector<int> late_sensors;  // the sensor id of each of them (late == its size)
   std::uint64_t late_total = 0;
   std::uint64_t rejected_total = 0;
   FilterState state = FilterState::ok;

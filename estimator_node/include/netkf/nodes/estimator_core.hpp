@@ -30,6 +30,7 @@ struct PeriodEstimate {
   double trace_P_pred = 0.0;           // Tr P_{k|k-1} (what the theory's bounds S̄, V̄ bound)
   std::vector<int> fused;              // sensor ids fused for k (sorted)
   std::uint32_t late = 0;              // late samples counted since the previous published estimate
+  std::vector<int> late_sensors;       // their sensor ids, one entry per late sample (late == its size)
   std::uint64_t late_total = 0;
   std::uint64_t rejected_total = 0;
   FilterState state = FilterState::ok;
@@ -96,6 +97,7 @@ class EstimatorCore {
   void predict_with(const Vector& applied_input);
   bool complete() const;
   void reject(SampleRejection r) { ++rejected_[static_cast<int>(r)]; }
+  void count_late(int sensor_id);
 
   IntermittentKalmanFilter filter_;
   std::map<int, int> sensor_dims_;   // id -> m_i
@@ -108,7 +110,7 @@ class EstimatorCore {
   std::optional<Vector> last_control_;  // u sent for the last fused period (assumed applied if its tick is lost)
   std::map<std::uint64_t, std::map<int, Buffered>> future_;
   std::uint64_t late_total_ = 0;
-  std::uint32_t late_since_publish_ = 0;
+  std::vector<int> late_since_publish_;  // sensor id of each late sample since the previous estimate
   std::uint64_t rejected_[static_cast<int>(SampleRejection::count_)] = {};
 };
 

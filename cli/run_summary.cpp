@@ -1,0 +1,412 @@
+#include "run_summary.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+#include <stdexcept>
+
+namespace netkf::cli {
+
+namespace {
+
+// A period whose partner record (truth or estimate) never comes is forgotten after this
+// many newer periods, bounding memory (as the recorder does).
+constexpr std::int64_t kJoinWindow = 2000;
+
+constexpr const char* kNoEstimate = "no estimate received";
+
+Measured count(std::uint64_t v) {
+  Measured m;
+  m.value = static_cast<double>(v);
+  m.count = true;
+  return m;
+}
+
+Measured value(double v) {
+  Measured m;
+  if (std::isnan(v)) m.missing = "not a number";
+  else m.value = v;
+  return m;
+}
+
+Measured missing(std::string why, bool is_count = false) {
+  Measured m;
+  m.missing = std::move(why);
+  m.count = is_count;
+  return m;
+}
+
+/// One quantity of the run, by name (summary_names, measure and the JSON all read this table).
+struct RunQuantity {
+  const char* name;
+  Measured (*measure)(const RunSummary&);
+};
+
+/// One quantity of each link, `link.ID.name`.
+struct LinkQuantity {
+  const char* name;
+  Measured (*measure)(const RunSummary&, const LinkSummary&);
+};
+
+Measured latency_percentile(const RunSummary& s, double p) {
+  if (s.latencies_ms.empty()) return missing("no period with a fused sample");
+  return value(nearest_rank_percentile(s.latencies_ms, p));
+}
+
+std::string never_reported(const LinkSummary& l) {
+  return "the channel never reported link " + std::to_string(l.id);
+}
+
+const RunQuantity kRunQuantities[] = {
+    {"periods", [](const RunSummary& s) { return count(s.periods); }},
+    {"rms_error",
+     [](const RunSummary& s) {
+       if (s.periods_scored == 0) return missing("no period with both truth and estimate");
+       return value(std::sqrt(s.sum_squared_error / static_cast<double>(s.periods_scored)));
+     }},
+    {"mean_trace_P",
+     [](const RunSummary& s) {
+       if (s.periods == 0) return missing(kNoEstimate);
+       return value(s.sum_trace_P / static_cast<double>(s.periods));
+     }},
+    {"late_fraction",
+     [](const RunSummary& s) {
+       // Without estimates nobody counted late samples: 0 would be a vacuous pass.
+       if (s.periods == 0) return missing(kNoEstimate);
+       std::uint64_t delivered = 0;
+       for (const auto& l : s.links) {
+         // A link without counts would leave its deliveries out of the denominator.
+         if (!l.reported) return missing(never_reported(l));
+         delivered += l.delivered;
+       }
+       if (delivered == 0) return missing("the channel delivered no sample");
+       return value(static_cast<double>(s.late) / static_cast<double>(delivered));
+     }},
+    {"fused_fraction",
+     [](const RunSummary& s) {
+       if (s.periods == 0 || s.sensors == 0) return missing(kNoEstimate);
+       return value(static_cast<double>(s.fused) / (static_cast<double>(s.periods) * s.sensors));
+     }},
+    {"periods_diverging",
+     [](const RunSummary& s) {
+       // 0 diverging periods out of 0 proves nothing.
+       if (s.periods == 0) return missing(kNoEstimate, true);
+       return count(s.periods_diverging);
+     }},
+    {"pipeline_latency_p50_ms", [](const RunSummary& s) { return latency_percentile(s, 50.0); }},
+    {"pipeline_latency_p99_ms", [](const RunSummary& s) { return latency_percentile(s, 99.0); }},
+};
+
+const LinkQuantity kLinkQuantities[] = {
+    {"samples",
+     [](const RunSummary&, const LinkSummary& l) {
+       return l.reported ? count(l.samples) : missing(never_reported(l), true);
+     }},
+    {"delivered",
+     [](const RunSummary&, const LinkSummary& l) {
+       return l.reported ? count(l.delivered) : missing(never_reported(l), true);
+     }},
+    {"dropped",
+     [](const RunSummary&, const LinkSummary& l) {
+       return l.reported ? count(l.dropped) : missing(never_reported(l), true);
+     }},
+    {"observed_loss",
+     [](const RunSummary&, const LinkSummary& l) {
+       if (!l.reported) return missing(never_reported(l));
+       if (l.samples == 0) return missing("link " + std::to_string(l.id) + " carried no sample");
+       return value(static_cast<double>(l.dropped) / static_cast<double>(l.samples));
+     }},
+    {"late",
+     [](const RunSummary& s, const LinkSummary& l) {
+       return s.periods > 0 ? count(l.late) : missing(kNoEstimate, true);
+     }},
+    {"fused",
+     [](const RunSummary& s, const LinkSummary& l) {
+       return s.periods > 0 ? count(l.fused) : missing(kNoEstimate, true);
+     }},
+};
+
+const LinkQuantity* link_quantity(const std::string& name) {
+  for (const auto& q : kLinkQuantities)
+    if (name == q.name) return &q;
+  return nullptr;
+}
+
+std::string trim(const std::string& s) {
+  const auto first = s.find_first_not_of(" \t");
+  if (first == std::string::npos) return {};
+  const auto last = s.find_last_not_of(" \t");
+  return s.substr(first, last - first + 1);
+}
+
+std::string join(const std::vector<std::string>& parts) {
+  std::string out;
+  for (const auto& p : parts) out += (out.empty() ? "" : ", ") + p;
+  return out;
+}
+
+std::string link_ids_text(const std::vector<int>& link_ids) {
+  std::vector<std::string> ids;
+  for (int id : link_ids) ids.push_back(std::to_string(id));
+  return ids.empty() ? "none" : join(ids);
+}
+
+/// "0.30125", "600", "n/a": a value as the table shows it.
+std::string value_text(const Measured& m) {
+  if (!m.measured()) return "n/a";
+  if (m.count) return std::to_string(static_cast<std::uint64_t>(m.value));
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", m.value);
+  return buf;
+}
+
+nlohmann::ordered_json json_value(const Measured& m) {
+  if (!m.measured()) return nullptr;
+  if (m.count) return static_cast<std::uint64_t>(m.value);
+  return m.value;  // an infinite value (an overflowing error) is written as null by the JSON library
+}
+
+bool holds(double v, CheckOp op, double threshold) {
+  switch (op) {
+    case CheckOp::less: return v < threshold;
+    case CheckOp::less_equal: return v <= threshold;
+    case CheckOp::greater: return v > threshold;
+    case CheckOp::greater_equal: return v >= threshold;
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<std::string> summary_names(const std::vector<int>& link_ids) {
+  std::vector<std::string> names;
+  for (const auto& q : kRunQuantities) names.emplace_back(q.name);
+  for (int id : link_ids)
+    for (const auto& q : kLinkQuantities) names.push_back("link." + std::to_string(id) + "." + q.name);
+  return names;
+}
+
+Measured measure(const RunSummary& summary, const std::string& name) {
+  for (const auto& q : kRunQuantities)
+    if (name == q.name) return q.measure(summary);
+  for (const auto& l : summary.links) {
+    const std::string prefix = "link." + std::to_string(l.id) + ".";
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    if (const auto* q = link_quantity(name.substr(prefix.size()))) return q->measure(summary, l);
+  }
+  throw std::invalid_argument("no quantity named '" + name + "' in the run summary");
+}
+
+double nearest_rank_percentile(std::vector<double> values, double p) {
+  if (values.empty() || !(p > 0.0 && p <= 100.0)) return std::numeric_limits<double>::quiet_NaN();
+  // p × N is exact for whole percentages; one division, then the rank rounds up.
+  const double rank = std::ceil(p * static_cast<double>(values.size()) / 100.0);
+  const auto index = static_cast<std::size_t>(std::max(rank, 1.0)) - 1;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(index), values.end());
+  return values[index];
+}
+
+// ---------------------------------------------------------------- builder
+
+RunSummaryBuilder::RunSummaryBuilder(const Scenario& scenario) {
+  summary_.sensors = static_cast<int>(scenario.sensors.size());
+  for (const auto& sensor : scenario.sensors) {
+    LinkSummary l;
+    l.id = sensor.id;
+    summary_.links.push_back(l);
+  }
+}
+
+LinkSummary* RunSummaryBuilder::link(int sensor_id) {
+  for (auto& l : summary_.links)
+    if (l.id == sensor_id) return &l;
+  return nullptr;
+}
+
+void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
+  truth_[truth.k] = truth.x;
+  score(truth.k);
+}
+
+void RunSummaryBuilder::add_estimate(const EstimateRecord& e) {
+  auto& s = summary_;
+  ++s.periods;
+  s.sum_trace_P += e.trace_P;
+  s.fused += e.fused.size();
+  for (int id : e.fused)
+    if (auto* l = link(id)) ++l->fused;
+  s.late += e.late;
+  for (int id : e.late_sensors)
+    if (auto* l = link(id)) ++l->late;  // a late sample of an unknown id still counts in `late`
+  if (e.state == "diverging") ++s.periods_diverging;
+  if (e.last_sample_stamp > 0.0) {
+    // The same latency as /metrics' netkf_pipeline_latency_seconds.
+    const double ms = (e.publish_stamp - e.last_sample_stamp) * 1e3;
+    if (std::isfinite(ms) && ms >= 0.0) s.latencies_ms.push_back(ms);
+  }
+  xhat_[e.k] = e.xhat;
+  score(e.k);
+}
+
+void RunSummaryBuilder::score(std::int64_t k) {
+  auto t = truth_.find(k);
+  auto e = xhat_.find(k);
+  if (t != truth_.end() && e != xhat_.end()) {
+    if (t->second.size() == e->second.size()) {
+      double sq = 0.0;
+      for (std::size_t i = 0; i < t->second.size(); ++i) {
+        const double d = t->second[i] - e->second[i];
+        sq += d * d;
+      }
+      summary_.sum_squared_error += sq;
+      ++summary_.periods_scored;
+    }
+    truth_.erase(t);
+    xhat_.erase(e);
+  }
+  while (!truth_.empty() && truth_.begin()->first < k - kJoinWindow) truth_.erase(truth_.begin());
+  while (!xhat_.empty() && xhat_.begin()->first < k - kJoinWindow) xhat_.erase(xhat_.begin());
+}
+
+void RunSummaryBuilder::add_link_status(const LinkStatusRecord& status) {
+  LinkSummary* l = link(status.sensor_id);
+  if (!l) return;  // not in the scenario (the live view warns about it)
+  auto& last = last_[status.sensor_id];
+  auto& before = before_restarts_[status.sensor_id];
+  if (l->reported && (status.samples_total < last.samples || status.delivered_total < last.delivered ||
+                      status.dropped_total < last.dropped)) {
+    before.samples += last.samples;
+    before.delivered += last.delivered;
+    before.dropped += last.dropped;
+  }
+  last = {status.samples_total, status.delivered_total, status.dropped_total};
+  l->reported = true;
+  l->samples = before.samples + last.samples;
+  l->delivered = before.delivered + last.delivered;
+  l->dropped = before.dropped + last.dropped;
+}
+
+// ---------------------------------------------------------------- checks
+
+const char* to_string(CheckOp op) {
+  switch (op) {
+    case CheckOp::less: return "<";
+    case CheckOp::less_equal: return "<=";
+    case CheckOp::greater: return ">";
+    case CheckOp::greater_equal: return ">=";
+  }
+  return "?";
+}
+
+Check parse_check(const std::string& text, const std::vector<int>& link_ids) {
+  const std::string quoted = "check '" + text + "': ";
+  const std::string syntax = "write NAME<VALUE, NAME<=VALUE, NAME>VALUE or NAME>=VALUE, e.g. 'rms_error<0.8'";
+  const auto pos = text.find_first_of("<>=!");
+  if (pos == std::string::npos) throw std::invalid_argument(quoted + "no comparison; " + syntax);
+  if (text[pos] == '=' || text[pos] == '!')
+    throw std::invalid_argument(quoted + "unsupported operator (only <, <=, >, >=); " + syntax);
+  Check c;
+  c.text = text;
+  const bool or_equal = pos + 1 < text.size() && text[pos + 1] == '=';
+  c.op = text[pos] == '<' ? (or_equal ? CheckOp::less_equal : CheckOp::less)
+                          : (or_equal ? CheckOp::greater_equal : CheckOp::greater);
+  c.name = trim(text.substr(0, pos));
+  const std::string number = trim(text.substr(pos + (or_equal ? 2 : 1)));
+  if (c.name.empty()) throw std::invalid_argument(quoted + "no name on the left of '" + to_string(c.op) + "'; " + syntax);
+  const char* first = number.data();
+  const char* last = number.data() + number.size();
+  const auto [end, ec] = std::from_chars(first, last, c.threshold);
+  if (number.empty() || ec != std::errc() || end != last || !std::isfinite(c.threshold))
+    throw std::invalid_argument(quoted + "the right side must be a finite number, got '" + number + "'");
+
+  const auto names = summary_names(link_ids);
+  if (std::find(names.begin(), names.end(), c.name) != names.end()) return c;
+  // link.ID.NAME with a real quantity but an id the scenario does not have: say so.
+  if (c.name.rfind("link.", 0) == 0) {
+    const auto dot = c.name.find('.', 5);
+    if (dot != std::string::npos && link_quantity(c.name.substr(dot + 1)))
+      throw std::invalid_argument(quoted + "link " + c.name.substr(5, dot - 5) +
+                                  " is not in the scenario (its links: " + link_ids_text(link_ids) + ")");
+  }
+  std::vector<std::string> run_names;
+  for (const auto& q : kRunQuantities) run_names.emplace_back(q.name);
+  std::vector<std::string> link_names;
+  for (const auto& q : kLinkQuantities) link_names.emplace_back(q.name);
+  throw std::invalid_argument(quoted + "unknown name '" + c.name + "'; the names are " + join(run_names) +
+                              ", and per link link.ID." + "{" + join(link_names) + "} for the links " +
+                              link_ids_text(link_ids));
+}
+
+std::string CheckResult::verdict() const {
+  if (passed) return "PASS";
+  if (!measured.measured()) return "FAIL (not measured: " + measured.missing + ")";
+  return "FAIL";
+}
+
+std::vector<CheckResult> evaluate_checks(const std::vector<Check>& checks, const RunSummary& summary) {
+  std::vector<CheckResult> results;
+  for (const auto& c : checks) {
+    CheckResult r;
+    r.check = c;
+    r.measured = measure(summary, c.name);
+    // A comparison with NaN is false for every operator: a value that is not there never passes.
+    r.passed = r.measured.measured() && holds(r.measured.value, c.op, c.threshold);
+    results.push_back(std::move(r));
+  }
+  return results;
+}
+
+bool all_passed(const std::vector<CheckResult>& results) {
+  return std::all_of(results.begin(), results.end(), [](const CheckResult& r) { return r.passed; });
+}
+
+std::string render_check_table(const std::vector<CheckResult>& results) {
+  std::size_t check_width = 5;  // "check"
+  std::size_t value_width = 5;  // "value"
+  for (const auto& r : results) {
+    check_width = std::max(check_width, r.check.text.size());
+    value_width = std::max(value_width, value_text(r.measured).size());
+  }
+  std::ostringstream out;
+  auto row = [&](const std::string& check, const std::string& value, const std::string& verdict) {
+    out << check << std::string(check_width - check.size() + 2, ' ') << value
+        << std::string(value_width - value.size() + 2, ' ') << verdict << "\n";
+  };
+  row("check", "value", "verdict");
+  std::size_t failed = 0;
+  for (const auto& r : results) {
+    row(r.check.text, value_text(r.measured), r.verdict());
+    failed += !r.passed;
+  }
+  out << results.size() << (results.size() == 1 ? " check: " : " checks: ") << results.size() - failed
+      << " passed, " << failed << " failed\n";
+  return out.str();
+}
+
+nlohmann::ordered_json summary_json(const RunSummary& summary, const std::vector<CheckResult>& results) {
+  // Insertion order: the file reads in the order of the README's definitions.
+  nlohmann::ordered_json j;
+  for (const auto& q : kRunQuantities) j[q.name] = json_value(q.measure(summary));
+  j["link"] = nlohmann::ordered_json::object();
+  for (const auto& l : summary.links) {
+    auto& link = j["link"][std::to_string(l.id)];
+    for (const auto& q : kLinkQuantities) link[q.name] = json_value(q.measure(summary, l));
+  }
+  j["checks"] = nlohmann::ordered_json::array();
+  for (const auto& r : results) {
+    nlohmann::ordered_json c{{"check", r.check.text},
+                             {"name", r.check.name},
+                             {"operator", to_string(r.check.op)},
+                             {"threshold", r.check.threshold},
+                             {"value", json_value(r.measured)},
+                             {"verdict", r.passed ? "PASS" : "FAIL"}};
+    if (!r.measured.measured()) c["reason"] = "not measured: " + r.measured.missing;
+    j["checks"].push_back(std::move(c));
+  }
+  j["passed"] = all_passed(results);
+  return j;
+}
+
+}  // namespace netkf::cli
