@@ -78,6 +78,8 @@ std::vector<Channel> make_channels() {
                               "dropped_total", "last_request_id"})
     status_props[counter] = {{"type", "integer"}};
   status_props["held"] = {{"type", "integer"}};
+  status_props["late_total"] = {{"type", "integer"}};
+  status_props["late_fraction"] = nullable_number();
   status_props["stationary_loss"] = {{"type", "number"}};
   status_props["in_time"] = {{"type", "number"}};
   status_props["observed_loss"] = {{"type", "number"}};
@@ -278,6 +280,9 @@ json link_status_message(const LinkView& l) {
   j["samples_total"] = l.samples_total;
   j["delivered_total"] = l.delivered_total;
   j["dropped_total"] = l.dropped_total;
+  j["late_total"] = l.late_total;
+  j["late_fraction"] = l.delivered_total > 0 ? json(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total))
+                                             : json(nullptr);
   j["configured_arrival_rate"] = number_or_null(l.configured_arrival_rate);
   j["observed_arrival_rate"] = optional_number(l.observed_arrival_rate);
   j["last_request_id"] = l.last_request_id;

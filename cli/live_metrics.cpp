@@ -25,6 +25,10 @@ LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>())
                          .Register(r);
   link_dropped_ =
       &BuildCounter().Name("netkf_link_dropped_total").Help("Samples the link dropped").Register(r);
+  link_late_ = &BuildCounter()
+                    .Name("netkf_link_late_total")
+                    .Help("Samples the link delivered after the estimator had fused their period")
+                    .Register(r);
   link_configured_loss_ = &BuildGauge()
                                .Name("netkf_link_configured_loss")
                                .Help("Stationary loss probability of the link's current model")
@@ -102,6 +106,7 @@ void LiveMetrics::update(const LiveSnapshot& s) {
     advance(link_samples_->Add(labels), l.samples_total, totals.samples);
     advance(link_delivered_->Add(labels), l.delivered_total, totals.delivered);
     advance(link_dropped_->Add(labels), l.dropped_total, totals.dropped);
+    advance(link_late_->Add(labels), l.late_total, totals.late);
     link_configured_loss_->Add(labels).Set(stationary_loss(l.link.loss));
     link_delay_->Add(labels).Set(l.link.delay.delay_ms / 1000.0);
     link_jitter_->Add(labels).Set(l.link.delay.jitter_ms / 1000.0);

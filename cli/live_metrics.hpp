@@ -45,6 +45,7 @@ class LiveMetrics {
   prometheus::Family<prometheus::Counter>* link_samples_;
   prometheus::Family<prometheus::Counter>* link_delivered_;
   prometheus::Family<prometheus::Counter>* link_dropped_;
+  prometheus::Family<prometheus::Counter>* link_late_;
   prometheus::Family<prometheus::Gauge>* link_configured_loss_;
   prometheus::Family<prometheus::Gauge>* link_delay_;
   prometheus::Family<prometheus::Gauge>* link_jitter_;
@@ -60,7 +61,7 @@ class LiveMetrics {
   prometheus::Counter* rejected_;
   prometheus::Histogram* latency_;
   struct LinkTotals {
-    std::uint64_t samples = 0, delivered = 0, dropped = 0;
+    std::uint64_t samples = 0, delivered = 0, dropped = 0, late = 0;
   };
   std::map<int, LinkTotals> link_totals_;
   std::uint64_t late_total_ = 0;

@@ -51,6 +51,8 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   s.mean_trace_P = sum_trace_ / static_cast<double>(s.estimates);
   s.mean_trace_P_pred = sum_trace_pred_ / static_cast<double>(s.estimates);
   s.late_total = std::max(s.late_total, e.late_total);
+  for (int id : e.late_sensors)
+    if (LinkView* l = link(id)) ++l->late_total;
   s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected);
   if (!s.period || e.k >= s.period->k) {
     PeriodView p;

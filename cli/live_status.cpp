@@ -63,11 +63,15 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
     out << "waiting for the first estimate...\n";
   }
   // Per link: configured (effective: (1 − loss) · P(delay <= deadline)) and observed arrival rate.
-  out << "  link   λ cfg   λ obs  configured\n";
+  // late: the share of the link's delivered samples that came after their period was fused.
+  out << "  link   λ cfg   λ obs    late  configured\n";
   for (const auto& l : s.links) {
     char line[256];
-    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %s\n", l.sensor_id, l.configured_arrival_rate,
-                  l.observed_arrival_rate ? fmt(*l.observed_arrival_rate, true).c_str() : "-",
+    const std::string late =
+        l.delivered_total > 0 ? fmt(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total), true)
+                              : std::string("-");
+    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l.sensor_id, l.configured_arrival_rate,
+                  l.observed_arrival_rate ? fmt(*l.observed_arrival_rate, true).c_str() : "-", late.c_str(),
                   describe_link(l.link).c_str());
     out << line;
   }
