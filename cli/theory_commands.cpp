@@ -68,6 +68,12 @@ json report_json(const analysis::AnalysisReport& r) {
   }
   j["markov_criterion"] = number_or_null(r.markov_criterion);
   j["second_order_criterion"] = number_or_null(r.second_order_criterion);
+  j["links"] = json::array();
+  for (const auto& l : r.links)
+    j["links"].push_back({{"sensor_id", l.sensor_id},
+                          {"loss", number_or_null(l.loss)},
+                          {"in_time", number_or_null(l.in_time)},
+                          {"effective_arrival_rate", number_or_null(l.effective_arrival_rate)}});
   j["notes"] = r.notes;
   return j;
 }
@@ -87,6 +93,10 @@ void print_report(const Scenario& s, const analysis::AnalysisReport& r) {
   std::cout << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
   std::cout << "  Tr V-bar (upper bound)     " << show(r.upper_trace, missing) << "\n";
   std::cout << "  Markov criterion           " << show(r.markov_criterion, "n/a") << "\n";
+  std::cout << "  links: id  loss  P(in time)  effective arrival rate (1 - loss) * P(in time)\n";
+  for (const auto& l : r.links)
+    std::cout << "    " << std::setw(4) << l.sensor_id << "  " << std::setw(9) << show(l.loss) << "  " << std::setw(9)
+              << show(l.in_time) << "  " << std::setw(9) << show(l.effective_arrival_rate) << "\n";
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
     std::cout << "  critical arrival rate      lower " << show(cr.lower) << ", upper (LMI) " << show(cr.upper, "none")

@@ -9,7 +9,7 @@ packages=(
   libeigen3-dev libboost-dev libboost-system-dev libspdlog-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libsdp-dev gnuplot-nox python3-numpy
+  libsdp-dev gnuplot-nox python3-numpy python3-yaml
   iproute2 util-linux tcpdump procps
   prometheus-cpp-dev prometheus chromium
 )

@@ -171,6 +171,17 @@ def wait_for(predicate, seconds):
     return False
 
 
+def last_period(path):
+    """The newest period k in a --record CSV so far (-1 when none): for waiting on progress
+    rather than on the clock, which a loaded machine makes unreliable."""
+    try:
+        with open(path) as f:
+            lines = f.read().splitlines()
+        return int(lines[-1].split(",", 1)[0]) if len(lines) > 1 else -1
+    except (OSError, ValueError):
+        return -1
+
+
 def netkf(*args, timeout=30):
     cmd = [NETKF] + [str(a) for a in args]
     print("$", " ".join(cmd), flush=True)
