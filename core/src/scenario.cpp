@@ -194,10 +194,6 @@ class Validator {
     }
   }
 
-  void probability(const std::string& path, double v) const {
-    if (!std::isfinite(v) || v < 0.0 || v > 1.0) fail(path, path + " must be in [0,1], got " + num(v));
-  }
-
   void sensors() {
     if (s_.sensors.empty()) fail("sensors", "sensors must list at least one sensor");
     const Eigen::Index n = s_.plant.A.rows();

@@ -122,7 +122,7 @@ void validate_scenario(const Scenario& scenario);
 // Scenario file keys (docs/scenario-format.md); anything else is an error, so typos
 // are caught. Required: period_ms, plant.A, plant.Q, sensors (at least one), and per
 // sensor id, C, R, link.model plus the model's parameters (bernoulli: loss;
-// gilbert_elliott: p, r). Optional, with defaults:
+// gilbert_elliott: p, r, or loss and mean_burst). Optional, with defaults:
 //   name                  file stem
 //   seed                  0 (a scenario without a seed is still reproducible)
 //   plant.x0 / plant.P0   zeros / identity
@@ -130,6 +130,8 @@ void validate_scenario(const Scenario& scenario);
 //                         u = -gain x̂) or { lqr: { Qx: .., Ru: .. } } (gain from lqr_gain)
 //   plant.state_bound     1e8 (|x|_inf ending an uncontrolled run)
 //   link.loss_good / link.loss_bad   0 / 1 (the simple Gilbert channel)
+//   link.delay_ms / jitter_ms / delay_distribution   0 / 0 / uniform (netkf/link.hpp)
+//   events                nothing: a timeline of link changes (LinkEvent)
 //   estimator.deadline_ms             80 % of period_ms; must be in (0, period_ms]
 //   estimator.divergence_trace_bound  1e6
 // Covariances: Q and lqr.Qx symmetric PSD; R, P0 and lqr.Ru symmetric PD (symmetry
