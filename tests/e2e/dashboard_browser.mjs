@@ -45,7 +45,7 @@ try {
   usage(err.message);
 }
 if (!options.url || !options.screenshot) usage('--url and --screenshot are required');
-const linkId = Number(options.link.loss);
+const linkId = Number(options.link);
 const loss = Number(options.loss);
 const settleSeconds = Number(options.seconds);
 const timeoutSeconds = Number(options.timeout);
