@@ -18,14 +18,32 @@
   const TEXT_REDRAW_MS = 100;       // header and stability texts at most 10 times a second
   const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
   const RESTART_GAP = 50;           // k going back by more than this: the run restarted
-  const MODEL_PARAMS = {
-    bernoulli: ['loss'],
-    gilbert_elliott: ['p', 'r', 'loss_good', 'loss_bad'],
-  };
   const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
+  const DISTRIBUTIONS = ['uniform', 'normal', 'pareto', 'paretonormal'];
+  // Every link key of docs/scenario-format.md ("Links") is a parameter link.ID.KEY.
+  const LINK_KEYS = ['model', 'loss', 'p', 'r', 'loss_good', 'loss_bad', 'mean_burst', 'delay_ms', 'jitter_ms',
+    'delay_distribution'];
+  const WORD_KEYS = ['model', 'delay_distribution'];
+  const LINK_PARAMETER = new RegExp('^link\\.(-?\\d+)\\.(' + LINK_KEYS.join('|') + ')$');
+  const GILBERT_CHAIN = ['p', 'r', 'loss_good', 'loss_bad'];
   // Used when the user switches a link to a model it has no values for yet.
-  const DEFAULT_PARAMS = { loss: 0, p: 0.1, r: 0.5, loss_good: 0, loss_bad: 1 };
-  const PARAM_LABEL = { loss: 'loss', p: 'p (good→bad)', r: 'r (bad→good)', loss_good: 'loss good', loss_bad: 'loss bad' };
+  const DEFAULT_PARAMS = { loss: 0, p: 0.1, r: 0.5, loss_good: 0, loss_bad: 1, mean_burst: 1,
+    delay_ms: 0, jitter_ms: 0, delay_distribution: 'uniform' };
+  // The number rows of a link card, in order: the models that show them (null: every
+  // model), the range the field accepts and the one the slider covers ('period': a few
+  // periods of the scenario). The server judges combinations (docs/dashboard.md).
+  const PROBABILITY = { min: 0, max: 1, slider: 1, step: 0.001 };
+  const DELAY = { models: null, min: 0, max: 60000, slider: 'period', step: 0.5 };   // ms, at most a minute
+  const NUMBER_ROWS = [
+    Object.assign({ key: 'p', label: 'p (good→bad)', models: ['gilbert_elliott'] }, PROBABILITY),
+    Object.assign({ key: 'r', label: 'r (bad→good)', models: ['gilbert_elliott'] }, PROBABILITY),
+    Object.assign({ key: 'loss_good', label: 'loss good', models: ['gilbert_elliott'] }, PROBABILITY),
+    Object.assign({ key: 'loss_bad', label: 'loss bad', models: ['gilbert_elliott'] }, PROBABILITY),
+    Object.assign({ key: 'loss', label: 'loss', models: ['bernoulli', 'gilbert_elliott'] }, PROBABILITY),
+    { key: 'mean_burst', label: 'mean burst', models: ['gilbert_elliott'], min: 1, max: Infinity, slider: 20, step: 0.1 },
+    Object.assign({ key: 'delay_ms', label: 'delay (ms)' }, DELAY),
+    Object.assign({ key: 'jitter_ms', label: 'jitter (ms)' }, DELAY),
+  ];
   // Burst lengths in power-of-two bins: short bursts one by one, long ones grouped.
   const BURST_BINS = [
     { lo: 1, hi: 1, label: '1' }, { lo: 2, hi: 2, label: '2' }, { lo: 3, hi: 4, label: '3–4' },
@@ -351,8 +369,7 @@
     if (conn.paramUpdatesFor === store.scenarioKey) return;
     const names = [];
     for (const id of store.sensorIds) {
-      names.push('link.' + id + '.model');
-      for (const p of Object.keys(DEFAULT_PARAMS)) names.push('link.' + id + '.' + p);
+      for (const key of LINK_KEYS) names.push('link.' + id + '.' + key);
     }
     if (send({ op: 'subscribeParameterUpdates', parameterNames: names })) conn.paramUpdatesFor = store.scenarioKey;
   }
@@ -476,11 +493,12 @@
     // Group name link.ID.param by link; a reply to our own request carries its id.
     const perLink = new Map();
     for (const p of msg.parameters || []) {
-      const match = /^link\.(\d+)\.(model|loss|p|r|loss_good|loss_bad)$/.exec(String(p.name));
+      const match = LINK_PARAMETER.exec(String(p.name));
       if (!match) continue;
       const id = Number(match[1]);
       if (!perLink.has(id)) perLink.set(id, {});
-      perLink.get(id)[match[2]] = match[2] === 'model' ? String(p.value) : Number(p.value);
+      // Words stay words; a number that is not finite (an endless mean burst) comes as null.
+      perLink.get(id)[match[2]] = WORD_KEYS.includes(match[2]) ? String(p.value) : (isNum(p.value) ? p.value : null);
     }
     for (const [id, values] of perLink) {
       const link = store.links.get(id);
@@ -515,13 +533,44 @@
   }
 
   // ------------------------------------------------------------ link cards
+  // Stationary loss and mean burst of a Gilbert-Elliott chain (as netkf/link.hpp computes
+  // them): what a model switch shows at once, before the server answers.
+  function gilbertStats(g) {
+    const bad = g.p + g.r > 0 ? g.p / (g.p + g.r) : 0;
+    const good = 1 - bad;
+    const loss = good * g.loss_good + bad * g.loss_bad;
+    if (loss <= 0) return { loss, meanBurst: 1 };
+    const dropAfterGood = (1 - g.p) * g.loss_good + g.p * g.loss_bad;
+    const dropAfterBad = g.r * g.loss_good + (1 - g.r) * g.loss_bad;
+    const starts = good * (1 - g.loss_good) * dropAfterGood + bad * (1 - g.loss_bad) * dropAfterBad;
+    return { loss, meanBurst: starts > 0 ? loss / starts : null };
+  }
+
+  // A value as a field shows it: short, and empty for an unknown (infinite) mean burst.
+  function fieldText(v) { return isNum(v) ? String(+v.toPrecision(6)) : ''; }
+
+  // "6 ± 4 ms uniform", "3 ms" without jitter, "none" without delay.
+  function describeDelay(st) {
+    if (!isNum(st.delay_ms)) return '—';
+    const jitter = isNum(st.jitter_ms) ? st.jitter_ms : 0;
+    const ms = (v) => String(+v.toPrecision(4));
+    if (st.delay_ms === 0 && jitter === 0) return 'none';
+    if (jitter === 0) return ms(st.delay_ms) + ' ms';
+    return ms(st.delay_ms) + ' ± ' + ms(jitter) + ' ms ' + (st.delay_distribution || '');
+  }
+
+  function sameValue(a, b) {
+    if (typeof a === 'number' && typeof b === 'number') return Math.abs(a - b) <= 1e-9 * Math.max(1, Math.abs(b));
+    return a === b;
+  }
+
   class LinkView {
     constructor(sensor) {
       this.id = sensor.id;
       const link = sensor.link || {};
-      this.model = MODEL_PARAMS[link.model] ? link.model : 'bernoulli';
-      this.params = Object.assign({}, DEFAULT_PARAMS);
-      for (const p of Object.keys(DEFAULT_PARAMS)) if (isNum(link[p])) this.params[p] = link[p];
+      this.model = MODEL_LABEL[link.model] ? link.model : 'bernoulli';
+      this.params = Object.assign({}, DEFAULT_PARAMS);   // every key but model
+      this.takeValues(link);
       this.fromParameters = false;   // true once parameterValues told the current values
       this.status = null;
       this.rates = new RecordRing(LINK_SAMPLES);   // {t, configured, observed}
@@ -531,51 +580,61 @@
       this.syncControls();
     }
 
+    // Keys of a scenario link, a link status or a parameterValues answer; a Gilbert-Elliott
+    // link's `loss` and `mean_burst` are its user's form.
+    takeValues(values) {
+      if (MODEL_LABEL[values.model]) this.model = values.model;
+      if (DISTRIBUTIONS.includes(values.delay_distribution)) this.params.delay_distribution = values.delay_distribution;
+      for (const row of NUMBER_ROWS) {
+        if (isNum(values[row.key])) this.params[row.key] = values[row.key];
+        else if (row.key === 'mean_burst' && values.mean_burst === null) this.params.mean_burst = null;   // infinite
+      }
+    }
+
     build() {
       const id = this.id;
-      this.select = el('select', { 'data-link': String(id), 'data-param': 'model', id: 'link-' + id + '-model' },
-        Object.keys(MODEL_PARAMS).map((m) => el('option', { value: m, text: MODEL_LABEL[m] })));
-      this.select.addEventListener('change', () => {
-        const model = this.select.value;
-        // Leaving Gilbert-Elliott for Bernoulli keeps the average loss: the new loss starts
-        // at the stationary loss of the current chain.
-        if (model === 'bernoulli' && this.model === 'gilbert_elliott') {
-          const { p, r, loss_good: good, loss_bad: bad } = this.params;
-          const bad_share = p + r > 0 ? p / (p + r) : 0;
-          const loss = +((1 - bad_share) * good + bad_share * bad).toFixed(4);
-          this.inputs.loss.number.value = String(loss);
-          this.inputs.loss.range.value = String(loss);
+      const selectRow = (key, label, options) => {
+        const select = el('select', { 'data-link': String(id), 'data-param': key, id: 'link-' + id + '-' + key },
+          options.map(([value, text]) => el('option', { value, text })));
+        return { select, row: el('div', { class: 'param-row select-row' }, [el('label', { for: select.id, text: label }), select]) };
+      };
+      const model = selectRow('model', 'model', Object.entries(MODEL_LABEL));
+      this.select = model.select;
+      this.select.addEventListener('change', () => this.switchModel(this.select.value));
+      const distribution = selectRow('delay_distribution', 'distribution', DISTRIBUTIONS.map((d) => [d, d]));
+      this.distSelect = distribution.select;
+      this.distSelect.addEventListener('change', () => this.commit({ delay_distribution: this.distSelect.value }));
+      const periodMs = store.periodS * 1000;
+      this.inputs = {};   // key -> {row, range, number, spec}
+      const rows = [model.row];
+      for (const spec of NUMBER_ROWS) {
+        if (spec.key === 'loss') {
+          rows.push(this.userFormNote = el('div', { class: 'subhead' ,
+            text: 'or as loss and mean burst (simple Gilbert channel: loss good 0, loss bad 1)' }));
         }
-        this.showModelRows(model);
-        this.commit(model);
-      });
-      this.inputs = {};   // param -> {row, range, number}
-      const rows = [];
-      for (const model of Object.keys(MODEL_PARAMS)) {
-        for (const param of MODEL_PARAMS[model]) {
-          const attrs = { 'data-link': String(id), 'data-param': param, min: '0', max: '1' };
-          const range = el('input', Object.assign({ type: 'range', step: '0.001', id: 'link-' + id + '-' + param + '-range',
-            'aria-label': 'link ' + id + ' ' + param }, attrs));
-          const number = el('input', Object.assign({ type: 'number', step: '0.01', id: 'link-' + id + '-' + param + '-number',
-            'aria-label': 'link ' + id + ' ' + param + ' value' }, attrs));
-          const row = el('div', { class: 'param-row', 'data-model': model }, [
-            el('label', { for: number.id, text: PARAM_LABEL[param] }), range, number]);
-          this.wireParam(param, range, number);
-          this.inputs[param] = { row, range, number, model };
-          rows.push(row);
-        }
+        if (spec.key === 'delay_ms') rows.push(el('div', { class: 'subhead', text: 'delay of the delivered samples' }));
+        const slider = spec.slider === 'period' ? Math.max(10, 5 * periodMs) : spec.slider;
+        const attrs = { 'data-link': String(id), 'data-param': spec.key };
+        const range = el('input', Object.assign({ type: 'range', min: String(spec.min), max: String(slider), step: String(spec.step),
+          id: 'link-' + id + '-' + spec.key + '-range', 'aria-label': 'link ' + id + ' ' + spec.label }, attrs));
+        const number = el('input', Object.assign({ type: 'number', min: String(spec.min), step: 'any',
+          id: 'link-' + id + '-' + spec.key + '-number', 'aria-label': 'link ' + id + ' ' + spec.label + ' value' }, attrs));
+        if (isFinite(spec.max)) number.max = String(spec.max);
+        const row = el('div', { class: 'param-row' }, [el('label', { for: number.id, text: spec.label }), range, number]);
+        this.wireParam(spec.key, range, number);
+        this.inputs[spec.key] = { row, range, number, spec, shownText: null, committedText: null };
+        rows.push(row);
       }
+      rows.push(distribution.row);
       this.modelLabel = el('span', { class: 'link-model' });
-      this.pendingLabel = el('span', { class: 'link-pending' });
+      this.pendingLabel = el('span', { class: 'link-pending', role: 'status' });
       this.statsLine = el('div', { class: 'link-stats' });
       this.chartBox = el('div', { class: 'chart arrival-chart' });
       this.histCanvas = el('canvas', { class: 'burst-hist', 'aria-label': 'burst-length histogram of link ' + id });
       this.histNote = el('div', { class: 'hist-note muted small' });
       this.root = el('article', { class: 'panel link-card', 'data-link': String(id), id: 'link-' + id }, [
         el('div', { class: 'panel-head' }, [el('h2', { text: 'link ' + id }), this.modelLabel, this.pendingLabel]),
-        el('div', { class: 'link-controls' }, [
-          el('div', { class: 'param-row model-row' }, [el('label', { for: this.select.id, text: 'model' }), this.select]),
-          ...rows]),
+        el('div', { class: 'link-controls' }, rows),
         this.statsLine,
         el('div', { class: 'subhead' }, [document.createTextNode('arrival rate λ: '),
           el('span', { class: 'key-configured', text: '━ configured' }), document.createTextNode(' '),
@@ -587,71 +646,95 @@
       ]);
     }
 
-    wireParam(param, range, number) {
+    wireParam(key, range, number) {
       // The slider moves the number field while held and applies on release ("change").
-      range.addEventListener('pointerdown', () => this.dragging.add(param));
+      range.addEventListener('pointerdown', () => this.dragging.add(key));
       range.addEventListener('input', () => {
-        this.dragging.add(param);
+        this.dragging.add(key);
         number.value = range.value;
       });
       range.addEventListener('change', () => {
-        this.dragging.delete(param);
+        this.dragging.delete(key);
         number.value = range.value;
-        this.commit(this.model);
+        this.commitNumber(key, true);
       });
       // A pointer released without moving fires no "change": stop holding the control.
-      range.addEventListener('pointerup', () => setTimeout(() => this.dragging.delete(param), 0));
-      range.addEventListener('blur', () => this.dragging.delete(param));
+      range.addEventListener('pointerup', () => setTimeout(() => this.dragging.delete(key), 0));
+      range.addEventListener('blur', () => this.dragging.delete(key));
       // The number field applies on Enter and on blur. Chromium also fires "change" on the
       // blur after an Enter: the text committed last is not sent twice.
       number.addEventListener('keydown', (event) => {
-        if (event.key === 'Enter') { event.preventDefault(); this.commitNumber(param); }
+        if (event.key === 'Enter') { event.preventDefault(); this.commitNumber(key, false); }
       });
       number.addEventListener('change', () => {
-        if (this.inputs[param].committedText !== number.value) this.commitNumber(param);
+        if (this.inputs[key].committedText !== number.value) this.commitNumber(key, false);
       });
       number.addEventListener('input', () => {
         number.classList.remove('invalid');
-        this.inputs[param].committedText = null;
+        this.inputs[key].committedText = null;
       });
     }
 
-    commitNumber(param) {
-      const { number, range } = this.inputs[param];
-      this.inputs[param].committedText = number.value;
+    // The value of a number field, or null (marked invalid, reason shown) when out of range.
+    fieldValue(key) {
+      const { number, spec } = this.inputs[key];
       const value = Number(number.value);
-      if (number.value === '' || !Number.isFinite(value) || value < 0 || value > 1) {
+      if (number.value === '' || !Number.isFinite(value) || value < spec.min || value > spec.max) {
         number.classList.add('invalid');
-        this.pendingLabel.textContent = param + ' must be in [0, 1]';
+        this.pendingLabel.textContent = spec.label + ' must be ' +
+          (isFinite(spec.max) ? 'in [' + spec.min + ', ' + spec.max + ']' : '≥ ' + spec.min);
         this.pendingLabel.dataset.state = 'invalid';
-        return;
+        return null;
       }
       number.classList.remove('invalid');
-      range.value = String(value);
-      this.commit(this.model);
+      return value;
     }
 
-    // One setParameters for this link only: its model and that model's parameters.
-    commit(model) {
-      const values = {};
-      for (const param of MODEL_PARAMS[model]) {
-        const v = Number(this.inputs[param].number.value);
-        if (!Number.isFinite(v) || v < 0 || v > 1) {
-          this.inputs[param].number.classList.add('invalid');
-          this.pendingLabel.textContent = param + ' must be in [0, 1]';
-          this.pendingLabel.dataset.state = 'invalid';
-          return;
+    // Only the key the user changed is sent: a field left as shown sends nothing (the loss
+    // of a Gilbert-Elliott link would rebuild its chain as the simple Gilbert channel).
+    commitNumber(key, fromSlider) {
+      const input = this.inputs[key];
+      input.committedText = input.number.value;
+      if (!fromSlider && input.number.value === input.shownText && !this.pending) return;
+      const value = this.fieldValue(key);
+      if (value === null) return;
+      input.range.value = String(value);
+      this.commit({ [key]: value });
+    }
+
+    // A model switch sends the model and the parameters the new model needs: Bernoulli
+    // keeps the chain's stationary loss, Gilbert-Elliott takes the chain fields.
+    switchModel(model) {
+      const values = { model };
+      if (model === 'bernoulli') {
+        // A Gilbert-Elliott link's `loss` is its stationary loss.
+        values.loss = this.model === 'gilbert_elliott' ? +this.params.loss.toFixed(4) : this.params.loss;
+        this.inputs.loss.number.value = fieldText(values.loss);
+        this.inputs.loss.range.value = String(values.loss);
+      } else {
+        for (const key of GILBERT_CHAIN) {
+          const v = this.fieldValue(key);
+          if (v === null) return;
+          values[key] = v;
         }
-        values[param] = v;
+        const stats = gilbertStats(values);
+        this.inputs.loss.number.value = fieldText(stats.loss);
+        this.inputs.mean_burst.number.value = fieldText(stats.meanBurst);
       }
+      this.showModelRows(model);
+      this.commit(values);
+    }
+
+    // One setParameters for this link only, with the given keys.
+    commit(values) {
       // Enter fires both keydown and "change": the request already under way is enough.
-      // (An explicit commit of the current values is still sent: the server confirms it.)
-      const samePending = this.pending && this.pending.model === model &&
-        MODEL_PARAMS[model].every((p) => values[p] === this.pending.values[p]);
+      const samePending = this.pending && Object.keys(values).length === Object.keys(this.pending.values).length &&
+        Object.entries(values).every(([k, v]) => this.pending.values[k] === v);
       if (samePending) return;
       const requestId = 'netkf-dashboard-' + Date.now().toString(36) + '-' + (conn.nextRequest++);
-      const parameters = [{ name: 'link.' + this.id + '.model', value: model }];
-      for (const param of MODEL_PARAMS[model]) parameters.push({ name: 'link.' + this.id + '.' + param, value: values[param], type: 'float64' });
+      const parameters = Object.entries(values).map(([key, value]) => (typeof value === 'number'
+        ? { name: 'link.' + this.id + '.' + key, value, type: 'float64' }
+        : { name: 'link.' + this.id + '.' + key, value }));
       if (!send({ op: 'setParameters', parameters, id: requestId })) {
         this.pendingLabel.textContent = 'not connected';
         this.pendingLabel.dataset.state = 'invalid';
@@ -659,7 +742,8 @@
         return;
       }
       dash.setParametersSent++;
-      this.pending = { id: requestId, model, values, timer: setTimeout(() => this.giveUp(requestId), PENDING_TIMEOUT_MS) };
+      if (this.pending) clearTimeout(this.pending.timer);
+      this.pending = { id: requestId, values, timer: setTimeout(() => this.giveUp(requestId), PENDING_TIMEOUT_MS) };
       this.pendingLabel.textContent = 'applying…';
       this.pendingLabel.dataset.state = 'pending';
     }
@@ -680,28 +764,28 @@
     }
 
     onParameterValues(values, requestId) {
-      if (values.model && MODEL_PARAMS[values.model]) this.model = values.model;
-      for (const p of Object.keys(DEFAULT_PARAMS)) if (isNum(values[p])) this.params[p] = values[p];
+      this.takeValues(values);
       this.fromParameters = true;
+      let answered = [];
       if (this.pending && requestId !== undefined && requestId === this.pending.id) {
         // Applied when the answer carries what we asked for; a refusal answers the old values.
-        const p = this.pending;
-        const applied = this.model === p.model && MODEL_PARAMS[p.model].every((n) => Math.abs(this.params[n] - p.values[n]) < 1e-12);
+        const current = Object.assign({ model: this.model }, this.params);
+        answered = Object.keys(this.pending.values);
+        const applied = answered.every((k) => sameValue(current[k], this.pending.values[k]));
         this.clearPending();
         this.pendingLabel.textContent = applied ? 'applied' : 'refused (see events)';
         this.pendingLabel.dataset.state = applied ? 'applied' : 'invalid';
       }
-      this.syncControls();
+      this.syncControls(answered);
       view.dirty.links = true;
       requestRender();
     }
 
     onStatus(st) {
       this.status = st;
-      // Until the parameters have been read, the link status tells the current model.
-      if (!this.fromParameters && !this.pending && MODEL_PARAMS[st.model]) {
-        this.model = st.model;
-        for (const p of MODEL_PARAMS[st.model]) if (isNum(st[p])) this.params[p] = st[p];
+      // Until the parameters have been read, the link status tells the current link.
+      if (!this.fromParameters && !this.pending && MODEL_LABEL[st.model]) {
+        this.takeValues(st);
         this.syncControls();
       }
       const t = currentTime();
@@ -715,20 +799,32 @@
     }
 
     showModelRows(model) {
-      for (const param of Object.keys(this.inputs)) this.inputs[param].row.hidden = this.inputs[param].model !== model;
+      for (const key of Object.keys(this.inputs)) {
+        const models = this.inputs[key].spec.models;
+        this.inputs[key].row.hidden = models !== null && !models.includes(model);
+      }
+      this.userFormNote.hidden = model !== 'gilbert_elliott';
     }
 
-    // Controls follow the current values, except a slider being held or a field being typed in.
-    syncControls() {
-      if (document.activeElement !== this.select) this.select.value = this.model;
-      if (!this.pending) this.showModelRows(this.model);
-      for (const param of Object.keys(this.inputs)) {
-        const { range, number } = this.inputs[param];
-        const value = this.params[param];
-        if (!this.dragging.has(param) && !this.pending) range.value = String(value);
-        if (document.activeElement !== number && !this.dragging.has(param) && !this.pending) {
-          number.value = String(value);
-          number.classList.remove('invalid');
+    // Controls follow the current values, except a slider being held or a field being typed
+    // in; the controls of an answered request (`answered`: its keys) show the answer anyway.
+    syncControls(answered) {
+      const force = new Set(answered || []);
+      if (!this.pending) {
+        if (document.activeElement !== this.select || force.has('model')) this.select.value = this.model;
+        if (document.activeElement !== this.distSelect || force.has('delay_distribution')) {
+          this.distSelect.value = this.params.delay_distribution;
+        }
+        this.showModelRows(this.model);
+      }
+      for (const key of Object.keys(this.inputs)) {
+        const input = this.inputs[key];
+        const value = this.params[key];
+        if (this.dragging.has(key) || this.pending) continue;
+        if (isNum(value)) input.range.value = String(value);
+        if (document.activeElement !== input.number || force.has(key)) {
+          input.number.value = input.shownText = fieldText(value);
+          input.number.classList.remove('invalid');
         }
       }
       this.modelLabel.textContent = MODEL_LABEL[this.model];
@@ -739,15 +835,18 @@
       if (!st) { this.statsLine.textContent = 'no link status yet'; return; }
       const items = [
         ['stationary loss', fmt(st.stationary_loss, 3)],
-        ['λ configured', fmt(st.configured_arrival_rate, 3)],
+        ['delay', describeDelay(st)],
+        ['P(in time)', fmt(st.in_time, 3), 'P(delay ≤ the estimator\'s deadline)'],
+        ['λ configured', fmt(st.configured_arrival_rate, 3), '(1 − loss) · P(in time)'],
         ['λ observed', st.observed_arrival_rate === null || st.observed_arrival_rate === undefined ? 'not yet' : fmt(st.observed_arrival_rate, 3)],
         ['loss observed', fmt(st.observed_loss, 3)],
         ['mean burst', fmt(st.mean_burst_length, 2)],
         ['delivered', st.delivered + ' / ' + st.samples_in],
+        ['held', isNum(st.held) ? String(st.held) : '—', 'samples the channel holds now (delayed)'],
       ];
       if (st.last_request_rejected && st.reject_reason) items.push(['last request refused', st.reject_reason]);
-      this.statsLine.replaceChildren(...items.map(([k, v]) => el('span', { class: 'stat' }, [
-        el('span', { class: 'stat-key', text: k }), el('span', { class: 'stat-value', text: v })])));
+      this.statsLine.replaceChildren(...items.map(([k, v, title]) => el('span', Object.assign({ class: 'stat', 'data-stat': k },
+        title ? { title } : {}), [el('span', { class: 'stat-key', text: k }), el('span', { class: 'stat-value', text: v })])));
     }
   }
 

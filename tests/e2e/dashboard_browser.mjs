@@ -2,11 +2,16 @@
 // one JSON object with what it saw. The Python e2e test does the assertions.
 //
 //   node tests/e2e/dashboard_browser.mjs --url http://127.0.0.1:8470/ --screenshot out.png
-//        [--link 2] [--loss 1.0] [--no-set] [--seconds 2] [--timeout 60]
-//        [--chromium /usr/bin/chromium]
+//        [--link 2] [--loss 1.0] [--no-set] [--delay 2=3] [--gilbert 3=0.2,4]
+//        [--seconds 2] [--timeout 60] [--chromium /usr/bin/chromium]
 //
 // --link/--loss: the link whose loss is set through the page's own number field (Enter);
 //   default link 2, loss 1.0. --no-set: only watch.
+// --delay ID=MS: then that link's delay (ms) is set through its delay field (Enter).
+// --gilbert ID=LOSS,BURST: then that Gilbert-Elliott link is set in the user's form: its
+//   loss field (Enter), then its mean burst field (Enter), each waited for.
+// Each of these is a step in "steps": the setParameters frames the page sent for it, the
+// event-log entry that showed it applied, the field's value after.
 // --seconds: how long the page keeps running after the change before the screenshot.
 // Exit status: 0 when it ran (whatever it observed); 2 usage error; 1 harness error
 // (no browser, page not reachable, overall timeout), with "error" set in the JSON.
@@ -23,7 +28,8 @@ const CHROMIUM_ARGS = [
 
 function usage(message) {
   process.stderr.write(`${message}\nusage: node dashboard_browser.mjs --url URL --screenshot PNG ` +
-    '[--link ID] [--loss VALUE] [--no-set] [--seconds N] [--timeout S] [--chromium PATH]\n');
+    '[--link ID] [--loss VALUE] [--no-set] [--delay ID=MS] [--gilbert ID=LOSS,BURST] [--seconds N] [--timeout S] ' +
+    '[--chromium PATH]\n');
   process.exit(2);
 }
 
@@ -36,6 +42,8 @@ try {
       link: { type: 'string', default: '2' },
       loss: { type: 'string', default: '1.0' },
       'no-set': { type: 'boolean', default: false },
+      delay: { type: 'string' },
+      gilbert: { type: 'string' },
       seconds: { type: 'string', default: '2' },
       timeout: { type: 'string', default: '60' },
       chromium: { type: 'string', default: '/usr/bin/chromium' },
@@ -53,6 +61,16 @@ if (!Number.isInteger(linkId) || !Number.isFinite(loss) || !(settleSeconds >= 0)
   usage('--link must be an integer, --loss a number, --seconds >= 0, --timeout > 0');
 }
 const doSet = !options['no-set'];
+// ID=V1[,V2...] -> {link, values} (null when not given).
+function linkValues(text, count, name) {
+  if (text === undefined) return null;
+  const m = /^(-?\d+)=(.+)$/.exec(text);
+  const values = m ? m[2].split(',').map(Number) : [];
+  if (!m || values.length !== count || !values.every(Number.isFinite)) usage(`--${name} wants ID=${count === 1 ? 'MS' : 'LOSS,BURST'}`);
+  return { link: Number(m[1]), values };
+}
+const delaySet = linkValues(options.delay, 1, 'delay');
+const gilbertSet = linkValues(options.gilbert, 2, 'gilbert');
 
 const result = {
   url: options.url,
@@ -71,6 +89,8 @@ const result = {
   applied_at_ms: null,
   applied_entry: null,
   control_value_after: null,      // the number field after the answer
+  steps: [],                      // --delay, --gilbert: {link, param, value, sent, applied, applied_entry, ...}
+  link_stats: {},                 // per link id: the card's stats line at the screenshot {key: text}
   final: null,                    // counters and header at the screenshot
   verdict: null,
   event_log: [],                  // status messages as shown, oldest first
@@ -111,6 +131,54 @@ const watchdog = setTimeout(async () => {
   await cleanup();
   process.exit(1);
 }, timeoutSeconds * 1000 + 2000);
+
+// Sets one number field of a link card as a user does (fill, Enter) and waits for the
+// server's level-0 status of the change (from dashboard) showing every expected number:
+// `expect` = [[text before the number, value], ...], equal within 1e-3 relative (the
+// status prints 4 significant digits).
+async function setField(page, link, param, value, expect) {
+  const step = { link, param, value, method: 'number field + Enter', set_at_ms: null, sent: [], applied: false,
+    applied_at_ms: null, applied_entry: null, control_value_after: null, error: null };
+  result.steps.push(step);
+  const selector = `input[type="number"][data-link="${link}"][data-param="${param}"]`;
+  const sentBefore = result.set_requests_sent.length;
+  const logBefore = await page.evaluate(() => window.netkfDashboard.eventCount);
+  try {
+    const number = page.locator(selector);
+    await number.fill(String(value), { timeout: remaining(5000) });
+    step.set_at_ms = Date.now();
+    await number.press('Enter', { timeout: remaining(5000) });
+  } catch (err) {
+    step.error = `could not use the link ${link} ${param} control: ${err.message.split('\n')[0]}`;
+    return step;
+  }
+  try {
+    // Only entries added since the change: the log is newest first, so its first (count now − count before).
+    const handle = await page.waitForFunction(({ id, fresh, wanted }) => {
+      const shows = (text) => wanted.every(([prefix, v]) => {
+        const at = text.indexOf(prefix);
+        const m = at < 0 ? null : /^[-+0-9.eE]+/.exec(text.slice(at + prefix.length));
+        return m !== null && Math.abs(Number(m[0]) - v) <= 1e-3 * Math.max(1, Math.abs(v));
+      });
+      const nodes = Array.from(document.querySelectorAll('#event-log .event-message'))
+        .slice(0, window.netkfDashboard.eventCount - fresh);
+      for (const node of nodes) {
+        const text = node.textContent || '';
+        if (text.startsWith(`link ${id}:`) && text.includes('(from dashboard)') && shows(text)) return text;
+      }
+      return false;
+    }, { id: link, fresh: logBefore, wanted: expect }, { timeout: remaining(15000), polling: 50 });
+    step.applied = true;
+    step.applied_at_ms = Date.now();
+    step.applied_entry = await handle.jsonValue();
+  } catch {
+    step.applied = false;
+  }
+  // Frames arrive as events: the ones sent for this step are in by the time it was applied.
+  step.sent = result.set_requests_sent.slice(sentBefore);
+  step.control_value_after = await page.evaluate((sel) => document.querySelector(sel)?.value ?? null, selector);
+  return step;
+}
 
 async function readEventLog(page) {
   return page.evaluate(() => Array.from(document.querySelectorAll('#event-log > *')).reverse().map((li) => ({
@@ -216,6 +284,29 @@ async function main() {
     }
   }
 
+  if (delaySet) {
+    // "link 2: bernoulli loss=1, delay 3±0 ms uniform (from dashboard)"
+    const [ms] = delaySet.values;
+    await setField(page, delaySet.link, 'delay_ms', ms, [[', delay ', ms]]);
+  }
+  if (gilbertSet) {
+    const [lossValue, burst] = gilbertSet.values;
+    // A Bernoulli link shows no mean burst field: switch it to Gilbert-Elliott first, as a user would.
+    const model = page.locator(`select[data-link="${gilbertSet.link}"][data-param="model"]`);
+    try {
+      if ((await model.inputValue({ timeout: remaining(5000) })) !== 'gilbert_elliott') {
+        await model.selectOption('gilbert_elliott', { timeout: remaining(5000) });
+        await page.waitForFunction((sel) => document.querySelector(sel)?.dataset.state !== 'pending',
+          `#link-${gilbertSet.link} .link-pending`, { timeout: remaining(15000), polling: 50 });
+      }
+    } catch (err) {
+      result.steps.push({ link: gilbertSet.link, param: 'model', error: `model switch: ${err.message.split('\n')[0]}` });
+    }
+    // "link 3: gilbert_elliott p=... r=... loss_good=0 loss_bad=1 (loss 0.2, mean burst 3.333) (from dashboard)"
+    await setField(page, gilbertSet.link, 'loss', lossValue, [['(loss ', lossValue]]);
+    await setField(page, gilbertSet.link, 'mean_burst', burst, [['(loss ', lossValue], [', mean burst ', burst]]);
+  }
+
   if (settleSeconds > 0) await page.waitForTimeout(remaining(settleSeconds * 1000));
   await page.screenshot({ path: result.screenshot, fullPage: true, timeout: remaining(15000) });
 
@@ -229,6 +320,17 @@ async function main() {
     };
   });
   result.final = { ...(after.dash || {}), conn_state: after.conn_state, period_text: after.period_text };
+  result.link_stats = await page.evaluate(() => {
+    const out = {};
+    for (const card of document.querySelectorAll('article.link-card')) {
+      const stats = {};
+      for (const stat of card.querySelectorAll('.link-stats .stat')) {
+        stats[stat.querySelector('.stat-key')?.textContent ?? ''] = stat.querySelector('.stat-value')?.textContent ?? '';
+      }
+      out[card.dataset.link] = stats;
+    }
+    return out;
+  });
   result.verdict = after.verdict;
   result.event_log_entries = await readEventLog(page);
   result.event_log = result.event_log_entries.map((e) => e.message);

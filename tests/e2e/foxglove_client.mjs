@@ -126,7 +126,8 @@ client.on('serverInfo', (info) => {
     const links = new Set(setParameters.map((p) => p.name.split('.')[1]).filter(Boolean));
     if (!links.size) for (let i = 1; i <= 8; i++) links.add(String(i));
     const names = [];
-    for (const id of links) for (const p of ['model', 'loss', 'p', 'r', 'loss_good', 'loss_bad']) names.push(`link.${id}.${p}`);
+    for (const id of links) for (const p of ['model', 'loss', 'p', 'r', 'loss_good', 'loss_bad', 'mean_burst', 'delay_ms', 'jitter_ms',
+      'delay_distribution']) names.push(`link.${id}.${p}`);
     client.subscribeParameterUpdates(names);
   }
 });

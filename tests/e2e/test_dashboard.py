@@ -3,6 +3,11 @@
   points and sets link 2 to loss 1.0 with the page's own control; `netkf ctl status` and
   the recording then show that sensor 2 is no longer fused, and the page's event log
   shows the change; no console errors; the screenshot is kept as an artefact;
+- the page then sets link 2's delay to 3 ms (its delay field: only link.2.delay_ms is
+  sent) and Gilbert-Elliott link 3 by loss 0.2 and mean burst 4 (its user's form, one key
+  per change); `netkf ctl status` and the link status a Foxglove client receives show the
+  delay applied with link 2's loss model unchanged, and link 3's chain at the closed form
+  r = 1/mean_burst, p = r·loss/(1 − loss), loss_good 0, loss_bad 1;
 - @foxglove/ws-protocol's client (an independent implementation of the protocol) receives
   estimates equal to the --record CSV rows of the same periods, and sets a link parameter;
 - /metrics passes `promtool check metrics`, and its link counters agree with
@@ -20,6 +25,8 @@ from e2e_common import (HERE, Launch, check, finish, netkf, read_periods, read_s
                         workdir)
 
 PORT = 8470  # the default; the test's network namespace has it to itself
+DELAY_MS = 3.0                  # link 2's delay, set from the page (below the 8 ms deadline)
+GE_LOSS, GE_BURST = 0.2, 4.0    # link 3 (Gilbert-Elliott) in the user's form, set from the page
 NODE = shutil.which("node") or "/usr/bin/node"
 REPO = os.path.dirname(os.path.dirname(HERE))
 ARTEFACTS = os.environ.get("NETKF_ARTEFACT_DIR", os.path.join(os.environ.get("NETKF_BIN_DIR", "/tmp"), "artefacts"))
@@ -118,7 +125,8 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     # ---- a real browser
     shot = os.path.join(ARTEFACTS, "dashboard.png")
     page = node("dashboard_browser.mjs", "--url", "http://127.0.0.1:%d/" % PORT, "--screenshot", shot,
-                "--link", 2, "--loss", "1.0", timeout=150)
+                "--link", 2, "--loss", "1.0", "--delay", "2=%g" % DELAY_MS,
+                "--gilbert", "3=%g,%g" % (GE_LOSS, GE_BURST), timeout=150)
     t_applied = time.monotonic()
     check(page.get("estimates_received", 0) > 50, "the page received estimates (%s)" % page.get("estimates_received"))
     check(page.get("points_plotted", 0) > 50, "the page's plots hold points (%s)" % page.get("points_plotted"))
@@ -134,9 +142,58 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     check(page.get("verdict", {}).get("configured") == "no",
           "the page's verdict for the configured links is 'no': %s" % page.get("verdict"))
     check(os.path.getsize(shot) > 10000 if os.path.exists(shot) else False, "screenshot saved: %s" % shot)
+    # ---- the page's delay and Gilbert-Elliott controls: each change sends only its key
+    steps = page.get("steps", [])
+
+    def step(link, param):
+        return next((s for s in steps if s.get("link") == link and s.get("param") == param), {})
+
+    def sent_parameters(s):
+        return [p for frame in s.get("sent", []) if isinstance(frame, dict) for p in frame.get("parameters", [])]
+
+    for link, param, value in ((2, "delay_ms", DELAY_MS), (3, "loss", GE_LOSS), (3, "mean_burst", GE_BURST)):
+        s = step(link, param)
+        check(s.get("applied") is True, "the page set link %d's %s to %g; the event log shows it applied: %s (error %s)"
+              % (link, param, value, s.get("applied_entry"), s.get("error")))
+        sent = sent_parameters(s)
+        check([(p.get("name"), p.get("value")) for p in sent] == [("link.%d.%s" % (link, param), value)],
+              "changing link %d's %s on the page sent link.%d.%s only: %s" % (link, param, link, param, sent))
+    check(not [s for s in steps if s.get("error")], "no page step failed: %s" % [s for s in steps if s.get("error")])
+    stats2 = page.get("link_stats", {}).get("2", {})
+    check(stats2.get("delay") == "%g ms" % DELAY_MS and stats2.get("P(in time)") == "1.000" and
+          re.fullmatch(r"\d+", stats2.get("held", "")) is not None,
+          "link 2's card shows the delay, P(in time) and held samples: %s" % stats2)
+
+    # Independent paths: the channel's own link status, through netkf ctl and a Foxglove client.
+    r_expected = 1.0 / GE_BURST
+    p_expected = r_expected * GE_LOSS / (1.0 - GE_LOSS)
     st = netkf("ctl", "status", "--json")
-    l2 = [l for l in json.loads(st.stdout)["links"] if l["sensor_id"] == 2] if st.returncode == 0 else []
-    check(l2 and l2[0]["model"] == "bernoulli" and l2[0]["loss"] == 1.0, "ctl status shows link 2 at loss 1.0")
+    links = {l["sensor_id"]: l for l in json.loads(st.stdout)["links"]} if st.returncode == 0 else {}
+    l2, l3 = links.get(2, {}), links.get(3, {})
+    check(l2.get("model") == "bernoulli" and l2.get("loss") == 1.0, "ctl status shows link 2 at loss 1.0: %s" % l2)
+    check(l2.get("delay_ms") == DELAY_MS and l2.get("jitter_ms") == 0.0 and l2.get("delay_distribution") == "uniform",
+          "ctl status shows link 2's delay set from the page, its loss model kept: %s" % l2)
+    check(l3.get("model") == "gilbert_elliott" and abs(l3.get("r", -1) - r_expected) < 1e-12 and
+          abs(l3.get("p", -1) - p_expected) < 1e-12 and l3.get("loss_good") == 0.0 and l3.get("loss_bad") == 1.0,
+          "ctl status shows link 3 at r = 1/%g = %g, p = r·%g/(1 − %g) = %g, loss_good 0, loss_bad 1: %s"
+          % (GE_BURST, r_expected, GE_LOSS, GE_LOSS, p_expected, l3))
+    check(abs(l3.get("stationary_loss", -1) - GE_LOSS) < 1e-12 and abs(l3.get("mean_burst", -1) - GE_BURST) < 1e-9,
+          "ctl status shows link 3's stationary loss %g and mean burst %g: %s" % (GE_LOSS, GE_BURST, l3))
+    fox_links = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%d/" % PORT, "--seconds", 2,
+                     "--topic", "netkf/link/status")
+    last = {}
+    for m in fox_links.get("estimates", []):  # the payloads of --topic
+        last[m.get("sensor_id")] = m
+    s2, s3 = last.get(2, {}), last.get(3, {})
+    check(s2.get("model") == "bernoulli" and s2.get("loss") == 1.0 and s2.get("delay_ms") == DELAY_MS and
+          s2.get("jitter_ms") == 0.0 and s2.get("delay_distribution") == "uniform" and s2.get("in_time") == 1.0 and
+          isinstance(s2.get("held"), int) and s2.get("configured_arrival_rate") == 0.0,
+          "the Foxglove client's link status of link 2 shows the delay, the kept loss 1.0, in_time 1, held: %s" % s2)
+    check(s3.get("model") == "gilbert_elliott" and abs(s3.get("p", -1) - p_expected) < 1e-12 and
+          abs(s3.get("r", -1) - r_expected) < 1e-12 and abs(s3.get("loss", -1) - GE_LOSS) < 1e-12 and
+          abs(s3.get("mean_burst", -1) - GE_BURST) < 1e-9 and
+          abs(s3.get("configured_arrival_rate", -1) - (1 - GE_LOSS) * s3.get("in_time", -1)) < 1e-12,
+          "the Foxglove client's link status of link 3 shows both forms and the effective rate: %s" % s3)
     time.sleep(3)
     rc = run.interrupt()
 check(rc == 0, "launch exits 0 on Ctrl-C (rc=%s)" % rc)
