@@ -386,7 +386,7 @@ class Loader {
         e.kind = LinkEvent::Kind::ramp;
         const std::string rp = path + ".ramp";
         const MapView r = open_map(m.values.at("ramp"), rp, mark_of(m.values.at("ramp"), rp), {"to", "over_s", "over_periods"});
-        e.keys = read_link_keys(require(r, "to"), rp + ".to", mark_of(r.values.at("to"), rp + ".to"));
+        e.keys = read_link_keys(require(r, "to"), rp + ".to", mark_of(require(r, "to"), rp + ".to"));
         for (const auto& k : e.keys)
           if (link_key_is_word(k.name))
             fail(mark_of(r.values.at("to"), rp + ".to." + k.name),

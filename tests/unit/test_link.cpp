@@ -1,0 +1,1148 @@
+// The link type (netkf/link.hpp) and scenario `events:` (docs/scenario-format.md, "Links"
+// and "events").
+//
+// Expectations are written here independently of core/src/link.cpp: the Gilbert-Elliott
+// user form by its closed form (r = 1/B, p = r·L/(1 − L)), the stationary statistics by
+// simulation, the delay CDFs by their closed forms (uniform: linear; normal: 0.5·erfc;
+// netem's Pareto: 1 − (1.5 + 0.75 z)^(−3)), the delay draws by a Kolmogorov-Smirnov
+// bound, and the effective loss model by a simulation of loss draws + delay draws +
+// deadline.
+//
+// Tolerances of the statistical checks (fixed seeds, so every run is the same; the bounds
+// say what a run with any seed would pass with high probability):
+//  - a loss fraction over n samples: 5 standard errors, with the standard error of a
+//    Markov-modulated Bernoulli sequence (binomial variance plus the chain's
+//    autocovariance, see loss_fraction_se) — for a Bernoulli link exactly binomial;
+//  - a mean burst length: 5 standard errors by batch means over the bursts (consecutive
+//    bursts are dependent through the chain state);
+//  - an empirical CDF: the Kolmogorov-Smirnov statistic below 1.63/sqrt(n), its 1 %
+//    critical value (conservative for the atoms at 0 and at netem's table limit).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <limits>
+#include <ostream>
+#include <string>
+#include <unistd.h>
+#include <variant>
+#include <vector>
+
+#include "netkf/link.hpp"
+#include "netkf/loss_model.hpp"
+#include "netkf/nodes/channel_links.hpp"
+#include "netkf/random.hpp"
+#include "netkf/scenario.hpp"
+
+// Readable failures: links and events as their keys, numbers to 17 digits.
+namespace netkf {
+inline void PrintTo(const LinkKeys& keys, std::ostream* os) {
+  *os << "{";
+  for (const auto& k : keys) {
+    *os << " " << k.name << ": ";
+    if (const auto* w = std::get_if<std::string>(&k.value)) {
+      *os << *w;
+    } else {
+      *os << std::setprecision(17) << std::get<double>(k.value);
+    }
+  }
+  *os << " }";
+}
+inline void PrintTo(const LinkSpec& link, std::ostream* os) { PrintTo(link_keys(link), os); }
+inline void PrintTo(const BernoulliLink& b, std::ostream* os) { PrintTo(LinkSpec(b), os); }
+inline void PrintTo(const GilbertElliottLink& g, std::ostream* os) { PrintTo(LinkSpec(g), os); }
+inline void PrintTo(const LinkEvent& e, std::ostream* os) {
+  *os << "{ at_period: " << e.at_period << ", link: " << e.link
+      << (e.kind == LinkEvent::Kind::set ? ", set: " : ", ramp over " + std::to_string(e.ramp_periods) + " to: ");
+  PrintTo(e.keys, os);
+  *os << " }";
+}
+}  // namespace netkf
+
+namespace {
+
+namespace fs = std::filesystem;
+using netkf::BernoulliLink;
+using netkf::DelayDistribution;
+using netkf::GilbertElliottLink;
+using netkf::LinkDelay;
+using netkf::LinkError;
+using netkf::LinkEvent;
+using netkf::LinkKey;
+using netkf::LinkKeys;
+using netkf::LinkSpec;
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// netem's distribution tables hold Z · 8192 in 16 bits: Z is at most 32767/8192.
+constexpr double kTableLimit = 32767.0 / 8192.0;
+
+LinkKey word(const std::string& name, const std::string& value) { return {name, value}; }
+LinkKey num(const std::string& name, double value) { return {name, value}; }
+
+const GilbertElliottLink& ge(const LinkSpec& l) { return std::get<GilbertElliottLink>(l.loss); }
+
+struct Refusal {
+  std::string key;
+  std::string message;
+};
+Refusal refusal_of(const LinkSpec& current, const LinkKeys& keys) {
+  try {
+    (void)netkf::apply_link_keys(current, keys);
+  } catch (const LinkError& e) {
+    return {e.key(), e.what()};
+  }
+  return {"<accepted>", "<accepted>"};
+}
+
+std::string scenario_error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const netkf::ScenarioError& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("<not a ScenarioError: ") + e.what() + ">";
+  }
+  return "<no ScenarioError thrown>";
+}
+
+// ---- independent closed forms --------------------------------------------------------
+
+double normal_cdf(double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); }
+
+// Z = (4/3)(U^(-1/3) - 3/2), U uniform on (0,1]: P(Z <= z) = P(U >= (1.5 + 0.75 z)^(-3)).
+// netem's table cannot hold Z above 32767/8192, so that is the largest value.
+double pareto_cdf(double z) {
+  if (z >= kTableLimit) return 1.0;
+  const double base = 1.5 + 0.75 * z;
+  if (base <= 1.0) return 0.0;  // z <= -2/3, the smallest value
+  return 1.0 - std::pow(base, -3.0);
+}
+
+// P(delay <= d) for delay = max(0, delay_ms + jitter_ms · Z).
+double closed_form_cdf(const LinkDelay& d, double deadline) {
+  if (deadline < 0.0) return 0.0;
+  const double z = (deadline - d.delay_ms) / d.jitter_ms;
+  switch (d.distribution) {
+    case DelayDistribution::uniform: return std::clamp((z + 1.0) / 2.0, 0.0, 1.0);
+    case DelayDistribution::normal: return normal_cdf(z);
+    case DelayDistribution::pareto: return pareto_cdf(z);
+    case DelayDistribution::paretonormal: break;
+  }
+  ADD_FAILURE() << "no closed form for paretonormal";
+  return 0.0;
+}
+
+// Stationary statistics of a Gilbert-Elliott chain computed by matrices (state moves
+// first, then the drop in the new state): pi = (r, p)/(p + r), T the transition matrix,
+// l the drop probabilities. P(drop) = pi·l; P(delivered, then dropped) = Σ pi_s (1 - l_s) (T l)_s.
+struct ChainStats {
+  double loss;
+  double mean_burst;
+  double loss_fraction_variance;  // asymptotic n·Var(observed loss over n samples)
+};
+ChainStats chain_stats(const GilbertElliottLink& g) {
+  const double pi[2] = {g.r / (g.p + g.r), g.p / (g.p + g.r)};
+  const double T[2][2] = {{1.0 - g.p, g.p}, {g.r, 1.0 - g.r}};
+  const double l[2] = {g.loss_good, g.loss_bad};
+  double drop = 0.0, burst_starts = 0.0;
+  for (int s = 0; s < 2; ++s) {
+    drop += pi[s] * l[s];
+    double next_drop = 0.0;
+    for (int t = 0; t < 2; ++t) next_drop += T[s][t] * l[t];
+    burst_starts += pi[s] * (1.0 - l[s]) * next_drop;
+  }
+  // Cov(X_t, X_{t+k}) = pi_g pi_b (l_b - l_g)^2 λ^k with λ = 1 - p - r (k >= 1), so
+  // n·Var(mean) -> L(1 - L) + 2 pi_g pi_b (l_b - l_g)^2 λ/(1 - λ).
+  const double lambda = 1.0 - g.p - g.r;
+  const double diff = g.loss_bad - g.loss_good;
+  const double variance = drop * (1.0 - drop) + 2.0 * pi[0] * pi[1] * diff * diff * lambda / (1.0 - lambda);
+  return {drop, drop / burst_starts, variance};
+}
+
+double loss_fraction_se(const netkf::LinkModel& model, double n) {
+  if (const auto* b = std::get_if<BernoulliLink>(&model)) return std::sqrt(b->loss * (1.0 - b->loss) / n);
+  return std::sqrt(chain_stats(std::get<GilbertElliottLink>(model)).loss_fraction_variance / n);
+}
+
+// Mean and standard error by non-overlapping batch means.
+struct Estimate {
+  double mean;
+  double se;
+};
+Estimate batch_means(const std::vector<double>& values, int batches) {
+  const std::size_t size = values.size() / static_cast<std::size_t>(batches);
+  double sum = 0.0, sum_sq = 0.0;
+  for (int b = 0; b < batches; ++b) {
+    double s = 0.0;
+    for (std::size_t i = 0; i < size; ++i) s += values[static_cast<std::size_t>(b) * size + i];
+    const double m = s / static_cast<double>(size);
+    sum += m;
+    sum_sq += m * m;
+  }
+  const double mean = sum / batches;
+  const double var = (sum_sq - batches * mean * mean) / (batches - 1);
+  return {mean, std::sqrt(var / batches)};
+}
+
+// A drop sequence's statistics, counted here (bursts as runs of drops) and by LinkStatistics.
+struct Observed {
+  netkf::LinkStatistics stats;
+  std::vector<double> bursts;  // completed runs of drops
+  void record(bool dropped) {
+    stats.record(dropped);
+    if (dropped) {
+      ++run;
+    } else if (run > 0) {
+      bursts.push_back(run);
+      run = 0;
+    }
+  }
+  double run = 0;
+};
+
+// Kolmogorov-Smirnov distance between the sample and `cdf`, evaluated on both sides of
+// every distinct value (the delay distributions have atoms at 0 and at the table limit).
+double ks_distance(std::vector<double> x, const std::function<double(double)>& cdf) {
+  std::sort(x.begin(), x.end());
+  const double n = static_cast<double>(x.size());
+  double worst = 0.0;
+  for (std::size_t i = 0; i < x.size();) {
+    std::size_t j = i;
+    while (j < x.size() && x[j] == x[i]) ++j;
+    const double at = cdf(x[i]);
+    const double before = cdf(std::nextafter(x[i], -kInf));
+    worst = std::max({worst, std::abs(static_cast<double>(j) / n - at), std::abs(static_cast<double>(i) / n - before)});
+    i = j;
+  }
+  return worst;
+}
+
+std::vector<double> draw_delays(const LinkDelay& d, std::uint64_t seed, int n) {
+  netkf::LinkDelayProcess process(seed);
+  std::vector<double> out;
+  out.reserve(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) out.push_back(process.next_delay_ms(d));
+  return out;
+}
+
+// ======================================================================================
+// apply_link_keys: partial changes, rebuilds, the user form, refusals, round trips.
+
+TEST(LinkType, APartialChangeKeepsTheOtherKeys) {
+  const LinkSpec bernoulli(BernoulliLink{0.3}, LinkDelay{5.0, 2.0, DelayDistribution::normal});
+  // A delay keeps the loss model and the other delay keys.
+  const LinkSpec delayed = netkf::apply_link_keys(bernoulli, {num("delay_ms", 20.0)});
+  EXPECT_EQ(delayed, LinkSpec(BernoulliLink{0.3}, LinkDelay{20.0, 2.0, DelayDistribution::normal}));
+  EXPECT_EQ(netkf::apply_link_keys(bernoulli, {word("delay_distribution", "pareto")}),
+            LinkSpec(BernoulliLink{0.3}, LinkDelay{5.0, 2.0, DelayDistribution::pareto}));
+  // `loss` on a Bernoulli link changes the loss and keeps the delay.
+  EXPECT_EQ(netkf::apply_link_keys(bernoulli, {num("loss", 1.0)}),
+            LinkSpec(BernoulliLink{1.0}, LinkDelay{5.0, 2.0, DelayDistribution::normal}));
+
+  const LinkSpec chain(GilbertElliottLink{0.1, 0.3, 0.02, 0.7}, LinkDelay{6.0, 4.0, DelayDistribution::uniform});
+  EXPECT_EQ(netkf::apply_link_keys(chain, {num("jitter_ms", 1.0)}),
+            LinkSpec(GilbertElliottLink{0.1, 0.3, 0.02, 0.7}, LinkDelay{6.0, 1.0, DelayDistribution::uniform}));
+  // A chain parameter alone changes only that parameter.
+  EXPECT_EQ(netkf::apply_link_keys(chain, {num("p", 0.2)}),
+            LinkSpec(GilbertElliottLink{0.2, 0.3, 0.02, 0.7}, chain.delay));
+  EXPECT_EQ(netkf::apply_link_keys(chain, {num("loss_good", 0.0), num("loss_bad", 1.0)}),
+            LinkSpec(GilbertElliottLink{0.1, 0.3, 0.0, 1.0}, chain.delay));
+  // No keys: the same link.
+  EXPECT_EQ(netkf::apply_link_keys(chain, {}), chain);
+}
+
+TEST(LinkType, ModelRebuildsTheLossModelFromTheKeysGiven) {
+  const LinkSpec chain(GilbertElliottLink{0.1, 0.3, 0.02, 0.7}, LinkDelay{6.0, 4.0, DelayDistribution::normal});
+  // To Bernoulli: the delay stays.
+  EXPECT_EQ(netkf::apply_link_keys(chain, {word("model", "bernoulli"), num("loss", 0.25)}),
+            LinkSpec(BernoulliLink{0.25}, chain.delay));
+  // Rebuilding a Gilbert-Elliott link does not keep the old loss_good / loss_bad: they take
+  // their defaults (0 and 1) unless given.
+  EXPECT_EQ(netkf::apply_link_keys(chain, {word("model", "gilbert_elliott"), num("p", 0.05), num("r", 0.5)}),
+            LinkSpec(GilbertElliottLink{0.05, 0.5, 0.0, 1.0}, chain.delay));
+  EXPECT_EQ(netkf::apply_link_keys(LinkSpec(BernoulliLink{0.3}), {word("model", "gilbert_elliott"), num("p", 0.05),
+                                                                  num("r", 0.5), num("loss_bad", 0.8)}),
+            LinkSpec(GilbertElliottLink{0.05, 0.5, 0.0, 0.8}));
+
+  // The rebuilt model's required keys must be there.
+  const LinkSpec any(BernoulliLink{0.3});
+  EXPECT_EQ(refusal_of(any, {word("model", "bernoulli")}).key, "loss");
+  EXPECT_THAT(refusal_of(any, {word("model", "bernoulli")}).message, HasSubstr("needs loss"));
+  EXPECT_EQ(refusal_of(chain, {word("model", "bernoulli")}).key, "loss");
+  EXPECT_EQ(refusal_of(any, {word("model", "gilbert_elliott")}).key, "p");
+  EXPECT_EQ(refusal_of(any, {word("model", "gilbert_elliott"), num("p", 0.1)}).key, "r");
+  EXPECT_EQ(refusal_of(any, {word("model", "gilbert_elliott"), num("r", 0.1)}).key, "p");
+  EXPECT_THAT(refusal_of(any, {word("model", "gilbert_elliott"), num("r", 0.1)}).message, HasSubstr("needs p and r"));
+  EXPECT_EQ(refusal_of(any, {word("model", "gilbert_elliott"), num("loss", 0.1)}).key, "mean_burst");
+  EXPECT_EQ(refusal_of(any, {word("model", "gilbert_elliott"), num("mean_burst", 3.0)}).key, "loss");
+  EXPECT_THAT(refusal_of(any, {word("model", "gilbert_elliott"), num("mean_burst", 3.0)}).message,
+              HasSubstr("needs both loss and mean_burst"));
+  // Even on a Gilbert-Elliott link: `model` means "from these keys only".
+  EXPECT_EQ(refusal_of(chain, {word("model", "gilbert_elliott"), num("p", 0.1)}).key, "r");
+  EXPECT_EQ(refusal_of(chain, {word("model", "gilbert_elliott"), num("loss", 0.1)}).key, "mean_burst");
+  // link_from_keys needs `model` at all.
+  EXPECT_THROW((void)netkf::link_from_keys({num("loss", 0.1)}), LinkError);
+  EXPECT_EQ(netkf::link_from_keys({word("model", "bernoulli"), num("loss", 0.1), num("delay_ms", 3.0)}),
+            LinkSpec(BernoulliLink{0.1}, LinkDelay{3.0, 0.0, DelayDistribution::uniform}));
+}
+
+TEST(LinkType, UserFormIsTheSimpleGilbertChannelAndRoundTrips) {
+  struct Case {
+    double loss, burst;
+  };
+  // Including the edges: loss 0, burst 1 (Bernoulli-like chain at loss 0.5, p = 1).
+  for (const Case c : {Case{0.2, 5.0}, Case{0.05, 2.0}, Case{0.3, 1.5}, Case{0.5, 1.0}, Case{0.01, 40.0},
+                       Case{0.7, 3.0}, Case{0.0, 3.0}}) {
+    SCOPED_TRACE("loss " + std::to_string(c.loss) + " mean_burst " + std::to_string(c.burst));
+    const LinkSpec link = netkf::apply_link_keys(
+        LinkSpec(BernoulliLink{0.9}), {word("model", "gilbert_elliott"), num("loss", c.loss), num("mean_burst", c.burst)});
+    const double r = 1.0 / c.burst;
+    const double p = r * c.loss / (1.0 - c.loss);
+    ASSERT_TRUE(std::holds_alternative<GilbertElliottLink>(link.loss));
+    EXPECT_NEAR(ge(link).r, r, 1e-15);
+    EXPECT_NEAR(ge(link).p, p, 1e-15);
+    EXPECT_EQ(ge(link).loss_good, 0.0);
+    EXPECT_EQ(ge(link).loss_bad, 1.0);
+    // Round trip: the chain's statistics are what the user asked for.
+    EXPECT_NEAR(netkf::stationary_loss(link.loss), c.loss, 1e-14);
+    if (c.loss > 0.0) {
+      EXPECT_NEAR(netkf::mean_burst_length(link.loss), c.burst, 1e-12 * c.burst);
+    }
+    EXPECT_NEAR(netkf::link_key_value(link, "loss"), c.loss, 1e-14);
+  }
+  // One key of the user form changes it and keeps the other (on a Gilbert-Elliott link).
+  const LinkSpec user = netkf::apply_link_keys(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.2),
+                                                            num("mean_burst", 5.0), num("delay_ms", 3.0)});
+  const LinkSpec more_loss = netkf::apply_link_keys(user, {num("loss", 0.1)});
+  EXPECT_NEAR(netkf::stationary_loss(more_loss.loss), 0.1, 1e-14);
+  EXPECT_NEAR(netkf::mean_burst_length(more_loss.loss), 5.0, 1e-12);
+  EXPECT_EQ(more_loss.delay, user.delay);
+  const LinkSpec longer = netkf::apply_link_keys(user, {num("mean_burst", 8.0)});
+  EXPECT_NEAR(netkf::stationary_loss(longer.loss), 0.2, 1e-14);
+  EXPECT_NEAR(netkf::mean_burst_length(longer.loss), 8.0, 1e-12);
+  // On a chain with loss_good / loss_bad not 0 / 1, `loss` makes it the simple Gilbert
+  // channel with that loss and the chain's mean burst (loss_good, loss_bad, p, r all change).
+  const LinkSpec chain(GilbertElliottLink{0.1, 0.3, 0.02, 0.7});
+  const double chain_burst = chain_stats(ge(chain)).mean_burst;
+  const LinkSpec simple = netkf::apply_link_keys(chain, {num("loss", 0.1)});
+  EXPECT_EQ(ge(simple).loss_good, 0.0);
+  EXPECT_EQ(ge(simple).loss_bad, 1.0);
+  EXPECT_NEAR(ge(simple).r, 1.0 / chain_burst, 1e-14);
+  EXPECT_NEAR(netkf::stationary_loss(simple.loss), 0.1, 1e-14);
+}
+
+TEST(LinkType, UserFormAtTheLargestLossItsBurstAllows) {
+  // B = 1 and B = 3: L = B/(B + 1) gives p = 1 exactly in floating point and is accepted.
+  for (const double b : {1.0, 3.0, 7.0}) {
+    const double l = b / (b + 1.0);
+    const LinkSpec link = netkf::apply_link_keys(
+        LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", l), num("mean_burst", b)});
+    EXPECT_NEAR(ge(link).p, 1.0, 1e-15) << b;
+  }
+  // Just above: refused, naming loss and the largest loss allowed.
+  const Refusal above = refusal_of(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.76), num("mean_burst", 3.0)});
+  EXPECT_EQ(above.key, "loss");
+  EXPECT_THAT(above.message, HasSubstr("allows a loss of at most 0.75"));
+}
+
+// BUG (reported, not fixed): L = B/(B + 1) is documented as allowed ("B = 5 allows
+// 0.833..."), but for B = 4, 5, 9, 2.5 the rounding of p = r·L/(1 − L) gives
+// 1.0000000000000002 and the link is refused, with a message that says the largest loss
+// allowed is the one just given ("a mean burst of 4 allows a loss of at most 0.8"). The same
+// makes a no-op change fail: `set: { mean_burst: 4 }` on the valid chain p = 1, r = 0.25.
+TEST(LinkType, DISABLED_UserFormAcceptsLossEqualToItsDocumentedMaximum) {
+  for (const double b : {4.0, 5.0, 9.0, 2.5}) {
+    const Refusal r =
+        refusal_of(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", b / (b + 1.0)), num("mean_burst", b)});
+    EXPECT_EQ(r.key, "<accepted>") << "mean_burst " << b << ": " << r.message;
+  }
+  const LinkSpec chain(GilbertElliottLink{1.0, 0.25, 0.0, 1.0});
+  EXPECT_EQ(refusal_of(chain, {num("mean_burst", 4.0)}).key, "<accepted>") << refusal_of(chain, {num("mean_burst", 4.0)}).message;
+}
+
+// BUG (reported, not fixed): mean_burst_length() of a simple Gilbert chain with p = 0 is 1
+// (the "no drops, no bursts" convention), while for any p > 0 it is 1/r. A user-form link
+// with loss 0 therefore forgets its mean burst: `{ loss: 0, mean_burst: 5 }` followed by
+// `set: { loss: 0.2 }` (or a ramp of loss from 0) gives mean burst 1, not 5.
+TEST(LinkType, DISABLED_AUserFormLinkWithLossZeroKeepsItsMeanBurst) {
+  EXPECT_NEAR(netkf::mean_burst_length(GilbertElliottLink{1e-12, 0.2, 0.0, 1.0}), 5.0, 1e-9);
+  EXPECT_NEAR(netkf::mean_burst_length(GilbertElliottLink{0.0, 0.2, 0.0, 1.0}), 5.0, 1e-9);
+  const LinkSpec clean = netkf::apply_link_keys(
+      LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.0), num("mean_burst", 5.0)});
+  const LinkSpec lossy = netkf::apply_link_keys(clean, {num("loss", 0.2)});
+  EXPECT_NEAR(netkf::mean_burst_length(lossy.loss), 5.0, 1e-12);
+}
+
+TEST(LinkType, RefusalsNameTheKeyAndTheReason) {
+  const LinkSpec bernoulli(BernoulliLink{0.3});
+  const LinkSpec chain(GilbertElliottLink{0.1, 0.3, 0.02, 0.7});
+  const LinkSpec user = netkf::apply_link_keys(
+      LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.2), num("mean_burst", 5.0)});
+  const LinkKey ge_model = word("model", "gilbert_elliott");
+  struct Case {
+    const char* what;
+    LinkSpec current;
+    LinkKeys keys;
+    std::string key;
+    std::string words;
+  };
+  const std::vector<Case> cases = {
+      // the user form
+      {"L = 1", bernoulli, {ge_model, num("loss", 1.0), num("mean_burst", 3.0)}, "loss", "loss must be below 1"},
+      {"L > 1", bernoulli, {ge_model, num("loss", 1.5), num("mean_burst", 3.0)}, "loss",
+       "loss must be a probability in [0, 1], got 1.5"},
+      {"L = 1 partial", user, {num("loss", 1.0)}, "loss", "loss must be below 1"},
+      {"B < 1", bernoulli, {ge_model, num("loss", 0.2), num("mean_burst", 0.5)}, "mean_burst",
+       "mean_burst must be a finite number >= 1"},
+      {"B < 1 partial", user, {num("mean_burst", 0.99)}, "mean_burst", "mean_burst must be a finite number >= 1"},
+      {"L > B/(B+1)", bernoulli, {ge_model, num("loss", 0.9), num("mean_burst", 2.0)}, "loss",
+       "a mean burst of 2 allows a loss of at most 0.666667"},
+      {"L > B/(B+1) partial", user, {num("loss", 0.9)}, "loss", "a mean burst of 5 allows a loss of at most 0.833333"},
+      // the forms do not mix
+      {"mix p", bernoulli, {ge_model, num("loss", 0.2), num("mean_burst", 5.0), num("p", 0.1)}, "p", "not both"},
+      {"mix r", chain, {num("loss", 0.2), num("r", 0.3)}, "r", "not both (r given with loss)"},
+      {"mix loss_bad", chain, {num("mean_burst", 3.0), num("loss_bad", 0.5)}, "loss_bad",
+       "not both (loss_bad given with mean_burst)"},
+      // the chain
+      {"p = r = 0", bernoulli, {ge_model, num("p", 0.0), num("r", 0.0)}, "p", "p and r cannot both be 0"},
+      {"p = r = 0 partial", chain, {num("p", 0.0), num("r", 0.0)}, "p", "p and r cannot both be 0"},
+      {"p > 1", chain, {num("p", 1.01)}, "p", "p must be a probability in [0, 1], got 1.01"},
+      {"r < 0", chain, {num("r", -0.1)}, "r", "r must be a probability in [0, 1], got -0.1"},
+      {"loss_bad > 1", chain, {num("loss_bad", 1.5)}, "loss_bad", "loss_bad must be a probability"},
+      {"loss_good < 0", chain, {num("loss_good", -0.5)}, "loss_good", "loss_good must be a probability"},
+      {"bernoulli loss > 1", bernoulli, {num("loss", 1.2)}, "loss", "loss must be a probability in [0, 1], got 1.2"},
+      // keys of the other model
+      {"p on bernoulli", bernoulli, {num("p", 0.1)}, "p",
+       "p is a gilbert_elliott key; a bernoulli link has only loss (give model: gilbert_elliott to change the model)"},
+      {"mean_burst on bernoulli", bernoulli, {num("mean_burst", 3.0)}, "mean_burst", "is a gilbert_elliott key"},
+      {"r with model bernoulli", chain, {word("model", "bernoulli"), num("loss", 0.1), num("r", 0.2)}, "r",
+       "r is a gilbert_elliott key; a bernoulli link has only loss"},
+      // names
+      {"unknown key", bernoulli, {num("burst", 3.0)}, "burst",
+       "unknown link key 'burst' (expected one of: model, loss, p, r, loss_good, loss_bad, mean_burst, delay_ms, "
+       "jitter_ms, delay_distribution)"},
+      {"duplicate key", bernoulli, {num("loss", 0.1), num("loss", 0.2)}, "loss", "link key 'loss' given twice"},
+      {"unknown model", bernoulli, {word("model", "markov"), num("loss", 0.1)}, "model",
+       "unknown link model 'markov' (expected bernoulli or gilbert_elliott)"},
+      {"unknown distribution", bernoulli, {word("delay_distribution", "gaussian")}, "delay_distribution",
+       "unknown delay_distribution 'gaussian'"},
+      // words and numbers
+      {"model as number", bernoulli, {num("model", 1.0)}, "model", "model must be a name (bernoulli or gilbert_elliott)"},
+      {"distribution as number", bernoulli, {num("delay_distribution", 2.0)}, "delay_distribution",
+       "delay_distribution must be a name (uniform, normal, pareto or paretonormal)"},
+      {"loss as word", bernoulli, {word("loss", "high")}, "loss", "loss must be a number, got 'high'"},
+      {"delay as word", bernoulli, {word("delay_ms", "5ms")}, "delay_ms", "delay_ms must be a number, got '5ms'"},
+      // not finite
+      {"NaN loss", bernoulli, {num("loss", kNaN)}, "loss", "loss must be a finite number"},
+      {"inf p", chain, {num("p", kInf)}, "p", "p must be a finite number"},
+      {"-inf delay", bernoulli, {num("delay_ms", -kInf)}, "delay_ms", "delay_ms must be a finite number"},
+      {"NaN jitter", bernoulli, {num("jitter_ms", kNaN)}, "jitter_ms", "jitter_ms must be a finite number"},
+      // delays
+      {"negative delay", bernoulli, {num("delay_ms", -1.0)}, "delay_ms", "delay_ms must be in [0, 60000] ms, got -1"},
+      {"negative jitter", bernoulli, {num("jitter_ms", -0.5)}, "jitter_ms", "jitter_ms must be in [0, 60000] ms"},
+      {"delay above a minute", bernoulli, {num("delay_ms", 60000.5)}, "delay_ms", "delay_ms must be in [0, 60000] ms"},
+      {"jitter above a minute", chain, {num("jitter_ms", 1e9)}, "jitter_ms", "jitter_ms must be in [0, 60000] ms"},
+  };
+  for (const Case& c : cases) {
+    const Refusal r = refusal_of(c.current, c.keys);
+    EXPECT_EQ(r.key, c.key) << c.what << ": " << r.message;
+    EXPECT_THAT(r.message, HasSubstr(c.words)) << c.what;
+  }
+  // The limits themselves are accepted.
+  EXPECT_NO_THROW((void)netkf::apply_link_keys(bernoulli, {num("delay_ms", 60000.0), num("jitter_ms", 60000.0)}));
+  EXPECT_NO_THROW((void)netkf::apply_link_keys(bernoulli, {num("delay_ms", 0.0), num("jitter_ms", 0.0)}));
+  EXPECT_NO_THROW((void)netkf::apply_link_keys(chain, {num("p", 0.0)}));  // r > 0: still moves
+}
+
+TEST(LinkType, ErrorsAreSaidAtTheirKeyPath) {
+  const Refusal bad_loss = refusal_of(LinkSpec{}, {num("loss", 2.0)});
+  try {
+    (void)netkf::apply_link_keys(LinkSpec{}, {num("loss", 2.0)});
+    ADD_FAILURE() << "loss 2 accepted";
+  } catch (const LinkError& e) {
+    // A message that starts with its key continues the path; any other follows a colon.
+    EXPECT_EQ(netkf::link_error_at("sensors[0].link", e), "sensors[0].link." + bad_loss.message);
+  }
+  try {
+    (void)netkf::apply_link_keys(LinkSpec{}, {num("lost", 0.5)});
+    ADD_FAILURE() << "key 'lost' accepted";
+  } catch (const LinkError& e) {
+    EXPECT_THAT(netkf::link_error_at("events[2].set", e), StartsWith("events[2].set: unknown link key 'lost'"));
+  }
+}
+
+std::vector<LinkSpec> sample_links() {
+  return {
+      LinkSpec{},
+      LinkSpec(BernoulliLink{0.3}),
+      LinkSpec(BernoulliLink{1.0}, LinkDelay{6.0, 4.0, DelayDistribution::uniform}),
+      LinkSpec(BernoulliLink{0.1 + 0.2}, LinkDelay{1.0 / 3.0, 0.1 + 0.2, DelayDistribution::normal}),
+      LinkSpec(GilbertElliottLink{0.1, 0.3, 0.02, 0.7}, LinkDelay{5.0, 2.0, DelayDistribution::pareto}),
+      LinkSpec(GilbertElliottLink{0.05, 0.2, 0.0, 1.0}, LinkDelay{0.0, 3.0, DelayDistribution::paretonormal}),
+      LinkSpec(GilbertElliottLink{1.0, 0.0, 0.0, 1.0}),
+      netkf::apply_link_keys(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.123), num("mean_burst", 3.7),
+                                          num("delay_ms", 60000.0)}),
+  };
+}
+
+TEST(LinkType, LinkKeysRebuildTheLinkFromAnywhere) {
+  const std::vector<LinkSpec> links = sample_links();
+  for (const LinkSpec& l : links) {
+    const LinkKeys keys = netkf::link_keys(l);
+    SCOPED_TRACE(netkf::describe_link(l));
+    // The whole link: model first, then its parameters, then the three delay keys.
+    ASSERT_GE(keys.size(), 5u);
+    EXPECT_EQ(keys.front(), word("model", netkf::link_model_name(l.loss)));
+    EXPECT_EQ(keys[keys.size() - 3], num("delay_ms", l.delay.delay_ms));
+    EXPECT_EQ(keys[keys.size() - 2], num("jitter_ms", l.delay.jitter_ms));
+    EXPECT_EQ(keys.back(), word("delay_distribution", netkf::delay_distribution_name(l.delay.distribution)));
+    for (const LinkSpec& start : links) EXPECT_EQ(netkf::apply_link_keys(start, keys), l);
+    EXPECT_EQ(netkf::link_from_keys(keys), l);
+  }
+}
+
+TEST(LinkType, LinkKeyValueReadsEveryNumericKey) {
+  const LinkSpec bernoulli(BernoulliLink{0.3}, LinkDelay{5.0, 2.0, DelayDistribution::normal});
+  EXPECT_EQ(netkf::link_key_value(bernoulli, "loss"), 0.3);
+  EXPECT_EQ(netkf::link_key_value(bernoulli, "delay_ms"), 5.0);
+  EXPECT_EQ(netkf::link_key_value(bernoulli, "jitter_ms"), 2.0);
+  for (const char* k : {"p", "r", "loss_good", "loss_bad", "mean_burst"}) {
+    try {
+      (void)netkf::link_key_value(bernoulli, k);
+      ADD_FAILURE() << k << " has a value on a bernoulli link";
+    } catch (const LinkError& e) {
+      EXPECT_EQ(e.key(), k);
+      EXPECT_THAT(e.what(), HasSubstr("does not apply to a bernoulli link"));
+    }
+  }
+  for (const char* k : {"model", "delay_distribution"}) {
+    try {
+      (void)netkf::link_key_value(bernoulli, k);
+      ADD_FAILURE() << k << " has a numeric value";
+    } catch (const LinkError& e) {
+      EXPECT_EQ(e.key(), k);
+      EXPECT_THAT(e.what(), HasSubstr("is a name, not a number"));
+    }
+  }
+  EXPECT_THROW((void)netkf::link_key_value(bernoulli, "bogus"), LinkError);
+
+  const GilbertElliottLink g{0.1, 0.3, 0.02, 0.7};
+  const LinkSpec chain(g, LinkDelay{1.0, 0.5, DelayDistribution::pareto});
+  const ChainStats expected = chain_stats(g);
+  EXPECT_EQ(netkf::link_key_value(chain, "p"), 0.1);
+  EXPECT_EQ(netkf::link_key_value(chain, "r"), 0.3);
+  EXPECT_EQ(netkf::link_key_value(chain, "loss_good"), 0.02);
+  EXPECT_EQ(netkf::link_key_value(chain, "loss_bad"), 0.7);
+  EXPECT_EQ(netkf::link_key_value(chain, "delay_ms"), 1.0);
+  EXPECT_EQ(netkf::link_key_value(chain, "jitter_ms"), 0.5);
+  // The user's form of any chain: its stationary loss and mean burst.
+  EXPECT_NEAR(netkf::link_key_value(chain, "loss"), (0.3 * 0.02 + 0.1 * 0.7) / 0.4, 1e-15);
+  EXPECT_NEAR(netkf::link_key_value(chain, "loss"), expected.loss, 1e-15);
+  EXPECT_NEAR(netkf::link_key_value(chain, "mean_burst"), expected.mean_burst, 1e-12);
+  // The simple Gilbert channel: p/(p + r) and 1/r.
+  const LinkSpec simple(GilbertElliottLink{0.05, 0.2, 0.0, 1.0});
+  EXPECT_NEAR(netkf::link_key_value(simple, "loss"), 0.05 / 0.25, 1e-15);
+  EXPECT_NEAR(netkf::link_key_value(simple, "mean_burst"), 5.0, 1e-12);
+}
+
+// ======================================================================================
+// Stationary statistics against simulation (LinkLossProcess + LinkStatistics).
+
+TEST(LinkStationary, BothFormsMatchASimulation) {
+  constexpr int kSamples = 200000;
+  const std::vector<netkf::LinkModel> models = {
+      BernoulliLink{0.3},
+      GilbertElliottLink{0.1, 0.3, 0.02, 0.7},    // chain form, leaky states
+      GilbertElliottLink{0.02, 0.25, 0.05, 0.9},  // chain form, rare bad spells
+      netkf::apply_link_keys(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.2), num("mean_burst", 5.0)}).loss,
+      netkf::apply_link_keys(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.05), num("mean_burst", 2.0)}).loss,
+  };
+  std::uint64_t index = 0;
+  for (const auto& model : models) {
+    SCOPED_TRACE(netkf::describe_link_model(model));
+    netkf::LinkLossProcess process(model, netkf::derive_seed(2024, "test-link-stationary", index++));
+    Observed seen;
+    for (int i = 0; i < kSamples; ++i) seen.record(process.next_dropped());
+    ASSERT_EQ(seen.stats.samples(), static_cast<std::uint64_t>(kSamples));
+
+    const double loss = netkf::stationary_loss(model);
+    EXPECT_NEAR(seen.stats.observed_loss(), loss, 5.0 * loss_fraction_se(model, kSamples));
+
+    // LinkStatistics counts an open final burst too; the completed ones are enough here.
+    const double burst = netkf::mean_burst_length(model);
+    const Estimate b = batch_means(seen.bursts, 20);
+    EXPECT_NEAR(seen.stats.mean_burst_length(), burst, 5.0 * b.se);
+    EXPECT_NEAR(b.mean, burst, 5.0 * b.se);
+    EXPECT_LT(b.se, 0.03 * burst);  // the comparison means something
+    if (const auto* g = std::get_if<GilbertElliottLink>(&model)) {
+      EXPECT_NEAR(loss, chain_stats(*g).loss, 1e-14);
+      EXPECT_NEAR(burst, chain_stats(*g).mean_burst, 1e-12);
+    }
+  }
+}
+
+// ======================================================================================
+// Delay distributions.
+
+std::vector<LinkDelay> sample_delays() {
+  return {
+      {6.0, 4.0, DelayDistribution::uniform},
+      {5.0, 2.0, DelayDistribution::normal},
+      {5.0, 2.0, DelayDistribution::pareto},
+      {5.0, 2.0, DelayDistribution::paretonormal},
+  };
+}
+
+TEST(LinkDelays, CdfsMatchTheirClosedForms) {
+  const std::vector<LinkDelay> delays = {
+      {6.0, 4.0, DelayDistribution::uniform},  {2.0, 4.0, DelayDistribution::uniform},
+      {5.0, 2.0, DelayDistribution::normal},   {1.0, 2.0, DelayDistribution::normal},
+      {5.0, 2.0, DelayDistribution::pareto},   {0.5, 3.0, DelayDistribution::pareto},
+      {20.0, 7.5, DelayDistribution::pareto},
+  };
+  for (const LinkDelay& d : delays) {
+    SCOPED_TRACE(netkf::delay_distribution_name(d.distribution) + " " + std::to_string(d.delay_ms) + "±" +
+                 std::to_string(d.jitter_ms));
+    for (double t = -2.0; t <= 60.0; t += 0.25)
+      EXPECT_NEAR(netkf::probability_within(d, t), closed_form_cdf(d, t), 1e-12) << "deadline " << t;
+  }
+  // Spot values worked by hand.
+  EXPECT_DOUBLE_EQ(netkf::probability_within({6.0, 4.0, DelayDistribution::uniform}, 8.0), 0.75);
+  EXPECT_NEAR(netkf::probability_within({5.0, 2.0, DelayDistribution::normal}, 7.0), 0.8413447460685429, 1e-15);
+  // Pareto: z = 1 gives 1 - 2.25^-3; the smallest value is delay - (2/3) jitter.
+  EXPECT_NEAR(netkf::probability_within({5.0, 2.0, DelayDistribution::pareto}, 7.0), 1.0 - 1.0 / (2.25 * 2.25 * 2.25),
+              1e-15);
+  EXPECT_EQ(netkf::probability_within({5.0, 3.0, DelayDistribution::pareto}, 2.999), 0.0);
+  // ... and the largest delay + jitter·32767/8192 (netem's table limit).
+  EXPECT_EQ(netkf::probability_within({5.0, 2.0, DelayDistribution::pareto}, 5.0 + 2.0 * kTableLimit), 1.0);
+  EXPECT_LT(netkf::probability_within({5.0, 2.0, DelayDistribution::pareto}, 5.0 + 2.0 * kTableLimit - 1e-9),
+            1.0 - 1.0 / 92.0);
+  // No jitter: a step at the delay.
+  EXPECT_EQ(netkf::probability_within({6.0, 0.0, DelayDistribution::normal}, 5.999), 0.0);
+  EXPECT_EQ(netkf::probability_within({6.0, 0.0, DelayDistribution::normal}, 6.0), 1.0);
+}
+
+TEST(LinkDelays, QuantileIsTheInverseOfTheCdf) {
+  for (const LinkDelay& d0 : sample_delays()) {
+    // Far from 0, so the cut at 0 plays no part.
+    const LinkDelay d{100.0, d0.jitter_ms, d0.distribution};
+    SCOPED_TRACE(netkf::delay_distribution_name(d.distribution));
+    for (const double q : {0.001, 0.01, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 0.98}) {
+      const double x = netkf::delay_quantile(d, q);
+      EXPECT_NEAR(netkf::probability_within(d, x), q, 1e-9) << q;
+      if (d.distribution != DelayDistribution::paretonormal) {
+        EXPECT_NEAR(closed_form_cdf(d, x), q, 1e-12) << q;
+      }
+    }
+  }
+  // Quantiles by hand: uniform is linear, pareto's median is (4/3)(2^(1/3) - 3/2).
+  EXPECT_DOUBLE_EQ(netkf::delay_quantile({6.0, 4.0, DelayDistribution::uniform}, 0.25), 4.0);
+  EXPECT_NEAR(netkf::delay_quantile({5.0, 2.0, DelayDistribution::pareto}, 0.5),
+              5.0 + 2.0 * (4.0 / 3.0) * (std::cbrt(2.0) - 1.5), 1e-14);
+  EXPECT_NEAR(netkf::delay_quantile({5.0, 2.0, DelayDistribution::normal}, 0.975), 5.0 + 2.0 * 1.959963984540054, 1e-12);
+  // Pareto: capped at netem's table limit.
+  EXPECT_EQ(netkf::delay_quantile({5.0, 2.0, DelayDistribution::pareto}, 0.999), 5.0 + 2.0 * kTableLimit);
+}
+
+// netem's paretonormal table: 0.25·normal + 0.75·pareto of the same table index, i.e. of
+// the same quantile q. Here from the two other distributions' quantiles.
+double paretonormal_from_parts(double delay, double jitter, double q) {
+  const double zn = (netkf::delay_quantile({delay, jitter, DelayDistribution::normal}, q) - delay) / jitter;
+  const double zp = (netkf::delay_quantile({delay, jitter, DelayDistribution::pareto}, q) - delay) / jitter;
+  return delay + jitter * (0.25 * zn + 0.75 * zp);
+}
+
+TEST(LinkDelays, ParetonormalIsTheMixOfTheSameQuantile) {
+  const double delay = 100.0, jitter = 10.0;  // far from 0: no cut
+  for (const double q : {1e-4, 0.001, 0.01, 0.05, 0.1, 0.3, 0.5, 0.7, 0.9, 0.95, 0.98, 0.985}) {
+    EXPECT_NEAR(netkf::delay_quantile({delay, jitter, DelayDistribution::paretonormal}, q),
+                paretonormal_from_parts(delay, jitter, q), 1e-9)
+        << q;
+  }
+  // Its mean is about the delay: the Pareto part has mean 0 but for netem's cap at
+  // 32767/8192, which takes E[excess] = (4/3)/(2·4.5²) ≈ 0.033 jitter off it (0.75 of that
+  // in the mix). Midpoint rule over q.
+  const int steps = 1000000;
+  double mean = 0.0;
+  for (int i = 0; i < steps; ++i)
+    mean += netkf::delay_quantile({delay, jitter, DelayDistribution::paretonormal}, (i + 0.5) / steps);
+  mean /= steps;
+  EXPECT_NEAR(mean, delay, 0.04 * jitter);
+}
+
+// BUG (reported, not fixed): netem's paretonormal.c caps the Pareto value at 32767 (Z at
+// 32767/8192) *before* mixing: (normvalue + 3·min(parvalue, 32767))/4. link.cpp mixes the
+// uncapped Pareto quantile and clamps the sum, so above q ≈ 0.989 (where the Pareto part
+// passes the cap) its delays are larger than netem's: at q = 0.99, Z = 3.72 instead of 3.58.
+TEST(LinkDelays, DISABLED_ParetonormalCapsTheParetoPartBeforeMixingAsNetemDoes) {
+  const double delay = 100.0, jitter = 10.0;
+  for (const double q : {0.99, 0.995, 0.999})
+    EXPECT_NEAR(netkf::delay_quantile({delay, jitter, DelayDistribution::paretonormal}, q),
+                paretonormal_from_parts(delay, jitter, q), 1e-9)
+        << q;
+}
+
+TEST(LinkDelays, DrawsFollowTheCdfKolmogorovSmirnov) {
+  constexpr int kDraws = 100000;
+  const double bound = 1.63 / std::sqrt(static_cast<double>(kDraws));  // 1 % level
+  std::uint64_t index = 0;
+  for (const LinkDelay& d : sample_delays()) {
+    SCOPED_TRACE(netkf::delay_distribution_name(d.distribution));
+    const std::vector<double> x = draw_delays(d, netkf::derive_seed(99, "test-link-delay", index++), kDraws);
+    EXPECT_LT(ks_distance(x, [&](double t) { return netkf::probability_within(d, t); }), bound);
+    if (d.distribution != DelayDistribution::paretonormal) {
+      EXPECT_LT(ks_distance(x, [&](double t) { return closed_form_cdf(d, t); }), bound);
+    }
+    EXPECT_GE(*std::min_element(x.begin(), x.end()), 0.0);
+  }
+}
+
+TEST(LinkDelays, NegativeDrawsAreCutAtZero) {
+  constexpr int kDraws = 200000;
+  // delay < jitter: uniform on [-2, 6] puts 1/4 below 0; normal(1, 2) puts Φ(-1/2).
+  const std::vector<std::pair<LinkDelay, double>> cases = {
+      {{2.0, 4.0, DelayDistribution::uniform}, 0.25},
+      {{1.0, 2.0, DelayDistribution::normal}, normal_cdf(-0.5)},
+      {{1.0, 3.0, DelayDistribution::pareto}, pareto_cdf(-1.0 / 3.0)},
+  };
+  std::uint64_t index = 0;
+  for (const auto& [d, p0] : cases) {
+    SCOPED_TRACE(netkf::delay_distribution_name(d.distribution));
+    EXPECT_NEAR(netkf::probability_within(d, 0.0), p0, 1e-12);
+    EXPECT_EQ(netkf::probability_within(d, -1e-9), 0.0);
+    const std::vector<double> x = draw_delays(d, netkf::derive_seed(5, "test-link-zero", index++), kDraws);
+    const double zeros = static_cast<double>(std::count(x.begin(), x.end(), 0.0)) / kDraws;
+    EXPECT_NEAR(zeros, p0, 5.0 * std::sqrt(p0 * (1.0 - p0) / kDraws));
+    EXPECT_GE(*std::min_element(x.begin(), x.end()), 0.0);
+  }
+  // Without jitter: exactly the delay, and no delay at all is 0.
+  netkf::LinkDelayProcess fixed(1);
+  EXPECT_EQ(fixed.next_delay_ms({7.5, 0.0, DelayDistribution::normal}), 7.5);
+  EXPECT_EQ(fixed.next_delay_ms({}), 0.0);
+}
+
+// ======================================================================================
+// The effective loss model (late = lost).
+
+TEST(LinkEffective, BernoulliIsThinnedByTheChanceToBeInTime) {
+  const LinkSpec link(BernoulliLink{0.2}, LinkDelay{6.0, 2.0, DelayDistribution::normal});
+  const double in_time = normal_cdf((8.0 - 6.0) / 2.0);
+  const auto effective = netkf::effective_loss_model(link, 8.0);
+  ASSERT_TRUE(std::holds_alternative<BernoulliLink>(effective));
+  EXPECT_NEAR(std::get<BernoulliLink>(effective).loss, 1.0 - 0.8 * in_time, 1e-15);
+  EXPECT_NEAR(netkf::effective_arrival_rate(link, 8.0), 0.8 * in_time, 1e-15);
+  // No delay: the link itself. All late: everything lost.
+  EXPECT_NEAR(std::get<BernoulliLink>(netkf::effective_loss_model(LinkSpec(BernoulliLink{0.2}), 8.0)).loss, 0.2, 1e-15);
+  EXPECT_EQ(std::get<BernoulliLink>(netkf::effective_loss_model(LinkSpec(BernoulliLink{0.2}, {9.0, 0.0}), 8.0)).loss,
+            1.0);
+}
+
+TEST(LinkEffective, GilbertElliottThinnedMatchesASimulationOfDropsDelaysAndDeadline) {
+  constexpr int kSamples = 200000;
+  const double deadline = 8.0;
+  const std::vector<LinkSpec> links = {
+      LinkSpec(GilbertElliottLink{0.1, 0.3, 0.02, 0.7}, LinkDelay{6.0, 4.0, DelayDistribution::uniform}),
+      LinkSpec(GilbertElliottLink{0.05, 0.2, 0.0, 1.0}, LinkDelay{5.0, 2.0, DelayDistribution::pareto}),
+      LinkSpec(BernoulliLink{0.1}, LinkDelay{6.0, 2.0, DelayDistribution::paretonormal}),
+  };
+  std::uint64_t index = 0;
+  for (const LinkSpec& link : links) {
+    SCOPED_TRACE(netkf::describe_link(link));
+    const double in_time = netkf::probability_within(link.delay, deadline);
+    const auto effective = netkf::effective_loss_model(link, deadline);
+    if (const auto* g = std::get_if<GilbertElliottLink>(&link.loss)) {
+      const auto& e = std::get<GilbertElliottLink>(effective);
+      EXPECT_EQ(e.p, g->p);
+      EXPECT_EQ(e.r, g->r);
+      EXPECT_NEAR(e.loss_good, 1.0 - (1.0 - g->loss_good) * in_time, 1e-15);
+      EXPECT_NEAR(e.loss_bad, 1.0 - (1.0 - g->loss_bad) * in_time, 1e-15);
+    }
+    // The channel: a loss draw per sample, a delay draw per delivered sample; late = lost.
+    netkf::LinkLossProcess loss(link.loss, netkf::derive_seed(3, "test-link-effective", index));
+    netkf::LinkDelayProcess delay(netkf::derive_seed(3, "test-link-effective-delay", index++));
+    Observed seen;
+    for (int i = 0; i < kSamples; ++i) {
+      const bool dropped = loss.next_dropped();
+      seen.record(dropped || delay.next_delay_ms(link.delay) > deadline);
+    }
+    const double delivered_in_time = 1.0 - seen.stats.observed_loss();
+    EXPECT_NEAR(delivered_in_time, netkf::effective_arrival_rate(link, deadline),
+                5.0 * loss_fraction_se(effective, kSamples));
+    const Estimate b = batch_means(seen.bursts, 20);
+    EXPECT_NEAR(b.mean, netkf::mean_burst_length(effective), 5.0 * b.se);
+  }
+}
+
+// ======================================================================================
+// Scenario events: parsing, errors, files, replay.
+
+const char* const kScenarioHead =
+    "period_ms: 10\n"
+    "seed: 7\n"
+    "plant: { A: [[0.5]], Q: [[1.0]] }\n"
+    "sensors:\n"
+    "  - { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.3, delay_ms: 4, jitter_ms: 2 } }\n"
+    "  - { id: 2, C: [[1.0]], R: [[1.0]], link: { model: gilbert_elliott, loss: 0.2, mean_burst: 5 } }\n"
+    "  - { id: 3, C: [[1.0]], R: [[1.0]], link: { model: gilbert_elliott, p: 0.1, r: 0.3, loss_good: 0.02, "
+    "loss_bad: 0.7 } }\n"
+    "events:\n";
+constexpr int kFirstEventLine = 9;
+
+std::string with_events(const std::vector<std::string>& lines) {
+  std::string text = kScenarioHead;
+  for (const auto& l : lines) text += l + "\n";
+  return text;
+}
+
+netkf::Scenario base_scenario() {
+  std::string text = kScenarioHead;
+  text.resize(text.size() - std::string("events:\n").size());
+  return netkf::parse_scenario(text, "base.yaml");
+}
+
+TEST(LinkEvents, AtPeriodAtSetAndRampsAreRead) {
+  const netkf::Scenario s = netkf::parse_scenario(
+      with_events({
+          "  - { at_period: 300, link: 1, set: { loss: 1.0 } }",
+          "  - { at_s: 2.5, link: 1, set: { delay_ms: 20, model: bernoulli, loss: 0.1 } }",
+          "  - { at_s: 0.026, link: 3, ramp: { to: { p: 0.2, jitter_ms: 3 }, over_s: 0.37 } }",
+          "  - { at_s: 0.024, link: 1, ramp: { to: { loss: 0.5 }, over_periods: 7 } }",
+          "  - { at_period: 0, link: 3, set: { delay_distribution: pareto, delay_ms: 2, jitter_ms: 1 } }",
+          "  - { at_s: 0, link: 2, ramp: { to: { mean_burst: 2 }, over_s: 0 } }",
+      }),
+      "ev.yaml");
+  ASSERT_EQ(s.events.size(), 6u);
+  const std::vector<LinkEvent> expected = {
+      {300, 1, LinkEvent::Kind::set, {num("loss", 1.0)}, 0},
+      // Keys come back in the documented order (model, loss, ..., delay_ms, ...), not the file's.
+      {250, 1, LinkEvent::Kind::set, {word("model", "bernoulli"), num("loss", 0.1), num("delay_ms", 20.0)}, 0},
+      // at_s and over_s are rounded to whole periods: 2.6 -> 3, 2.4 -> 2, 37.
+      {3, 3, LinkEvent::Kind::ramp, {num("p", 0.2), num("jitter_ms", 3.0)}, 37},
+      {2, 1, LinkEvent::Kind::ramp, {num("loss", 0.5)}, 7},
+      {0, 3, LinkEvent::Kind::set, {num("delay_ms", 2.0), num("jitter_ms", 1.0), word("delay_distribution", "pareto")}, 0},
+      {0, 2, LinkEvent::Kind::ramp, {num("mean_burst", 2.0)}, 0},
+  };
+  for (std::size_t i = 0; i < expected.size(); ++i) EXPECT_EQ(s.events[i], expected[i]) << "events[" << i << "]";
+  // The order they apply: by period, ties in list order.
+  EXPECT_EQ(netkf::event_application_order(s.events), (std::vector<std::size_t>{4, 5, 3, 2, 1, 0}));
+}
+
+TEST(LinkEvents, KeysAreCheckedForTheLinkAsItIsWhenTheEventApplies) {
+  // Link 1 is Bernoulli until period 100. mean_burst applies to it only from then on,
+  // whatever the order of the list.
+  EXPECT_NO_THROW(netkf::parse_scenario(
+      with_events({"  - { at_period: 200, link: 1, set: { mean_burst: 3 } }",
+                   "  - { at_period: 100, link: 1, set: { model: gilbert_elliott, p: 0.1, r: 0.5 } }"}),
+      "ev.yaml"));
+  const std::string message = scenario_error_of([] {
+    netkf::parse_scenario(
+        with_events({"  - { at_period: 100, link: 1, set: { model: gilbert_elliott, p: 0.1, r: 0.5 } }",
+                     "  - { at_period: 50, link: 1, set: { mean_burst: 3 } }"}),
+        "ev.yaml");
+  });
+  EXPECT_THAT(message, StartsWith("ev.yaml:" + std::to_string(kFirstEventLine + 1) + ":"));
+  EXPECT_THAT(message, HasSubstr("events[1].set.mean_burst is a gilbert_elliott key"));
+}
+
+// "FILE:LINE:COL: " of `token` in the `index`th event line (1-based line and column).
+std::string at(const std::vector<std::string>& lines, std::size_t index, const std::string& token) {
+  const std::size_t col = lines[index].find(token);
+  EXPECT_NE(col, std::string::npos) << token;
+  return "ev.yaml:" + std::to_string(kFirstEventLine + static_cast<int>(index)) + ":" + std::to_string(col + 1) + ": ";
+}
+
+TEST(LinkEvents, ErrorsGiveFileLineColumnAndWhatIsWrong) {
+  struct Case {
+    std::vector<std::string> lines;
+    std::size_t index;  // the line the error is on
+    std::string token;  // where on it
+    std::vector<std::string> words;
+  };
+  const std::vector<Case> cases = {
+      {{"  - { at_period: -1, link: 1, set: { loss: 0.5 } }"}, 0, "-1",
+       {"events[0].at_period: the event is before period 0, got -1"}},
+      {{"  - { at_period: 5, link: 1, set: { loss: 0.5 } }", "  - { at_s: -0.5, link: 1, set: { loss: 0.5 } }"}, 1,
+       "-0.5", {"events[1].at_s: the event is before the start (period 0), got -0.5"}},
+      {{"  - { at_period: 1.5, link: 1, set: { loss: 0.5 } }"}, 0, "1.5", {"events[0].at_period must be an integer"}},
+      {{"  - { at_period: 5, link: 9, set: { loss: 0.5 } }"}, 0, "link",
+       {"events[0].link: unknown link 9 (the scenario's links: 1, 2, 3)"}},
+      {{"  - { at_period: 5, set: { loss: 0.5 } }"}, 0, "{", {"missing required key 'events[0].link'"}},
+      {{"  - { at_period: 5, link: 1, set: { los: 0.5 } }"}, 0, "los", {"unknown key 'los' in events[0].set"}},
+      {{"  - { at_period: 5, link: 1, set: { loss: 1.5 } }"}, 0, "loss",
+       {"events[0].set.loss must be a probability in [0, 1], got 1.5"}},
+      {{"  - { at_period: 5, link: 1, set: { loss: high } }"}, 0, "high", {"events[0].set.loss must be a number"}},
+      {{"  - { at_period: 5, link: 1, set: { loss: .nan } }"}, 0, ".nan", {"events[0].set.loss must be a finite number"}},
+      {{"  - { at_period: 5, link: 1, set: { delay_ms: -3 } }"}, 0, "delay_ms",
+       {"events[0].set.delay_ms must be in [0, 60000] ms, got -3"}},
+      {{"  - { at_period: 5, link: 1, set: { model: 2 } }"}, 0, "model",
+       {"events[0].set: unknown link model '2' (expected bernoulli or gilbert_elliott)"}},
+      {{"  - { at_period: 5, link: 2, set: { loss: 0.9 } }"}, 0, "loss",
+       {"events[0].set.loss 0.9 with mean_burst 5 needs p = 1.8 > 1"}},
+      // A key that does not apply to the link at that point.
+      {{"  - { at_period: 5, link: 1, set: { mean_burst: 3 } }"}, 0, "mean_burst",
+       {"events[0].set.mean_burst is a gilbert_elliott key; a bernoulli link has only loss"}},
+      {{"  - { at_period: 5, link: 3, set: { loss: 0.2, r: 0.5 } }"}, 0, "r: 0.5",
+       {"events[0].set: a gilbert_elliott link is given by", "not both (r given with loss)"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { p: 0.5 }, over_periods: 3 } }"}, 0, "p: 0.5",
+       {"events[0].ramp.to: link key 'p' does not apply to a bernoulli link"}},
+      // Ramps move numbers.
+      {{"  - { at_period: 5, link: 1, ramp: { to: { model: gilbert_elliott }, over_s: 1 } }"}, 0, "model",
+       {"events[0].ramp.to.model: a ramp moves numbers; change model with set"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { delay_distribution: normal }, over_s: 1 } }"}, 0,
+       "delay_distribution", {"a ramp moves numbers; change delay_distribution with set"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { loss: 0.5 } } }"}, 0, "ramp",
+       {"events[0].ramp needs exactly one of over_s (seconds) or over_periods"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { loss: 0.5 }, over_s: 1, over_periods: 3 } }"}, 0, "ramp",
+       {"events[0].ramp needs exactly one of over_s"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { loss: 0.5 }, over_periods: -2 } }"}, 0, "-2",
+       {"events[0].ramp.over_periods must be >= 0, got -2"}},
+      {{"  - { at_period: 5, link: 1, ramp: { to: { loss: 0.5 }, over_s: -1 } }"}, 0, "-1",
+       {"events[0].ramp.over_s must be >= 0, got -1"}},
+      // (This one used to escape as std::out_of_range "map::at".)
+      {{"  - { at_period: 5, link: 1, ramp: { over_s: 1 } }"}, 0, "ramp", {"missing required key 'events[0].ramp.to'"}},
+      // When and what: exactly one of each.
+      {{"  - { at_period: 5, at_s: 1, link: 1, set: { loss: 0.5 } }"}, 0, "{",
+       {"events[0] needs exactly one of at_period (a period index) or at_s (seconds from the start)"}},
+      {{"  - { link: 1, set: { loss: 0.5 } }"}, 0, "{", {"events[0] needs exactly one of at_period"}},
+      {{"  - { at_period: 5, link: 1 }"}, 0, "{",
+       {"events[0] needs exactly one of set: { LINK KEYS } or ramp: { to: { LINK KEYS }, over_s: S }"}},
+      {{"  - { at_period: 5, link: 1, set: { loss: 0.5 }, ramp: { to: { loss: 0.5 }, over_s: 1 } }"}, 0, "{",
+       {"events[0] needs exactly one of set"}},
+      {{"  - { at_period: 5, link: 1, when: 3, set: { loss: 0.5 } }"}, 0, "when",
+       {"unknown key 'when' in events[0] (expected one of: at_period, at_s, link, set, ramp)"}},
+      {{"  - { at_period: 5, link: 1, set: [ 0.5 ] }"}, 0, "set", {"events[0].set must be a mapping"}},
+  };
+  for (const Case& c : cases) {
+    const std::string message = scenario_error_of([&] { netkf::parse_scenario(with_events(c.lines), "ev.yaml"); });
+    EXPECT_THAT(message, StartsWith(at(c.lines, c.index, c.token))) << c.lines[c.index];
+    for (const auto& w : c.words) EXPECT_THAT(message, HasSubstr(w)) << c.lines[c.index];
+  }
+  // `events` itself must be a list.
+  const std::string not_a_list =
+      scenario_error_of([] { netkf::parse_scenario(std::string(kScenarioHead) + "  at_period: 3\n", "ev.yaml"); });
+  EXPECT_THAT(not_a_list, StartsWith("ev.yaml:8:1: events must be a list")) << not_a_list;
+}
+
+// A temporary file, removed at the end of the test.
+class TempFile {
+ public:
+  explicit TempFile(const std::string& stem)
+      : path_(fs::temp_directory_path() / (stem + "-" + std::to_string(::getpid()) + ".yaml")) {}
+  ~TempFile() {
+    std::error_code ec;
+    fs::remove(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+  void write(const std::string& text) const { std::ofstream(path_, std::ios::trunc) << text; }
+
+ private:
+  fs::path path_;
+};
+
+std::vector<LinkEvent> sample_events() {
+  // Keys in the documented order (what a reader returns), awkward doubles included.
+  return {
+      {0, 3, LinkEvent::Kind::set, {num("delay_ms", 0.1 + 0.2), word("delay_distribution", "paretonormal")}, 0},
+      {12, 1, LinkEvent::Kind::set, netkf::link_keys(LinkSpec(BernoulliLink{1.0 / 3.0}, {6.0, 4.0})), 0},
+      {12, 2, LinkEvent::Kind::ramp, {num("loss", 0.05), num("mean_burst", 2.5)}, 40},
+      {700, 3, LinkEvent::Kind::ramp, {num("p", 0.123456789012345), num("jitter_ms", 1e-7)}, 0},
+      {900, 2, LinkEvent::Kind::set,
+       netkf::link_keys(LinkSpec(GilbertElliottLink{0.07, 0.31, 0.011, 0.93}, {2.0, 1.0, DelayDistribution::normal})), 0},
+  };
+}
+
+TEST(LinkEvents, EventsToYamlAndBackGiveEqualEvents) {
+  const netkf::Scenario s = base_scenario();
+  const std::vector<LinkEvent> events = sample_events();
+  const TempFile file("netkf-test-link-events");
+  file.write(netkf::events_to_yaml(events));
+  EXPECT_EQ(netkf::load_events_file(file.path(), s), events);
+  // No events: a valid file with none.
+  file.write(netkf::events_to_yaml({}));
+  EXPECT_TRUE(netkf::load_events_file(file.path(), s).empty());
+  // A bare list is accepted too; its errors carry the file, line and column.
+  file.write("- { at_period: 3, link: 1, set: { loss: 0.5 } }\n- { at_period: 4, link: 1, set: { p: 0.5 } }\n");
+  const std::string message = scenario_error_of([&] { netkf::load_events_file(file.path(), s); });
+  EXPECT_THAT(message, StartsWith(file.path().string() + ":2:35: events[1].set.p is a gilbert_elliott key")) << message;
+  file.write("events:\n  - { at_period: -4, link: 1, set: { loss: 0.5 } }\n");
+  EXPECT_THAT(scenario_error_of([&] { netkf::load_events_file(file.path(), s); }),
+              StartsWith(file.path().string() + ":2:18: events[0].at_period: the event is before period 0"));
+}
+
+// REPORTED, not fixed: load_events_file checks the file's events against the scenario's
+// links as they are at period 0, without the scenario's own events, although they are
+// replayed together (add_replayed_events). A hand-written file that relies on the
+// scenario's timeline (a Gilbert-Elliott key after the timeline made the link
+// Gilbert-Elliott) is refused. (Files written by --record carry whole links, so they are
+// not affected.)
+TEST(LinkEvents, DISABLED_AnEventsFileIsCheckedTogetherWithTheScenariosTimeline) {
+  netkf::Scenario s = base_scenario();
+  s.events = {{100, 1, LinkEvent::Kind::set, {word("model", "gilbert_elliott"), num("p", 0.1), num("r", 0.5)}, 0}};
+  netkf::validate_scenario(s);
+  const TempFile file("netkf-test-link-events-timeline");
+  file.write("events:\n  - { at_period: 200, link: 1, set: { mean_burst: 3 } }\n");
+  std::vector<LinkEvent> replayed;
+  EXPECT_NO_THROW(replayed = netkf::load_events_file(file.path(), s));
+  EXPECT_NO_THROW(netkf::add_replayed_events(s, replayed));
+}
+
+TEST(LinkEvents, ReplayedEventsApplyBeforeTheScenariosAtTheSamePeriod) {
+  netkf::Scenario s = base_scenario();
+  s.events = {{100, 1, LinkEvent::Kind::set, {num("loss", 0.5)}, 0},
+              {300, 2, LinkEvent::Kind::set, {num("mean_burst", 2.0)}, 0}};
+  const std::vector<LinkEvent> replayed = {
+      {100, 1, LinkEvent::Kind::set, {word("model", "bernoulli"), num("loss", 0.9)}, 0},
+      {40, 2, LinkEvent::Kind::set, {num("loss", 0.1)}, 0},
+  };
+  netkf::add_replayed_events(s, replayed);
+  ASSERT_EQ(s.events.size(), 4u);
+  // Replayed first in the list, so first among equals in the order of application.
+  EXPECT_EQ(s.events[0], replayed[0]);
+  EXPECT_EQ(s.events[1], replayed[1]);
+  const std::vector<std::size_t> order = netkf::event_application_order(s.events);
+  EXPECT_EQ(order, (std::vector<std::size_t>{1, 0, 2, 3}));
+
+  // In the channel: at period 100 the replayed change applies, then the scenario's.
+  netkf::nodes::ChannelLinks links(s);
+  for (std::int64_t k = 0; k <= 100; ++k) links.on_sample(1, k);
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[0].at_period, 100);
+  EXPECT_EQ(changes[0].link.loss, netkf::LinkModel(BernoulliLink{0.9}));
+  EXPECT_EQ(changes[1].link.loss, netkf::LinkModel(BernoulliLink{0.5}));
+  EXPECT_EQ(links.report(1)->link, LinkSpec(BernoulliLink{0.5}, {4.0, 2.0}));  // the delay kept
+
+  // The result is validated.
+  netkf::Scenario t = base_scenario();
+  EXPECT_THAT(scenario_error_of([&] {
+                netkf::add_replayed_events(t, {{5, 42, LinkEvent::Kind::set, {num("loss", 0.1)}, 0}});
+              }),
+              HasSubstr("events[0].link: unknown link 42"));
+  netkf::Scenario u = base_scenario();
+  EXPECT_THAT(scenario_error_of([&] {
+                netkf::add_replayed_events(u, {{5, 1, LinkEvent::Kind::set, {num("mean_burst", 2.0)}, 0}});
+              }),
+              HasSubstr("events[0].set.mean_burst is a gilbert_elliott key"));
+}
+
+TEST(LinkEvents, ScenarioYamlRoundTripKeepsLinksWithDelayAndEventsExactly) {
+  netkf::Scenario s = base_scenario();
+  const std::vector<LinkSpec> links = {
+      LinkSpec(BernoulliLink{0.1 + 0.2}, LinkDelay{1.0 / 3.0, 2.0 / 7.0, DelayDistribution::normal}),
+      LinkSpec(GilbertElliottLink{0.07, 1.0 / 3.0, 0.0, 1.0}, LinkDelay{6.000000000000001, 4.0, DelayDistribution::pareto}),
+      netkf::apply_link_keys(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", 0.123), num("mean_burst", 3.7),
+                                          num("delay_ms", 0.5), num("jitter_ms", 59999.99),
+                                          word("delay_distribution", "paretonormal")}),
+  };
+  for (std::size_t i = 0; i < links.size(); ++i) s.sensors[i].link = links[i];
+  s.events = sample_events();
+  netkf::validate_scenario(s);
+  const netkf::Scenario back = netkf::parse_scenario(netkf::scenario_to_yaml(s), "round-trip.yaml");
+  ASSERT_EQ(back.sensors.size(), s.sensors.size());
+  for (std::size_t i = 0; i < s.sensors.size(); ++i) EXPECT_EQ(back.sensors[i].link, s.sensors[i].link) << i;
+  EXPECT_EQ(back.events, s.events);
+}
+
+// ======================================================================================
+// Ramps in the channel (ChannelLinks).
+
+TEST(LinkRamp, GilbertElliottRampOfPMovesLinearlyAndReachesTheTargetExactly) {
+  const netkf::Scenario s = netkf::parse_scenario(
+      with_events({"  - { at_period: 100, link: 3, ramp: { to: { p: 0.25 }, over_periods: 8 } }"}), "ramp.yaml");
+  netkf::nodes::ChannelLinks links(s);
+  const GilbertElliottLink start{0.1, 0.3, 0.02, 0.7};
+  std::uint64_t samples = 0;
+  for (std::int64_t k = 0; k < 150; ++k) {
+    links.on_sample(3, k);
+    ++samples;
+    const LinkSpec& now = links.report(3)->link;
+    const GilbertElliottLink& g = ge(now);
+    // Only p moves.
+    EXPECT_EQ(g.r, start.r);
+    EXPECT_EQ(g.loss_good, start.loss_good);
+    EXPECT_EQ(g.loss_bad, start.loss_bad);
+    if (k < 100) {
+      EXPECT_EQ(g.p, start.p) << k;
+    } else if (k < 108) {
+      EXPECT_NEAR(g.p, 0.1 + 0.15 * static_cast<double>(k - 100) / 8.0, 1e-15) << k;
+    } else {
+      EXPECT_EQ(g.p, 0.25) << k;  // exactly the target, from period 108 on
+    }
+    // A ramp's steps do not reset the link's statistics.
+    EXPECT_EQ(links.report(3)->stats.samples(), samples);
+  }
+  // Journal: the ramp's start (100) and its end (108).
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[0].at_period, 100);
+  EXPECT_EQ(changes[1].at_period, 108);
+  EXPECT_EQ(ge(changes[1].link).p, 0.25);
+}
+
+TEST(LinkRamp, ARampOfLossOnTheUserFormKeepsTheMeanBurst) {
+  // over_s 0.1 at period_ms 10: 10 periods.
+  const netkf::Scenario s = netkf::parse_scenario(
+      with_events({"  - { at_s: 1, link: 2, ramp: { to: { loss: 0.4, delay_ms: 10 }, over_s: 0.1 } }"}), "ramp.yaml");
+  netkf::nodes::ChannelLinks links(s);
+  for (std::int64_t k = 0; k < 130; ++k) {
+    links.on_sample(2, k);
+    const LinkSpec& now = links.report(2)->link;
+    const double f = std::clamp(static_cast<double>(k - 100) / 10.0, 0.0, 1.0);
+    EXPECT_NEAR(netkf::stationary_loss(now.loss), 0.2 + 0.2 * f, 1e-12) << k;
+    EXPECT_NEAR(netkf::mean_burst_length(now.loss), 5.0, 1e-9) << k;
+    EXPECT_NEAR(now.delay.delay_ms, 10.0 * f, 1e-12) << k;
+  }
+  EXPECT_EQ(links.report(2)->link.delay.delay_ms, 10.0);
+}
+
+TEST(LinkRamp, ARampOverZeroPeriodsIsASet) {
+  const netkf::Scenario ramp = netkf::parse_scenario(
+      with_events({"  - { at_period: 100, link: 3, ramp: { to: { p: 0.25, delay_ms: 3 }, over_periods: 0 } }"}),
+      "ramp.yaml");
+  const netkf::Scenario set = netkf::parse_scenario(
+      with_events({"  - { at_period: 100, link: 3, set: { p: 0.25, delay_ms: 3 } }"}), "set.yaml");
+  netkf::nodes::ChannelLinks a(ramp), b(set);
+  for (std::int64_t k = 0; k < 400; ++k) {
+    const auto fa = a.on_sample(3, k);
+    const auto fb = b.on_sample(3, k);
+    ASSERT_EQ(fa.verdict, fb.verdict) << k;
+    ASSERT_EQ(fa.delay_ms, fb.delay_ms) << k;
+    ASSERT_EQ(a.report(3)->link, b.report(3)->link) << k;
+    if (k == 100) {
+      EXPECT_EQ(ge(a.report(3)->link).p, 0.25);
+      EXPECT_EQ(a.report(3)->link.delay.delay_ms, 3.0);
+    }
+  }
+  const auto ca = a.take_changes();
+  const auto cb = b.take_changes();
+  ASSERT_EQ(ca.size(), 1u);
+  ASSERT_EQ(cb.size(), 1u);
+  EXPECT_EQ(ca[0].at_period, 100);
+  EXPECT_EQ(ca[0].link, cb[0].link);
+  EXPECT_TRUE(ca[0].failure.empty());
+}
+
+// REPORTED, not fixed (follows from DISABLED_AUserFormLinkWithLossZeroKeepsItsMeanBurst):
+// "start clean, then ramp up bursty loss" loses the burst length.
+TEST(LinkRamp, DISABLED_ARampOfLossFromZeroKeepsTheMeanBurst) {
+  const netkf::Scenario s = netkf::parse_scenario(
+      std::string(kScenarioHead).replace(std::string(kScenarioHead).find("loss: 0.2, mean_burst: 5"), 24,
+                                         "loss: 0.0, mean_burst: 5") +
+          "  - { at_period: 10, link: 2, ramp: { to: { loss: 0.2 }, over_periods: 10 } }\n",
+      "ramp.yaml");
+  netkf::nodes::ChannelLinks links(s);
+  for (std::int64_t k = 0; k <= 30; ++k) links.on_sample(2, k);
+  EXPECT_NEAR(netkf::stationary_loss(links.report(2)->link.loss), 0.2, 1e-12);
+  EXPECT_NEAR(netkf::mean_burst_length(links.report(2)->link.loss), 5.0, 1e-9);
+}
+
+}  // namespace
