@@ -54,7 +54,10 @@ GilbertElliottLink gilbert_from_loss_and_burst(double loss, double mean_burst) {
     throw LinkError("mean_burst", "mean_burst must be a finite number >= 1 (a burst is one or more drops), got " +
                                       number_text(mean_burst));
   const double r = 1.0 / mean_burst;
-  const double p = r * loss / (1.0 - loss);
+  double p = r * loss / (1.0 - loss);
+  // At the limit loss = B/(B+1) the formula gives p = 1 up to rounding (1 + 2^-52 for B = 4):
+  // a valid chain, not a refusal.
+  if (p > 1.0 && p <= 1.0 + 1e-12) p = 1.0;
   if (p > 1.0) {
     throw LinkError("loss", "loss " + number_text(loss) + " with mean_burst " + number_text(mean_burst) +
                                 " needs p = " + number_text(p) + " > 1: a mean burst of " + number_text(mean_burst) +
@@ -201,8 +204,9 @@ double standard_quantile(DelayDistribution d, double q) {
     case DelayDistribution::pareto: return std::min(pareto_standard_quantile(q), kNetemTableLimit);
     case DelayDistribution::paretonormal:
       // netem/paretonormal.c: (normal + 3·pareto)/4 of the same table index, i.e. quantile.
-      return std::clamp(0.25 * normal_quantile(q) + 0.75 * pareto_standard_quantile(q), -kNetemTableLimit,
-                        kNetemTableLimit);
+      // The Pareto part is capped at the table's limit before mixing, as netem's generator does.
+      return std::clamp(0.25 * normal_quantile(q) + 0.75 * std::min(pareto_standard_quantile(q), kNetemTableLimit),
+                        -kNetemTableLimit, kNetemTableLimit);
   }
   return 0.0;
 }
@@ -289,7 +293,7 @@ double link_key_value(const LinkSpec& link, const std::string& name) {
     if (name == "r") return g->r;
     if (name == "loss_good") return g->loss_good;
     if (name == "loss_bad") return g->loss_bad;
-    if (name == "mean_burst") return mean_burst_length(link.loss);
+    if (name == "mean_burst") return mean_burst_length(*g);
   }
   if (link_key_is_word(name)) throw LinkError(name, name + " is a name, not a number");
   throw LinkError(name, "link key '" + name + "' does not apply to a " + link_model_name(link.loss) + " link");
@@ -337,6 +341,10 @@ double mean_burst_length(const LinkModel& model) {
     return b->loss >= 1.0 ? kInfinity : 1.0 / (1.0 - b->loss);
   }
   const auto& g = std::get<GilbertElliottLink>(model);
+  // The simple Gilbert channel: a burst is a sojourn in Bad, geometric with mean 1/r. The
+  // general ratio below gives the same for p > 0; at p = 0 (loss 0) it has no drops to
+  // measure, but a link given as { loss: 0, mean_burst: 5 } must keep its 5.
+  if (g.loss_good == 0.0 && g.loss_bad == 1.0) return g.r > 0.0 ? 1.0 / g.r : kInfinity;
   const GoodBad pi = stationary_distribution(g);
   // Bursts per sample = P(sample t delivered, sample t+1 dropped); drops per sample
   // = P(drop). Their ratio is the mean run length of consecutive drops. Per sample

@@ -101,8 +101,12 @@ class Loader {
       root = top.values.at("events");
     }
     std::vector<LinkEvent> events = read_events(root, "events", scenario);
+    // Checked as they will run: before the scenario's own events of the same period, and
+    // together with its timeline (an event may rely on an earlier change of the scenario's).
+    // The replayed events come first, so the messages' events[i] are this file's.
     Scenario check = scenario;
     check.events = events;
+    check.events.insert(check.events.end(), scenario.events.begin(), scenario.events.end());
     validate_scenario(check, [this](const std::string& path) { return locate(path); });
     return events;
   }

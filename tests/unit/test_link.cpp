@@ -354,12 +354,10 @@ TEST(LinkType, UserFormAtTheLargestLossItsBurstAllows) {
   EXPECT_THAT(above.message, HasSubstr("allows a loss of at most 0.75"));
 }
 
-// BUG (reported, not fixed): L = B/(B + 1) is documented as allowed ("B = 5 allows
-// 0.833..."), but for B = 4, 5, 9, 2.5 the rounding of p = r·L/(1 − L) gives
-// 1.0000000000000002 and the link is refused, with a message that says the largest loss
-// allowed is the one just given ("a mean burst of 4 allows a loss of at most 0.8"). The same
-// makes a no-op change fail: `set: { mean_burst: 4 }` on the valid chain p = 1, r = 0.25.
-TEST(LinkType, DISABLED_UserFormAcceptsLossEqualToItsDocumentedMaximum) {
+// L = B/(B + 1) is documented as allowed ("B = 5 allows 0.833..."): for B = 4, 5, 9, 2.5 the
+// rounding of p = r·L/(1 − L) gives 1.0000000000000002, which must not refuse the link (nor a
+// no-op change such as `set: { mean_burst: 4 }` on the valid chain p = 1, r = 0.25).
+TEST(LinkType, UserFormAcceptsLossEqualToItsDocumentedMaximum) {
   for (const double b : {4.0, 5.0, 9.0, 2.5}) {
     const Refusal r =
         refusal_of(LinkSpec{}, {word("model", "gilbert_elliott"), num("loss", b / (b + 1.0)), num("mean_burst", b)});
@@ -369,11 +367,10 @@ TEST(LinkType, DISABLED_UserFormAcceptsLossEqualToItsDocumentedMaximum) {
   EXPECT_EQ(refusal_of(chain, {num("mean_burst", 4.0)}).key, "<accepted>") << refusal_of(chain, {num("mean_burst", 4.0)}).message;
 }
 
-// BUG (reported, not fixed): mean_burst_length() of a simple Gilbert chain with p = 0 is 1
-// (the "no drops, no bursts" convention), while for any p > 0 it is 1/r. A user-form link
-// with loss 0 therefore forgets its mean burst: `{ loss: 0, mean_burst: 5 }` followed by
-// `set: { loss: 0.2 }` (or a ramp of loss from 0) gives mean burst 1, not 5.
-TEST(LinkType, DISABLED_AUserFormLinkWithLossZeroKeepsItsMeanBurst) {
+// The mean burst of a simple Gilbert chain is 1/r also at p = 0, where it has no drops to
+// measure: a user-form link `{ loss: 0, mean_burst: 5 }` followed by `set: { loss: 0.2 }` (or
+// a ramp of loss from 0) keeps mean burst 5.
+TEST(LinkType, AUserFormLinkWithLossZeroKeepsItsMeanBurst) {
   EXPECT_NEAR(netkf::mean_burst_length(GilbertElliottLink{1e-12, 0.2, 0.0, 1.0}), 5.0, 1e-9);
   EXPECT_NEAR(netkf::mean_burst_length(GilbertElliottLink{0.0, 0.2, 0.0, 1.0}), 5.0, 1e-9);
   const LinkSpec clean = netkf::apply_link_keys(
@@ -679,11 +676,10 @@ TEST(LinkDelays, ParetonormalIsTheMixOfTheSameQuantile) {
   EXPECT_NEAR(mean, delay, 0.04 * jitter);
 }
 
-// BUG (reported, not fixed): netem's paretonormal.c caps the Pareto value at 32767 (Z at
-// 32767/8192) *before* mixing: (normvalue + 3·min(parvalue, 32767))/4. link.cpp mixes the
-// uncapped Pareto quantile and clamps the sum, so above q ≈ 0.989 (where the Pareto part
-// passes the cap) its delays are larger than netem's: at q = 0.99, Z = 3.72 instead of 3.58.
-TEST(LinkDelays, DISABLED_ParetonormalCapsTheParetoPartBeforeMixingAsNetemDoes) {
+// netem's paretonormal.c caps the Pareto value at 32767 (Z at 32767/8192) *before* mixing:
+// (normvalue + 3·min(parvalue, 32767))/4. Above q ≈ 0.989 (where the Pareto part passes the
+// cap) mixing first would give larger delays than netem's: at q = 0.99, Z = 3.72, not 3.58.
+TEST(LinkDelays, ParetonormalCapsTheParetoPartBeforeMixingAsNetemDoes) {
   const double delay = 100.0, jitter = 10.0;
   for (const double q : {0.99, 0.995, 0.999})
     EXPECT_NEAR(netkf::delay_quantile({delay, jitter, DelayDistribution::paretonormal}, q),
@@ -978,13 +974,10 @@ TEST(LinkEvents, EventsToYamlAndBackGiveEqualEvents) {
               StartsWith(file.path().string() + ":2:18: events[0].at_period: the event is before period 0"));
 }
 
-// REPORTED, not fixed: load_events_file checks the file's events against the scenario's
-// links as they are at period 0, without the scenario's own events, although they are
-// replayed together (add_replayed_events). A hand-written file that relies on the
-// scenario's timeline (a Gilbert-Elliott key after the timeline made the link
-// Gilbert-Elliott) is refused. (Files written by --record carry whole links, so they are
-// not affected.)
-TEST(LinkEvents, DISABLED_AnEventsFileIsCheckedTogetherWithTheScenariosTimeline) {
+// load_events_file checks the file's events together with the scenario's own timeline, as
+// they are replayed (add_replayed_events): a hand-written file may rely on the scenario's
+// timeline (a Gilbert-Elliott key after the timeline made the link Gilbert-Elliott).
+TEST(LinkEvents, AnEventsFileIsCheckedTogetherWithTheScenariosTimeline) {
   netkf::Scenario s = base_scenario();
   s.events = {{100, 1, LinkEvent::Kind::set, {word("model", "gilbert_elliott"), num("p", 0.1), num("r", 0.5)}, 0}};
   netkf::validate_scenario(s);
@@ -1131,9 +1124,9 @@ TEST(LinkRamp, ARampOverZeroPeriodsIsASet) {
   EXPECT_TRUE(ca[0].failure.empty());
 }
 
-// REPORTED, not fixed (follows from DISABLED_AUserFormLinkWithLossZeroKeepsItsMeanBurst):
-// "start clean, then ramp up bursty loss" loses the burst length.
-TEST(LinkRamp, DISABLED_ARampOfLossFromZeroKeepsTheMeanBurst) {
+// "Start clean, then ramp up bursty loss" keeps the burst length
+// (see AUserFormLinkWithLossZeroKeepsItsMeanBurst).
+TEST(LinkRamp, ARampOfLossFromZeroKeepsTheMeanBurst) {
   const netkf::Scenario s = netkf::parse_scenario(
       std::string(kScenarioHead).replace(std::string(kScenarioHead).find("loss: 0.2, mean_burst: 5"), 24,
                                          "loss: 0.0, mean_burst: 5") +

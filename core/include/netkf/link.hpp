@@ -47,7 +47,7 @@ enum class DelayDistribution {
 
 /// How long a delivered sample is held. A drawn delay below 0 is 0.
 struct LinkDelay {
-  double delay_ms = 0.0;   // base delay (the mean for every distribution)
+  double delay_ms = 0.0;   // base delay: the centre of every distribution (the mean but for the cuts at 0 and netem's cap)
   double jitter_ms = 0.0;  // spread: half-width (uniform), standard deviation (normal), scale (pareto*)
   DelayDistribution distribution = DelayDistribution::uniform;
   bool operator==(const LinkDelay&) const = default;
