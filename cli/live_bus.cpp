@@ -117,6 +117,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
           r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
           r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
           r.held = w.held();
+          r.past_deadline = w.past_deadline();
           cb(std::move(r));
         }));
   }

@@ -567,6 +567,7 @@ nlohmann::json link_json(const LinkStatusRecord& l) {
                    {"delivered_total", l.delivered_total},
                    {"dropped_total", l.dropped_total},
                    {"held", l.held},
+                   {"past_deadline", l.past_deadline},
                    {"last_request_id", l.last_request_id}};
   for (const auto& k : link_keys(l.link)) {
     if (const auto* word = std::get_if<std::string>(&k.value)) j[k.name] = *word;

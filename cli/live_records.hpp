@@ -49,6 +49,7 @@ struct LinkStatusRecord {
   LinkSpec link;
   double in_time = 1.0;          // theory: P(delay <= deadline)
   std::uint64_t held = 0;        // delivered samples waiting out their delay
+  std::uint64_t past_deadline = 0;  // of `delivered`: delayed beyond the deadline (late whatever else happens)
   // Since the current model was set (they describe the model shown):
   std::uint64_t samples_in = 0;
   std::uint64_t delivered = 0;

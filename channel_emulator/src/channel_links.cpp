@@ -9,7 +9,7 @@ const char* to_string(AppliedLinkChange::Origin origin) {
   return origin == AppliedLinkChange::Origin::request ? "request" : "timeline";
 }
 
-ChannelLinks::ChannelLinks(const Scenario& scenario) {
+ChannelLinks::ChannelLinks(const Scenario& scenario) : deadline_ms_(scenario.deadline_ms()) {
   for (const auto& s : scenario.sensors) {
     LinkReport r;
     r.sensor_id = s.id;
@@ -28,7 +28,10 @@ ChannelLinks::ChannelLinks(const Scenario& scenario) {
 void ChannelLinks::set_link(Link& link, const LinkSpec& spec, bool reset_statistics) {
   link.loss.set_model(spec.loss);  // keeps a Gilbert-Elliott chain's state (unlike netem)
   link.report.link = spec;
-  if (reset_statistics) link.report.stats = LinkStatistics{};
+  if (reset_statistics) {
+    link.report.stats = LinkStatistics{};
+    link.report.past_deadline = 0;
+  }
 }
 
 void ChannelLinks::apply_due(Link& link, std::int64_t k) {
@@ -99,7 +102,9 @@ SampleFate ChannelLinks::on_sample(int sensor_id, std::int64_t k) {
   link.report.stats.record(dropped);
   link.report.lifetime.record(dropped);
   if (dropped) return {Verdict::dropped, 0.0};
-  return {Verdict::delivered, link.delay.next_delay_ms(link.report.link.delay)};
+  const double delay_ms = link.delay.next_delay_ms(link.report.link.delay);
+  if (delay_ms > deadline_ms_) ++link.report.past_deadline;
+  return {Verdict::delivered, delay_ms};
 }
 
 ChannelLinks::Verdict ChannelLinks::on_sample(int sensor_id) {

@@ -75,7 +75,7 @@ int main(int argc, char** argv) {
           for (const auto& r : links.reports()) {
             facts.push_back({r.sensor_id, r.link, netkf::probability_within(r.link.delay, scenario.deadline_ms()),
                              r.stats, r.lifetime, r.last_request_id, r.last_request_rejected, r.reject_reason,
-                             held.held(r.sensor_id)});
+                             held.held(r.sensor_id), r.past_deadline});
           }
         }
         for (const auto& f : facts) status.write(netkf::dds::make_link_status(f, now));

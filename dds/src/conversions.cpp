@@ -251,6 +251,7 @@ wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_n
   s.last_request_rejected(f.last_request_rejected);
   s.reject_reason(f.reject_reason);
   s.held(f.held);
+  s.past_deadline(f.past_deadline);
   s.stamp_ns(stamp_ns);
   return s;
 }

@@ -201,6 +201,23 @@ TEST(ChannelLogic, TimelineSetsAndRampsApplyFromTheFirstSampleOfTheirPeriod) {
   }
 }
 
+TEST(ChannelLogic, CountsTheSamplesItDelaysBeyondTheDeadline) {
+  // Deadline 8 ms (80 % of the 10 ms period); delay uniform on [4, 12] ms: P(delay > 8) = 1/2.
+  ChannelLinks links(links_scenario());
+  ASSERT_TRUE(links.request(1, 1, {{"delay_ms", 8.0}, {"jitter_ms", 4.0}}).applied);
+  std::uint64_t beyond = 0;
+  for (std::int64_t k = 0; k < 20000; ++k) {
+    const auto fate = links.on_sample(1, k);
+    beyond += fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms > 8.0;
+  }
+  const auto* r = links.report(1);
+  EXPECT_EQ(r->past_deadline, beyond);  // the report counts exactly the draws above the deadline
+  const double n = static_cast<double>(r->stats.delivered());
+  EXPECT_NEAR(static_cast<double>(r->past_deadline) / n, 0.5, 4.0 * std::sqrt(0.25 / n));
+  ASSERT_TRUE(links.request(2, 1, {{"delay_ms", 0.0}, {"jitter_ms", 0.0}}).applied);
+  EXPECT_EQ(links.report(1)->past_deadline, 0u);  // since the current link was set, as the other counts
+}
+
 TEST(ReleaseQueue, ReleasesInTimeOrderTiesFirstInFirstOut) {
   netkf::nodes::ReleaseQueue<int> q;
   const auto t0 = netkf::nodes::ReleaseQueue<int>::Clock::time_point{} + std::chrono::seconds(100);

@@ -21,6 +21,7 @@ struct LinkReport {
   LinkSpec link;
   LinkStatistics stats;     // since the current model was set (a ramp's steps do not reset it)
   LinkStatistics lifetime;  // since the channel started (not reset by a change)
+  std::uint64_t past_deadline = 0;  // delivered with a delay above the estimator's deadline (as stats)
   std::uint64_t last_request_id = 0;
   bool last_request_rejected = false;
   std::string reject_reason;
@@ -107,6 +108,7 @@ class ChannelLinks {
   void step_ramp(Link& link, std::int64_t k);
 
   std::map<int, Link> links_;
+  double deadline_ms_ = 0.0;  // a sample delayed longer is late whatever else happens
   std::vector<AppliedLinkChange> changes_;
   std::uint64_t unknown_sensor_samples_ = 0;
 };

@@ -98,6 +98,7 @@ struct LinkStatusFacts {
   bool last_request_rejected = false;
   std::string reject_reason;
   std::uint64_t held = 0;
+  std::uint64_t past_deadline = 0;
 };
 wire::LinkStatus make_link_status(const LinkStatusFacts& facts, std::int64_t stamp_ns);
 /// The link a status describes (throws ConversionError when it is not a valid link).
