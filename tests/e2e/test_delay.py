@@ -8,9 +8,11 @@ deadline runs from the tick's arrival at the estimator, and a sample's path (pla
 channel -> estimator) is longer than the tick's by the pipeline's own latency (BENCHMARKS.md:
 well under a millisecond), which makes a sample slightly more likely to be late than the
 configured delay alone. `netkf analyze` states the same rates from the scenario (1, 1/2, 0).
-"Never" allows 0.5 % of the periods: a period in which the machine (not the link) held the
-estimator's tick or thread back by more than the 6 ms margin — rare on a quiet machine, seen a
-few times per run while two compilers shared the two cores; each is counted in the output.
+"Never" allows 2 % of the periods: a period that the estimator fused more than 3 ms after its
+deadline (its timer or thread held back while the 2 cores were busy at the period boundary:
+every process of the network wakes then) sees link 3's sample in time and link 1's glitch-free
+samples late. Measured on the 2-core machine: 7 of 661 periods on a quiet machine, 1 of 659
+while two compilers ran; each run prints its count.
 Counts come from the run's summary (--summary), fused sets from the recording."""
 import json
 import math
@@ -38,7 +40,7 @@ rows = read_periods(run.record, 2)
 check(len(rows) > 500, "the run fused more than 500 periods (%d)" % len(rows))
 
 l1, l2, l3 = links["1"], links["2"], links["3"]
-glitches = 0.005 * len(rows)
+glitches = 0.02 * len(rows)
 check(l1["delivered"] > 500 and l1["late"] <= glitches,
       "link 1 (delay U[0,2] ms) is never late (%d delivered, %d late)" % (l1["delivered"], l1["late"]))
 fused1 = sum(1 in r["fused"] for r in rows)
@@ -48,7 +50,7 @@ fused3 = sum(3 in r["fused"] for r in rows)
 check(fused3 <= glitches and l3["fused"] == fused3, "link 3 (delay U[11,13] ms) is never fused (%d periods)" % fused3)
 # Every sample of link 3 is late, except the last few that the run's end cuts off (released
 # by the channel after the estimator stopped, or still held at shutdown).
-check(l3["delivered"] > 500 and l3["delivered"] - 5 <= l3["late"] <= l3["delivered"],
+check(l3["delivered"] > 500 and l3["delivered"] - 5 - fused3 <= l3["late"] <= l3["delivered"],
       "link 3 is always late (%d of %d delivered)" % (l3["late"], l3["delivered"]))
 
 n = l2["delivered"]
