@@ -116,14 +116,21 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
       raise(LiveEvent::Level::error, "link " + std::to_string(status.sensor_id) + ": change refused by the channel (" +
                                          status.rejection_reason + ", from " + source + ")");
   }
+  // Observed arrival rate: what reached the estimator in time, i.e. delivered and not delayed
+  // beyond the deadline (the channel's past_deadline), per sample that entered the link.
+  const auto in_time = [](const LinkStatusRecord& r) {
+    return r.delivered >= r.past_deadline ? r.delivered - r.past_deadline : 0;
+  };
+  const std::uint64_t in_time_now = in_time(status);
   const bool same_model = view->reported && status.last_request_id == view->last_request_id;
-  if (same_model && status.samples_in > view->samples_in && status.delivered >= view->delivered) {
+  if (same_model && status.samples_in > view->samples_in && in_time_now >= view->delivered_in_time) {
     // Rate over the last report interval: follows a runtime change within one report.
-    view->observed_arrival_rate = static_cast<double>(status.delivered - view->delivered) /
+    view->observed_arrival_rate = static_cast<double>(in_time_now - view->delivered_in_time) /
                                   static_cast<double>(status.samples_in - view->samples_in);
   } else if (status.samples_in > 0 && (!same_model || !view->observed_arrival_rate)) {
-    view->observed_arrival_rate = 1.0 - status.observed_loss;
+    view->observed_arrival_rate = static_cast<double>(in_time_now) / static_cast<double>(status.samples_in);
   }
+  view->delivered_in_time = in_time_now;
   view->link = status.link;
   view->in_time = status.in_time;
   view->held = status.held;

@@ -44,7 +44,8 @@ struct LinkView {
   std::uint64_t dropped_total = 0;
   std::uint64_t late_total = 0;    // delivered but after the estimator fused their period (the estimator's count)
   double configured_arrival_rate = 1.0;          // λ_i = (1 − stationary loss) · in_time: the effective rate
-  std::optional<double> observed_arrival_rate;   // delivered / samples over the last report interval
+  std::optional<double> observed_arrival_rate;   // in time / samples over the last report interval
+  std::uint64_t delivered_in_time = 0;           // delivered and not delayed past the deadline (since the model was set)
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;                  // of the last request (empty: applied)
 };

@@ -243,4 +243,17 @@ TEST(LiveMetrics, CountersFollowTheTotalsAndNeverGoBack) {
 }
 
 }  // namespace
+TEST(LiveModel, ObservedArrivalRateCountsOnlySamplesInTime) {
+  // A delivered sample the channel delayed beyond the deadline is lost to the estimator.
+  LiveModel model(default_scenario());
+  auto status = link_status(1, BernoulliLink{0.0}, 100, 100);
+  status.past_deadline = 40;
+  model.add_link_status(status);
+  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_arrival_rate.value(), 0.6);
+  status = link_status(1, BernoulliLink{0.0}, 200, 200);
+  status.past_deadline = 50;  // 10 of the last 100 late
+  model.add_link_status(status);
+  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_arrival_rate.value(), 0.9);
+}
+
 }  // namespace netkf::cli
