@@ -70,7 +70,10 @@ with Launch(scenario, 60, out, record=False,
         print(text, flush=True)
         check(p.returncode == 0, "netkf record --out %s exits 0 (rc=%s)" % (name, p.returncode))
     time.sleep(1.0)
-    run.stop()  # SIGTERM: the launch stops its children and completes the file
+    run.proc.send_signal(signal.SIGTERM)  # the launch stops its children and completes the file
+    rc = run.wait(40)
+    check(rc is not None, "the launch ended after SIGTERM (rc=%s)" % rc)
+    run.stop()  # whatever is left
     log = run.output()
 print(log[-2000:], flush=True)
 check("stopped (signal)" in log, "the launch was stopped by the signal")
