@@ -121,6 +121,25 @@ std::vector<Channel> make_channels() {
   return c;
 }
 
+// Channels of the recordings only (their topics are the DDS topics of the records).
+std::vector<Channel> make_recording_channels() {
+  std::vector<Channel> c;
+  c.push_back({ChannelId::delivered, "netkf/measurement/delivered", "netkf.wire.Measurement",
+               schema_object({{"sensor_id", {{"type", "integer"}}},
+                              {"k", {{"type", "integer"}}},
+                              {"stamp", {{"type", "number"}}},
+                              {"y", number_array()}},
+                             {"sensor_id", "k", "stamp", "y"})});
+  json change_props = link_model_schema();
+  change_props["sensor_id"] = {{"type", "integer"}};
+  change_props["at_period"] = {{"type", "integer"}};
+  change_props["origin"] = {{"type", "string"}, {"enum", {"request", "timeline"}}};
+  change_props["request_id"] = {{"type", "integer"}};
+  c.push_back({ChannelId::link_change, "netkf/link/change", "netkf.wire.LinkChange",
+               schema_object(change_props, {"sensor_id", "at_period", "origin", "model"})});
+  return c;
+}
+
 // The link by its keys; a Gilbert-Elliott link also in the user's form (loss, mean_burst).
 json link_json(const LinkSpec& link) {
   json j = json::object();
@@ -220,6 +239,14 @@ const Channel* find_channel(std::uint32_t id) {
   return nullptr;
 }
 
+const Channel& channel(ChannelId id) {
+  static const std::vector<Channel> recording_only = make_recording_channels();
+  if (const Channel* c = find_channel(static_cast<std::uint32_t>(id))) return *c;
+  for (const auto& c : recording_only)
+    if (c.id == id) return c;
+  throw std::logic_error("no channel " + std::to_string(static_cast<std::uint32_t>(id)));
+}
+
 json server_info(const std::string& session_id, const Scenario& scenario) {
   return json{{"op", "serverInfo"},
               {"name", "netkf launch"},
@@ -288,6 +315,21 @@ json link_status_message(const LinkView& l) {
   j["last_request_id"] = l.last_request_id;
   j["last_request_rejected"] = !l.rejection_reason.empty();
   j["reject_reason"] = l.rejection_reason;
+  return j;
+}
+
+json delivered_message(const DeliveredRecord& d) {
+  json y = json::array();
+  for (double v : d.y) y.push_back(number_or_null(v));
+  return json{{"sensor_id", d.sensor_id}, {"k", d.k}, {"stamp", number_or_null(d.stamp)}, {"y", std::move(y)}};
+}
+
+json link_change_message(const LinkChangeRecord& c) {
+  json j = link_json(c.link);
+  j["sensor_id"] = c.sensor_id;
+  j["at_period"] = c.at_period;
+  j["origin"] = c.origin;
+  j["request_id"] = c.request_id;
   return j;
 }
 

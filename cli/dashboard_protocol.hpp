@@ -23,7 +23,9 @@ namespace netkf::cli::dashboard {
 inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
 
 /// The channels every connection is offered (ids are fixed: a reconnecting client may cache them).
-enum class ChannelId : std::uint32_t { scenario = 1, estimate = 2, truth = 3, link_status = 4, theory = 5, network = 6 };
+enum class ChannelId : std::uint32_t { scenario = 1, estimate = 2, truth = 3, link_status = 4, theory = 5, network = 6,
+  // Recordings only (netkf launch --record FILE.mcap), not offered by the dashboard:
+  delivered = 7, link_change = 8 };
 
 struct Channel {
   ChannelId id;
@@ -33,6 +35,9 @@ struct Channel {
 };
 const std::vector<Channel>& channels();
 const Channel* find_channel(std::uint32_t id);
+/// Any channel by id: the dashboard's and the recordings' own (delivered, link_change).
+/// The topic is the DDS topic the messages come from (netkf/truth, netkf/estimate, ...).
+const Channel& channel(ChannelId id);
 
 /// A malformed or unknown client message; what() is the reason sent back to the client.
 struct ProtocolError : std::runtime_error {
@@ -49,6 +54,10 @@ nlohmann::json scenario_message(const Scenario& scenario);
 nlohmann::json estimate_message(const EstimateRecord& estimate);
 nlohmann::json truth_message(const TruthRecord& truth);
 nlohmann::json link_status_message(const LinkView& link);
+/// Recordings: a delivered measurement, and one entry of the channel's link journal (the
+/// link after the change, keys as in link_status_message).
+nlohmann::json delivered_message(const DeliveredRecord& sample);
+nlohmann::json link_change_message(const LinkChangeRecord& change);
 nlohmann::json theory_message(const TheoryView& theory);
 nlohmann::json network_message(const LiveSnapshot& snapshot);
 

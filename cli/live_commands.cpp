@@ -31,6 +31,7 @@
 #include "live_views.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
+#include "record_mcap.hpp"
 #include "run_summary.hpp"
 
 namespace netkf::cli {
@@ -56,14 +57,21 @@ struct NetworkOptions {
   throw CLI::RuntimeError(code);
 }
 
-/// Record CSV files written from the main thread: truth + estimates, and optionally
-/// every delivered sample.
+/// Record files written from the main thread: truth + estimates (a CSV, or an MCAP file
+/// when the name ends with .mcap), and optionally every delivered sample.
 class Recording {
  public:
   Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
             const Scenario& scenario)
       : periods_(scenario.state_dim()), samples_(max_measurement_dim(scenario)) {
-    if (periods_file) {
+    if (periods_file && is_mcap_path(*periods_file)) {
+      mcap_out_.open(*periods_file, std::ios::trunc | std::ios::binary);
+      if (!mcap_out_) fail(2, "cannot write " + *periods_file + ": " + std::strerror(errno));
+      mcap_ = std::make_unique<McapRecorder>(mcap_out_, scenario, /*with_delivered=*/samples_file.has_value());
+      mcap_out_.flush();
+      events_file_ = *periods_file + ".events.yaml";
+      write_events();
+    } else if (periods_file) {
       periods_out_.open(*periods_file, std::ios::trunc);
       if (!periods_out_) fail(2, "cannot write " + *periods_file + ": " + std::strerror(errno));
       periods_out_ << PeriodCsvRecorder::header(scenario.state_dim()) << "\n";
@@ -76,10 +84,31 @@ class Recording {
       samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario)) << "\n";
     }
   }
+  Recording(const Recording&) = delete;
+  Recording& operator=(const Recording&) = delete;
+  ~Recording() {
+    try {
+      finish();
+    } catch (...) {
+    }
+  }
+  /// Complete the MCAP file (DataEnd, Footer, magic): on every stop, SIGINT/SIGTERM included.
+  void finish() {
+    if (mcap_ && !mcap_->finished()) {
+      mcap_->finish();
+      mcap_out_.flush();
+      if (!mcap_out_) std::cerr << "netkf: error: writing the MCAP recording failed\n";
+    }
+  }
+  bool wants_link_status() const { return mcap_ != nullptr; }
+  void link_status(const LinkStatusRecord& l) {
+    if (mcap_) mcap_->link_status(l);
+  }
   bool wants_samples() const { return samples_out_.is_open(); }
   /// Live changes (ctl, dashboard) with the period they applied from: written next to the
   /// periods file as FILE.events.yaml, which `netkf launch --events` replays.
   void link_change(const LinkChangeRecord& c) {
+    if (mcap_) mcap_->link_change(c);
     if (!events_file_ || c.origin != "request") return;
     LinkEvent e;
     e.at_period = c.at_period;
@@ -93,13 +122,16 @@ class Recording {
   std::optional<std::string> events_file() const { return events_file_; }
   void truth(const TruthRecord& t) {
     if (periods_out_.is_open()) periods_.add_truth(t);
+    if (mcap_) mcap_->truth(t);
   }
   void estimate(const EstimateRecord& e) {
     if (periods_out_.is_open()) periods_.add_estimate(e);
     if (samples_out_.is_open()) samples_.add_estimate(e);
+    if (mcap_) mcap_->estimate(e);
   }
   void delivered(const DeliveredRecord& d) {
     if (samples_out_.is_open()) samples_.add_delivered(d);
+    if (mcap_) mcap_->delivered(d);
   }
   void flush() {
     if (periods_out_.is_open()) {
@@ -110,9 +142,11 @@ class Recording {
       samples_.flush(samples_out_);
       samples_out_.flush();
     }
+    if (mcap_) mcap_out_.flush();  // whole records: a reader of a killed launch gets all but the footer
     if (journal_changed_) write_events();
   }
-  std::uint64_t rows() const { return periods_.rows_written(); }
+  /// CSV: rows written; MCAP: estimates (periods) written.
+  std::uint64_t rows() const { return mcap_ ? mcap_->estimates() : periods_.rows_written(); }
 
  private:
   struct Journaled {
@@ -140,6 +174,8 @@ class Recording {
   SampleCsvRecorder samples_;
   std::ofstream periods_out_;
   std::ofstream samples_out_;
+  std::ofstream mcap_out_;
+  std::unique_ptr<McapRecorder> mcap_;  // declared after its stream: destroyed first
   std::optional<std::string> events_file_;
   std::vector<Journaled> journal_;
   bool journal_changed_ = false;
@@ -166,8 +202,9 @@ BusHandlers recording_handlers(Recording& recording, LiveViews* views, RunSummar
       if (views) views->link_change(c);
     };
   }
-  if (views || summary) {
-    h.link_status = [views, summary](LinkStatusRecord&& l) {
+  if (views || summary || recording.wants_link_status()) {
+    h.link_status = [&recording, views, summary](LinkStatusRecord&& l) {
+      recording.link_status(l);
       if (summary) summary->add_link_status(l);
       if (views) views->link_status(l);
     };
@@ -465,6 +502,7 @@ int run_launch(const LaunchOptions& o) {
   io.restart();
   io.run_for(std::chrono::milliseconds(300));
   recording.flush();
+  recording.finish();
   views->stop();
   io.restart();
   io.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
@@ -477,7 +515,8 @@ int run_launch(const LaunchOptions& o) {
                                                       : "failure";
   std::cerr << "netkf launch: stopped (" << end_text << "); " << views->model().snapshot().estimates
             << " estimates seen";
-  if (o.record) std::cerr << ", " << recording.rows() << " rows in " << *o.record;
+  if (o.record)
+    std::cerr << ", " << recording.rows() << (is_mcap_path(*o.record) ? " periods in " : " rows in ") << *o.record;
   std::cerr << "\n";
   if (views->model().saw_non_finite() || invalid_samples > 0)
     std::cerr << "netkf launch: WARNING: " << invalid_samples << " invalid samples were rejected\n";
@@ -533,10 +572,12 @@ int run_record(const RecordOptions& o) {
   tick();
   io.run();
   recording.flush();
+  recording.finish();
   signals.cancel();
   const int domain = bus->domain();
   bus.reset();
-  std::cerr << "netkf record: " << recording.rows() << " rows written to " << o.out << "\n";
+  std::cerr << "netkf record: " << recording.rows() << (is_mcap_path(o.out) ? " periods" : " rows")
+            << " written to " << o.out << "\n";
   if (recording.rows() == 0)
     fail(3, "nothing was recorded: no network answered on DDS domain " + std::to_string(domain) +
                 " (is a network running? netkf launch; the same --domain)");
@@ -765,7 +806,8 @@ void add_launch_command(CLI::App& app) {
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--record", o->record,
                   "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state; and the live link changes "
-                  "to FILE.events.yaml (replay with --events)");
+                  "to FILE.events.yaml (replay with --events). FILE.mcap: an MCAP file instead (truth, estimates, "
+                  "link status and changes, delivered samples with --record-samples; JSON, for Foxglove/PlotJuggler)");
   cmd->add_option("--events", o->events,
                   "Replay link changes: an events file (as --record writes FILE.events.yaml); at the same period "
                   "they apply before the scenario's own events")
@@ -869,7 +911,10 @@ void add_record_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("record", "Record truth and estimates of a running network to CSV");
   cmd->add_option("scenario", o->scenario, "Scenario the network runs (for the state size; default: built-in)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--out", o->out, "CSV file: k,t,x..,xhat..,trace_P,fused,late,state")->required();
+  cmd->add_option("--out", o->out,
+                  "CSV file: k,t,x..,xhat..,trace_P,fused,late,state; or FILE.mcap: an MCAP file (truth, estimates, "
+                  "link status and changes; delivered samples with --samples)")
+      ->required();
   cmd->add_option("--samples", o->samples, "Also write every delivered measurement to this CSV");
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
   o->network.add_to(cmd);

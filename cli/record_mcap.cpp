@@ -1,0 +1,89 @@
+#include "record_mcap.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "dashboard_protocol.hpp"
+
+namespace netkf::cli {
+
+namespace {
+
+std::uint64_t seconds_to_ns(double s) {
+  if (!std::isfinite(s) || s <= 0.0) return 0;
+  return static_cast<std::uint64_t>(std::llround(s * 1e9));
+}
+
+std::uint16_t add_channel(McapWriter& w, dashboard::ChannelId id) {
+  const auto& c = dashboard::channel(id);
+  const auto schema = w.add_schema(c.schema_name, "jsonschema", c.schema.dump());
+  return w.add_channel(schema, c.topic, "json");
+}
+
+}  // namespace
+
+bool is_mcap_path(const std::string& path) {
+  if (path.size() < 5) return false;
+  std::string ext = path.substr(path.size() - 5);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  return ext == ".mcap";
+}
+
+McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered)
+    : writer_(out), model_(scenario), period_s_(scenario.period_ms / 1000.0), with_delivered_(with_delivered) {
+  using dashboard::ChannelId;
+  truth_ = add_channel(writer_, ChannelId::truth);
+  estimate_ = add_channel(writer_, ChannelId::estimate);
+  if (with_delivered_) delivered_ = add_channel(writer_, ChannelId::delivered);
+  link_status_ = add_channel(writer_, ChannelId::link_status);
+  link_change_ = add_channel(writer_, ChannelId::link_change);
+}
+
+std::uint64_t McapRecorder::period_time_ns(std::int64_t k) const {
+  return seconds_to_ns(static_cast<double>(k) * period_s_);
+}
+
+void McapRecorder::note_time(double t) { latest_ns_ = std::max(latest_ns_, seconds_to_ns(t)); }
+
+void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json) {
+  writer_.add_message(channel, time_ns, time_ns, json);
+}
+
+void McapRecorder::truth(const TruthRecord& t) {
+  if (finished()) return;
+  model_.add_truth(t);
+  note_time(t.t);
+  write(truth_, seconds_to_ns(t.t), dashboard::truth_message(t).dump());
+}
+
+void McapRecorder::estimate(const EstimateRecord& e) {
+  if (finished()) return;
+  model_.add_estimate(e);  // counts late samples per link for the link status messages
+  model_.take_events();
+  note_time(e.t);
+  write(estimate_, seconds_to_ns(e.t), dashboard::estimate_message(e).dump());
+  ++estimates_;
+}
+
+void McapRecorder::delivered(const DeliveredRecord& d) {
+  if (finished() || !with_delivered_) return;
+  write(delivered_, period_time_ns(d.k), dashboard::delivered_message(d).dump());
+}
+
+void McapRecorder::link_status(const LinkStatusRecord& l) {
+  if (finished()) return;
+  model_.add_link_status(l);
+  model_.take_events();
+  for (const auto& view : model_.snapshot().links)
+    if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, dashboard::link_status_message(view).dump());
+}
+
+void McapRecorder::link_change(const LinkChangeRecord& c) {
+  if (finished()) return;
+  std::string json = dashboard::link_change_message(c).dump();
+  if (!changes_seen_.insert(json).second) return;
+  write(link_change_, period_time_ns(c.at_period), json);
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,62 @@
+#pragma once
+// The MCAP recording of a live run (netkf launch --record FILE.mcap, netkf record --out
+// FILE.mcap): the records the live commands read from DDS, one MCAP channel per DDS topic,
+// JSON messages with a jsonschema schema per channel; the messages and schemas are the
+// dashboard's (dashboard_protocol.hpp), so Foxglove shows a recording as it shows the live run.
+//
+// Times (log_time = publish_time, ns): on the run's period clock, not the wall clock, so
+// every channel shares one timeline that starts at period 0:
+//   netkf/truth, netkf/estimate        t of the record (t_k = k * period)
+//   netkf/measurement/delivered       k * period of the sample's period (its stamp is in the message)
+//   netkf/link/change                 at_period * period (the first period the link applied to)
+//   netkf/link/status                 t of the newest truth or estimate recorded (0 before)
+// Records are written as they arrive, so log times are not strictly ordered across channels.
+#include <cstdint>
+#include <ostream>
+#include <set>
+#include <string>
+
+#include "live_model.hpp"
+#include "live_records.hpp"
+#include "mcap_writer.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli {
+
+/// True when `path` names an MCAP recording (ends with ".mcap", any case).
+bool is_mcap_path(const std::string& path);
+
+class McapRecorder {
+ public:
+  /// Writes the header, schemas and channels (netkf/measurement/delivered only
+  /// `with_delivered`). `out` must be binary and outlive the recorder.
+  McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered);
+
+  void truth(const TruthRecord& t);
+  void estimate(const EstimateRecord& e);
+  void delivered(const DeliveredRecord& d);
+  void link_status(const LinkStatusRecord& l);
+  void link_change(const LinkChangeRecord& c);
+  /// DataEnd, Footer, closing magic (the file is complete). Idempotent.
+  void finish() { writer_.finish(); }
+  bool finished() const { return writer_.finished(); }
+
+  std::uint64_t estimates() const { return estimates_; }
+  std::uint64_t messages() const { return writer_.messages(); }
+
+ private:
+  std::uint64_t period_time_ns(std::int64_t k) const;
+  void note_time(double t);
+  void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json);
+
+  McapWriter writer_;
+  LiveModel model_;  // the link views the dashboard sends (late counts, arrival rates)
+  double period_s_;
+  bool with_delivered_;
+  std::uint16_t truth_ = 0, estimate_ = 0, delivered_ = 0, link_status_ = 0, link_change_ = 0;
+  std::uint64_t latest_ns_ = 0;
+  std::uint64_t estimates_ = 0;
+  std::set<std::string> changes_seen_;  // the journal is transient-local: a late reader gets repeats
+};
+
+}  // namespace netkf::cli

@@ -1,0 +1,227 @@
+// The MCAP writer (cli/mcap_writer.hpp) byte for byte against hand-computed records, and
+// the recording's channels (cli/record_mcap.hpp). tests/e2e/test_mcap.py reads a real
+// recording with an independent reader (@mcap/core).
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mcap_writer.hpp"
+#include "record_mcap.hpp"
+
+namespace netkf::cli {
+namespace {
+
+using Bytes = std::vector<std::uint8_t>;
+
+Bytes bytes_of(const std::string& s) { return Bytes(s.begin(), s.end()); }
+void append(Bytes& b, std::initializer_list<int> v) {
+  for (int x : v) b.push_back(static_cast<std::uint8_t>(x));
+}
+void append(Bytes& b, const std::string& text) { b.insert(b.end(), text.begin(), text.end()); }
+
+TEST(McapWriterBytes, TinyFileByteForByte) {
+  std::ostringstream out;
+  {
+    McapWriter w(out);
+    EXPECT_EQ(w.add_schema("S", "jsonschema", "{}"), 1);
+    EXPECT_EQ(w.add_channel(1, "t", "json"), 0);
+    w.add_message(0, 5, 6, "{}");
+    w.add_message(0, 0x0102030405060708ULL, 7, "");
+    w.finish();
+    w.finish();  // idempotent
+  }
+  Bytes e;
+  // Magic: 0x89 M C A P 0 \r \n
+  append(e, {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'});
+  // Header 0x01, length 13: profile "" (u32 0), library "netkf" (u32 5 + 5 bytes)
+  append(e, {0x01, 13, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0, 0, 0});
+  append(e, {5, 0, 0, 0});
+  append(e, "netkf");
+  // Schema 0x03, length 2 + (4+1) + (4+10) + (4+2) = 27: id 1, name "S", encoding "jsonschema", data "{}"
+  append(e, {0x03, 27, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {1, 0});
+  append(e, {1, 0, 0, 0});
+  append(e, "S");
+  append(e, {10, 0, 0, 0});
+  append(e, "jsonschema");
+  append(e, {2, 0, 0, 0});
+  append(e, "{}");
+  // Channel 0x04, length 2 + 2 + (4+1) + (4+4) + 4 = 21: id 0, schema 1, topic "t",
+  // encoding "json", metadata {} (u32 byte length 0)
+  append(e, {0x04, 21, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0});
+  append(e, {1, 0});
+  append(e, {1, 0, 0, 0});
+  append(e, "t");
+  append(e, {4, 0, 0, 0});
+  append(e, "json");
+  append(e, {0, 0, 0, 0});
+  // Message 0x05, length 2 + 4 + 8 + 8 + 2 = 24: channel 0, sequence 0, log 5, publish 6, "{}"
+  append(e, {0x05, 24, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0});
+  append(e, {0, 0, 0, 0});
+  append(e, {5, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {6, 0, 0, 0, 0, 0, 0, 0});
+  append(e, "{}");
+  // Message 0x05, length 22: channel 0, sequence 1, log 0x0102030405060708 (LE), publish 7, no data
+  append(e, {0x05, 22, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0});
+  append(e, {1, 0, 0, 0});
+  append(e, {8, 7, 6, 5, 4, 3, 2, 1});
+  append(e, {7, 0, 0, 0, 0, 0, 0, 0});
+  // DataEnd 0x0f, length 4: data section CRC 0
+  append(e, {0x0f, 4, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0, 0, 0});
+  // Footer 0x02, length 20: summary_start 0, summary_offset_start 0, summary_crc 0
+  append(e, {0x02, 20, 0, 0, 0, 0, 0, 0, 0});
+  for (int i = 0; i < 20; ++i) e.push_back(0);
+  // Closing magic
+  append(e, {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'});
+
+  const Bytes got = bytes_of(out.str());
+  ASSERT_EQ(got.size(), 8u + 22 + 36 + 30 + 33 + 31 + 13 + 29 + 8);
+  EXPECT_EQ(got, e);
+}
+
+TEST(McapWriterBytes, ChannelMetadataIsAMapPrefixedByItsByteLength) {
+  std::ostringstream out;
+  McapWriter w(out, "lib");
+  w.add_channel(0, "a", "json", {{"k", "vv"}});
+  const Bytes got = bytes_of(out.str());
+  // magic (8) + header (9 + 4 + 4 + 3) = 28; then the channel record
+  Bytes e;
+  // length 2 + 2 + (4+1) + (4+4) + 4 + (4+1) + (4+2) = 32
+  append(e, {0x04, 32, 0, 0, 0, 0, 0, 0, 0});
+  append(e, {0, 0, 0, 0});
+  append(e, {1, 0, 0, 0});
+  append(e, "a");
+  append(e, {4, 0, 0, 0});
+  append(e, "json");
+  append(e, {11, 0, 0, 0});  // map: 11 bytes of entries
+  append(e, {1, 0, 0, 0});
+  append(e, "k");
+  append(e, {2, 0, 0, 0});
+  append(e, "vv");
+  ASSERT_EQ(got.size(), 28u + e.size());
+  EXPECT_EQ(Bytes(got.begin() + 28, got.end()), e);
+}
+
+TEST(McapWriterBytes, RefusesMessagesOnUnknownChannelsAndRecordsAfterTheFooter) {
+  std::ostringstream out;
+  McapWriter w(out);
+  EXPECT_THROW(w.add_message(3, 0, 0, "{}"), std::logic_error);
+  w.finish();
+  EXPECT_THROW(w.add_schema("S", "jsonschema", "{}"), std::logic_error);
+}
+
+// A minimal reader of what the writer writes: (opcode, content) of each record.
+struct Record {
+  int opcode;
+  std::string content;
+};
+std::vector<Record> records(const std::string& file) {
+  std::vector<Record> out;
+  std::size_t pos = 8;
+  while (pos + 9 <= file.size() - 8) {
+    const int op = static_cast<unsigned char>(file[pos]);
+    std::uint64_t len = 0;
+    for (int i = 7; i >= 0; --i) len = (len << 8) | static_cast<unsigned char>(file[pos + 1 + i]);
+    out.push_back({op, file.substr(pos + 9, len)});
+    pos += 9 + len;
+  }
+  return out;
+}
+std::uint32_t u32_at(const std::string& s, std::size_t at) {
+  std::uint32_t v = 0;
+  for (int i = 3; i >= 0; --i) v = (v << 8) | static_cast<unsigned char>(s[at + i]);
+  return v;
+}
+std::string string_at(const std::string& s, std::size_t& at) {
+  const auto n = u32_at(s, at);
+  std::string v = s.substr(at + 4, n);
+  at += 4 + n;
+  return v;
+}
+
+TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
+  std::ostringstream out;
+  const Scenario scenario = default_scenario();
+  {
+    McapRecorder r(out, scenario, /*with_delivered=*/true);
+    r.truth(TruthRecord{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5)});
+    EstimateRecord e;
+    e.k = 3;
+    e.t = 3 * scenario.period_s();
+    e.xhat = std::vector<double>(scenario.state_dim(), 0.1);
+    e.state = "ok";
+    e.trace_P = 1.25;
+    r.estimate(e);
+    r.delivered(DeliveredRecord{1, 3, 0.03, {0.2}});
+    LinkStatusRecord l;
+    l.sensor_id = scenario.sensors[0].id;
+    l.link = scenario.sensors[0].link;
+    r.link_status(l);
+    LinkChangeRecord c;
+    c.sensor_id = 1;
+    c.at_period = 2;
+    c.origin = "request";
+    c.request_id = 9;
+    c.link = scenario.sensors[0].link;
+    r.link_change(c);
+    r.link_change(c);  // a transient-local repeat: written once
+    r.finish();
+    EXPECT_EQ(r.estimates(), 1u);
+    EXPECT_EQ(r.messages(), 5u);
+  }
+  const auto recs = records(out.str());
+  std::vector<std::string> topics;
+  std::vector<nlohmann::json> messages;
+  std::vector<std::uint64_t> log_times;
+  for (const auto& rec : recs) {
+    if (rec.opcode == McapWriter::kSchema) {
+      std::size_t at = 2;
+      string_at(rec.content, at);  // name
+      EXPECT_EQ(string_at(rec.content, at), "jsonschema");
+      EXPECT_EQ(nlohmann::json::parse(string_at(rec.content, at))["type"], "object");
+    } else if (rec.opcode == McapWriter::kChannel) {
+      std::size_t at = 4;
+      topics.push_back(string_at(rec.content, at));
+      EXPECT_EQ(string_at(rec.content, at), "json");
+    } else if (rec.opcode == McapWriter::kMessage) {
+      messages.push_back(nlohmann::json::parse(rec.content.substr(22)));
+      std::uint64_t t = 0;
+      for (int i = 7; i >= 0; --i) t = (t << 8) | static_cast<unsigned char>(rec.content[6 + i]);
+      log_times.push_back(t);
+    }
+  }
+  EXPECT_EQ(topics, (std::vector<std::string>{"netkf/truth", "netkf/estimate", "netkf/measurement/delivered",
+                                              "netkf/link/status", "netkf/link/change"}));
+  ASSERT_EQ(messages.size(), 5u);
+  EXPECT_EQ(messages[1]["k"], 3);
+  EXPECT_EQ(messages[1]["trace_P"], 1.25);
+  EXPECT_EQ(messages[2]["sensor_id"], 1);
+  EXPECT_EQ(messages[3]["sensor_id"], scenario.sensors[0].id);
+  EXPECT_EQ(messages[4]["at_period"], 2);
+  EXPECT_EQ(messages[4]["origin"], "request");
+  const std::uint64_t period_ns = static_cast<std::uint64_t>(scenario.period_ms) * 1000000ULL;
+  EXPECT_EQ(log_times, (std::vector<std::uint64_t>{3 * period_ns, 3 * period_ns, 3 * period_ns, 3 * period_ns,
+                                                   2 * period_ns}));
+  EXPECT_EQ(recs.back().opcode, McapWriter::kFooter);
+}
+
+TEST(McapRecording, ChoosesMcapByTheExtension) {
+  EXPECT_TRUE(is_mcap_path("run.mcap"));
+  EXPECT_TRUE(is_mcap_path("/tmp/RUN.MCAP"));
+  EXPECT_FALSE(is_mcap_path("run.csv"));
+  EXPECT_FALSE(is_mcap_path("mcap"));
+  EXPECT_FALSE(is_mcap_path("run.mcap.csv"));
+}
+
+}  // namespace
+}  // namespace netkf::cli
