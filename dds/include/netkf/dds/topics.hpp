@@ -87,8 +87,12 @@ inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 
 inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {true, false, 256}};
 // netkf ctl -> channel emulator: link changes.
 inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {true, false, 64}};
-// channel emulator -> netkf ctl: the answer to each link change.
-inline constexpr Topic<wire::LinkControlReply> link_control_reply{"netkf/link/reply", {true, false, 64}};
+// channel emulator -> netkf ctl: the answer to each link change. Transient-local: `ctl` sends
+// once its writer has matched the channel's reader, but the channel's reply writer may not have
+// matched ctl's reader yet (discovery is not symmetric in time); a volatile reply written then
+// was lost and ctl timed out although the change was applied. Kept, it reaches ctl on matching
+// (ctl picks its own request id out of the last 64 replies).
+inline constexpr Topic<wire::LinkControlReply> link_control_reply{"netkf/link/reply", {true, true, 64}};
 // channel emulator -> everyone, transient-local so `netkf ctl status` sees it on joining.
 inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true, true, 256}};
 // channel emulator -> everyone: each link change with the period it applied from (the
