@@ -182,6 +182,26 @@ def last_period(path):
         return -1
 
 
+NODE = shutil.which("node") or "/usr/bin/node"
+REPO = os.path.dirname(os.path.dirname(HERE))
+
+
+def node(script, *args, timeout=120):
+    """Run one of the Node.js test clients next to this file (run from the repository, where
+    node_modules is); they print one JSON object."""
+    cmd = [NODE, os.path.join(HERE, script)] + [str(a) for a in args]
+    print("$", " ".join(cmd), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO)
+    if r.stderr:
+        print(r.stderr[-3000:], flush=True)
+    try:
+        return json.loads(r.stdout)
+    except ValueError:
+        print("node output:", r.stdout[-3000:], flush=True)
+        check(False, "%s printed one JSON object (rc=%d)" % (script, r.returncode))
+        return {}
+
+
 def netkf(*args, timeout=30):
     cmd = [NETKF] + [str(a) for a in args]
     print("$", " ".join(cmd), flush=True)

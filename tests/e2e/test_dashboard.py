@@ -16,34 +16,19 @@
 import json
 import os
 import re
-import shutil
 import subprocess
 import time
 import urllib.request
 
-from e2e_common import (HERE, Launch, check, finish, netkf, read_periods, read_samples, require_netns, wait_for,
+from e2e_common import (Launch, node, check, finish, netkf, read_periods, read_samples, require_netns, wait_for,
                         workdir)
 
 PORT = 8470  # the default; the test's network namespace has it to itself
 DELAY_MS = 3.0                  # link 2's delay, set from the page (below the 8 ms deadline)
 GE_LOSS, GE_BURST = 0.2, 4.0    # link 3 (Gilbert-Elliott) in the user's form, set from the page
-NODE = shutil.which("node") or "/usr/bin/node"
-REPO = os.path.dirname(os.path.dirname(HERE))
 ARTEFACTS = os.environ.get("NETKF_ARTEFACT_DIR", os.path.join(os.environ.get("NETKF_BIN_DIR", "/tmp"), "artefacts"))
 
 
-def node(script, *args, timeout=120):
-    cmd = [NODE, os.path.join(HERE, script)] + [str(a) for a in args]
-    print("$", " ".join(cmd), flush=True)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, cwd=REPO)
-    if r.stderr:
-        print(r.stderr[-3000:], flush=True)
-    try:
-        return json.loads(r.stdout)
-    except ValueError:
-        print("node output:", r.stdout[-3000:], flush=True)
-        check(False, "%s printed one JSON object (rc=%d)" % (script, r.returncode))
-        return {}
 
 
 def scrape():

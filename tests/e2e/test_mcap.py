@@ -14,33 +14,20 @@ and is stopped by SIGTERM; `netkf record --out same.csv` records the same networ
 """
 import json
 import os
-import shutil
 import signal
 import subprocess
 import time
 
-from e2e_common import DATA, HERE, Launch, NETKF, check, finish, netkf, read_periods, require_netns, workdir
+from e2e_common import DATA, Launch, NETKF, check, node, finish, netkf, read_periods, require_netns, workdir
 
 require_netns()
-NODE = shutil.which("node") or "/usr/bin/node"
-REPO = os.path.dirname(os.path.dirname(HERE))
 scenario = os.path.join(DATA, "bernoulli3.yaml")  # three links, Bernoulli loss 0.3, period 40 ms, n = 2
 N = 2
 out = workdir("mcap")
 
 
 def mcap_read(path):
-    cmd = [NODE, os.path.join(HERE, "mcap_read.mjs"), path]
-    print("$", " ".join(cmd), flush=True)
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=REPO)
-    if r.stderr:
-        print(r.stderr[-3000:], flush=True)
-    try:
-        return json.loads(r.stdout)
-    except ValueError:
-        print("node output:", r.stdout[-3000:], flush=True)
-        check(False, "mcap_read.mjs printed one JSON object (rc=%d)" % r.returncode)
-        return {}
+    return node("mcap_read.mjs", path, timeout=60)
 
 
 def recorder(path, seconds):
