@@ -110,6 +110,8 @@ std::vector<Channel> make_channels() {
                               {"late_total", {{"type", "integer"}}},
                               {"rejected_total", {{"type", "integer"}}},
                               {"invalid_samples", {{"type", "integer"}}},
+                              {"estimator_restarts", {{"type", "integer"}}},
+                              {"restart_gap_periods", {{"type", "integer"}}},
                               {"processes",
                                {{"type", "array"},
                                 {"items", schema_object({{"name", {{"type", "string"}}},
@@ -360,6 +362,8 @@ json network_message(const LiveSnapshot& s) {
               {"late_total", s.late_total},
               {"rejected_total", s.rejected_total},
               {"invalid_samples", s.invalid_samples},
+              {"estimator_restarts", s.estimator_restarts},
+              {"restart_gap_periods", s.restart_gap_periods},
               {"processes", std::move(processes)}};
 }
 

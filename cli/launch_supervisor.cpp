@@ -27,6 +27,10 @@ std::string ChildExit::describe() const {
   return "exited with status " + std::to_string(exit_code);
 }
 
+bool ChildExit::stopped_from_outside() const {
+  return signal == SIGKILL || signal == SIGTERM || signal == SIGINT || signal == SIGHUP;
+}
+
 RestartPolicy parse_restart_policy(const std::string& text) {
   if (text == "fail") return RestartPolicy::fail;
   if (text == "restart") return RestartPolicy::restart;
@@ -61,9 +65,10 @@ Supervisor::Supervisor(SupervisorOptions options) : options_(options) {}
 
 Supervisor::~Supervisor() { stop_all(); }
 
-SupervisorEvent Supervisor::start(ChildSpec spec) {
+SupervisorEvent Supervisor::start(ChildSpec spec, std::function<void()> before_restart) {
   Child child;
   child.spec = std::move(spec);
+  child.before_restart = std::move(before_restart);
   children_.push_back(std::move(child));
   return spawn(children_.back());
 }
@@ -154,6 +159,15 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
     if (finished_reason_.empty()) finished_reason_ = child.spec.name + " finished";
     return;
   }
+  if (child.spec.critical && exit.stopped_from_outside()) {
+    // The plant is the run's physical world: killed from outside, the world ended, and with it
+    // the run (cleanly: what was recorded stays valid). A crash (SIGSEGV, SIGABRT, an error
+    // status) is a failure.
+    finished_ = true;
+    if (finished_reason_.empty())
+      finished_reason_ = child.spec.name + " " + exit.describe() + ": the run ends with it (not restarted)";
+    return;
+  }
   const bool may_restart = options_.policy == RestartPolicy::restart && !child.spec.critical &&
                            child.restarts < options_.max_restarts;
   if (!may_restart) {
@@ -187,6 +201,7 @@ std::vector<SupervisorEvent> Supervisor::poll(Clock::time_point now) {
     for (auto& child : children_) {
       if (child.pid <= 0 && child.restart_at && *child.restart_at <= now) {
         child.restart_at.reset();
+        if (child.before_restart) child.before_restart();
         events.push_back(spawn(child));
       }
     }

@@ -8,6 +8,7 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,8 +19,8 @@ struct ChildSpec {
   std::string name;               // e.g. "sensor_node[2]" (used in messages)
   std::string executable;         // path to the program
   std::vector<std::string> args;  // argv[1..]
-  // Critical children (plant, estimator) are never restarted: the run's clock and
-  // estimate would restart at k = 0, which would silently corrupt a recording.
+  // Critical children (the plant) are never restarted: the run's clock would restart at
+  // k = 0, which would silently corrupt a recording. The plant's clean exit ends the run.
   bool critical = false;
   // CPU priority (nice value, 0..19) of the child and every thread it creates.
   int nice = 0;
@@ -31,6 +32,8 @@ struct ChildExit {
   int signal = 0;      // > 0 when a signal ended it
   std::string describe() const;  // "exited with status 3" / "killed by signal 9 (Killed)"
   bool clean() const { return signal == 0 && exit_code == 0; }
+  /// Ended by a signal someone sent to stop it (SIGKILL, SIGTERM, SIGINT, SIGHUP), not a crash.
+  bool stopped_from_outside() const;
 };
 
 enum class RestartPolicy { fail, restart };
@@ -39,7 +42,9 @@ RestartPolicy parse_restart_policy(const std::string& text);  // throws std::inv
 struct SupervisorOptions {
   RestartPolicy policy = RestartPolicy::restart;
   int max_restarts = 3;                                 // per child
-  std::chrono::milliseconds first_backoff{500};         // doubled at each restart
+  // Doubled at each restart. Short: while a channel or estimator is down, every period is
+  // fused open-loop (BENCHMARKS.md, fault recovery).
+  std::chrono::milliseconds first_backoff{100};
   std::chrono::milliseconds stop_timeout{3000};         // SIGTERM -> SIGKILL
 };
 
@@ -62,8 +67,10 @@ class Supervisor {
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
 
-  /// Spawn a child now. Returns the event (started or start_failed).
-  SupervisorEvent start(ChildSpec spec);
+  /// Spawn a child now. Returns the event (started or start_failed). `before_restart` runs
+  /// before each restart (not the first start), e.g. to write the checkpoint a restarted
+  /// estimator resumes from.
+  SupervisorEvent start(ChildSpec spec, std::function<void()> before_restart = {});
 
   /// Reap children that ended, apply the policy, start due restarts. Never blocks.
   std::vector<SupervisorEvent> poll(Clock::time_point now = Clock::now());
@@ -73,7 +80,8 @@ class Supervisor {
   bool failed() const { return failed_; }
   std::string failure_reason() const { return failure_reason_; }
   /// True when a critical child ended on its own with status 0 (e.g. the plant
-  /// reached --max-periods or its state bound): the run is over, cleanly.
+  /// reached --max-periods or its state bound) or was stopped from outside (kill -9 of
+  /// the plant): the run is over, cleanly.
   bool finished() const { return finished_; }
   std::string finished_reason() const { return finished_reason_; }
 
@@ -97,6 +105,7 @@ class Supervisor {
  private:
   struct Child {
     ChildSpec spec;
+    std::function<void()> before_restart;
     pid_t pid = -1;  // -1 when not running
     int restarts = 0;
     std::optional<Clock::time_point> restart_at;

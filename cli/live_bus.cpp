@@ -23,7 +23,8 @@ EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) 
   r.late = e.late;
   r.late_sensors = e.late_sensors;
   r.late_total = e.late_total;
-  r.rejected = static_cast<std::uint32_t>(e.rejected_total);
+  r.rejected = e.rejected_total;
+  r.restarts = e.restarts;
   r.state = to_string(e.state);
   r.publish_stamp = ns_to_s(e.stamp_ns);
   r.last_sample_stamp = ns_to_s(e.last_sample_stamp_ns);

@@ -25,10 +25,12 @@
 #include <unistd.h>
 
 #include "commands.hpp"
+#include "launch_files.hpp"
 #include "launch_supervisor.hpp"
 #include "live_bus.hpp"
 #include "live_status.hpp"
 #include "live_views.hpp"
+#include "netkf/nodes/estimator_core.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
 #include "record_mcap.hpp"
@@ -218,6 +220,21 @@ BusHandlers recording_handlers(Recording& recording, LiveViews* views, RunSummar
   return h;
 }
 
+/// The checkpoint a restarted estimator resumes from: the last estimate it published.
+nodes::EstimatorCheckpoint checkpoint_of(const EstimateRecord& e) {
+  nodes::EstimatorCheckpoint c;
+  const auto n = static_cast<Eigen::Index>(e.xhat.size());
+  c.k = static_cast<std::uint64_t>(e.k);
+  c.t = e.t;
+  c.x_hat = Eigen::Map<const Vector>(e.xhat.data(), n);
+  if (e.P.size() != e.xhat.size() * e.xhat.size()) throw std::runtime_error("the last estimate carries no full P");
+  c.P = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(e.P.data(), n, n);
+  c.restarts = e.restarts + 1;
+  c.late_total = e.late_total;
+  c.rejected_total = e.rejected;
+  return c;
+}
+
 Scenario load_or_default(const std::optional<std::string>& file) {
   if (!file) return default_scenario();
   try {
@@ -331,21 +348,27 @@ int run_launch(const LaunchOptions& o) {
   std::unique_ptr<RunSummaryBuilder> summary;
   if (o.summary || !checks.empty()) summary = std::make_unique<RunSummaryBuilder>(scenario);
 
-  // The children read the effective scenario from a private temporary file.
-  const auto scenario_path =
-      std::filesystem::temp_directory_path() / ("netkf-launch-" + std::to_string(getpid()) + ".yaml");
+  // The launch's private files: the effective scenario the children read, the estimator's
+  // checkpoint. A launch killed earlier left its directory and maybe Fast DDS shared-memory
+  // files behind: both are cleaned here.
+  std::unique_ptr<LaunchFiles> files;
+  try {
+    files = std::make_unique<LaunchFiles>();
+  } catch (const std::exception& e) {
+    fail(2, e.what());
+  }
+  for (const auto& stale : files->removed_stale())
+    std::cerr << "netkf launch: removed the files of a launch that is no longer running (" << stale.string() << ")\n";
+  if (const auto shm = clean_stale_shared_memory(); shm.zombie_segments + shm.zombie_ports > 0)
+    std::cerr << "netkf launch: removed " << shm.zombie_segments << " stale Fast DDS shared-memory segments and "
+              << shm.zombie_ports << " ports (fastdds shm clean)\n";
+  const auto scenario_path = files->file("scenario.yaml");
   {
     std::ofstream out(scenario_path);
     out << scenario_to_yaml(scenario);
     if (!out) fail(2, "cannot write " + scenario_path.string());
   }
-  struct RemoveOnExit {
-    std::filesystem::path p;
-    ~RemoveOnExit() {
-      std::error_code ec;
-      std::filesystem::remove(p, ec);
-    }
-  } remove_scenario{scenario_path};
+  const auto checkpoint_path = files->file("estimator-checkpoint.json");
 
   boost::asio::io_context io;
   Recording recording(o.record, o.record_samples, scenario);
@@ -377,9 +400,15 @@ int run_launch(const LaunchOptions& o) {
     fail(2, e.what());
   }
   std::uint64_t invalid_samples = 0;
+  // The last estimate seen (io thread): the checkpoint a restarted estimator resumes from.
+  std::optional<EstimateRecord> last_estimate;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"),
-                                    recording_handlers(recording, views.get(), summary.get(), invalid_samples),
+    BusHandlers handlers = recording_handlers(recording, views.get(), summary.get(), invalid_samples);
+    handlers.estimate = [record = std::move(handlers.estimate), &last_estimate](EstimateRecord&& e) {
+      last_estimate = e;
+      record(std::move(e));
+    };
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"), std::move(handlers),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
@@ -418,7 +447,27 @@ int run_launch(const LaunchOptions& o) {
   std::vector<SupervisorEvent> started;
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
   started.push_back(supervisor.start({"channel_emulator", node_executable("channel_emulator"), common_args(), false}));
-  started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), common_args(), true}));
+  {
+    // A restarted estimator resumes from the last estimate this launch saw (written just before
+    // the restart, after the backoff, so no estimate of the previous life is still in flight).
+    auto args = common_args();
+    args.push_back("--resume-from");
+    args.push_back(checkpoint_path.string());
+    auto write_checkpoint_for_restart = [&last_estimate, &checkpoint_path, &views] {
+      try {
+        if (!last_estimate) {
+          std::filesystem::remove(checkpoint_path);
+          views->announce(LiveEvent::Level::warning, "the estimator died before its first estimate: it starts afresh");
+          return;
+        }
+        write_checkpoint(checkpoint_path.string(), checkpoint_of(*last_estimate));
+      } catch (const std::exception& e) {
+        views->announce(LiveEvent::Level::warning, std::string("estimator checkpoint not written: ") + e.what());
+      }
+    };
+    started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), args, false, 0},
+                                       write_checkpoint_for_restart));
+  }
   std::vector<int> sensor_ids;
   for (const auto& sensor : scenario.sensors) sensor_ids.push_back(sensor.id);
   const bool auto_grouping = o.sensors_per_process == "auto";

@@ -54,6 +54,20 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   for (int id : e.late_sensors)
     if (LinkView* l = link(id)) ++l->late_total;
   s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected);
+  if (e.restarts > s.estimator_restarts) {
+    s.estimator_restarts = e.restarts;
+    restart_gap_from_ = e.k;
+    raise(LiveEvent::Level::warning, "estimator restarted (restart " + std::to_string(e.restarts) +
+                                         "): resumed from its estimate of period " + std::to_string(e.k - 1) +
+                                         "; the periods it missed are predicted open-loop");
+  }
+  if (restart_gap_from_ && !e.fused.empty() && e.k > *restart_gap_from_) {
+    const auto gap = static_cast<std::uint64_t>(e.k - *restart_gap_from_);
+    s.restart_gap_periods += gap;
+    raise(LiveEvent::Level::info, "estimator fusing again from period " + std::to_string(e.k) + " (" +
+                                      std::to_string(gap) + " periods without samples after its restart)");
+    restart_gap_from_.reset();
+  }
   if (!s.period || e.k >= s.period->k) {
     PeriodView p;
     p.k = e.k;

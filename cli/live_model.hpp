@@ -60,6 +60,7 @@ class LiveModel {
   double sum_sq_error_ = 0.0;
   std::uint64_t scored_ = 0;
   bool saw_non_finite_ = false;
+  std::optional<std::int64_t> restart_gap_from_;  // first period after a restart, until fusion resumes
   std::map<std::uint64_t, std::string> own_requests_;  // request id -> source ("dashboard")
   std::vector<LiveEvent> events_;
 };

@@ -29,7 +29,8 @@ struct EstimateRecord {
   std::uint32_t late = 0;      // samples that arrived during k for periods already fused
   std::vector<int> late_sensors;  // the sensor id of each of them (late == its size)
   std::uint64_t late_total = 0;
-  std::uint32_t rejected = 0;
+  std::uint64_t rejected = 0;   // running total of rejected samples
+  std::uint32_t restarts = 0;   // times the estimator was restarted from its last estimate
   std::string state;           // "ok" / "diverging"
   double publish_stamp = 0.0;  // seconds (clock of the estimator)
   double last_sample_stamp = 0.0;  // publish stamp of the newest sample fused for k, seconds (0: none)

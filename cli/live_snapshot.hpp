@@ -82,6 +82,8 @@ struct LiveSnapshot {
   std::uint64_t late_total = 0;
   std::uint64_t rejected_total = 0;
   std::uint64_t invalid_samples = 0;  // failed validation at the bus (never used)
+  std::uint32_t estimator_restarts = 0;  // restarts the estimates report (resumed from a checkpoint)
+  std::uint64_t restart_gap_periods = 0;  // periods fused with nothing after the restarts, in all
   std::vector<LinkView> links;        // scenario order
   TheoryView theory;
   std::vector<ProcessView> processes;

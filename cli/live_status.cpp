@@ -60,7 +60,10 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
     out << "  fused=";
     for (std::size_t i = 0; i < p.fused.size(); ++i) out << (i ? ";" : "") << p.fused[i];
     if (p.fused.empty()) out << "-";
-    out << "  late=" << s.late_total << " rejected=" << s.rejected_total << "\n";
+    out << "  late=" << s.late_total << " rejected=" << s.rejected_total;
+    if (s.estimator_restarts)
+      out << "  estimator restarts=" << s.estimator_restarts << " (" << s.restart_gap_periods << " periods open-loop)";
+    out << "\n";
   } else {
     out << "waiting for the first estimate...\n";
   }

@@ -16,20 +16,31 @@ function(netkf_target_sanitizers target)
   endif()
 endfunction()
 
-# netkf_add_node(<name> LOGIC <lib> SOURCES <src...>): a node's DDS-free logic library
-# (registered for unit tests and benches) and, with DDS, its thin executable src/main.cpp.
+# netkf_add_node(<name> LOGIC <lib> SOURCES <src...> [APP <lib> APP_SOURCES <src...>]): a
+# node's DDS-free logic library (registered for unit tests and benches) and, with DDS, its
+# app library (the node's DDS wiring as a class with run()/stop(), registered for the
+# integration tests, which run it in process) and its thin executable src/main.cpp.
 function(netkf_add_node name)
-  cmake_parse_arguments(ARG "" "LOGIC" "SOURCES;LOGIC_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "LOGIC;APP" "SOURCES;LOGIC_DEPS;APP_SOURCES" ${ARGN})
   add_library(${ARG_LOGIC} ${ARG_SOURCES})
   target_include_directories(${ARG_LOGIC} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
   target_link_libraries(${ARG_LOGIC} PUBLIC ${ARG_LOGIC_DEPS} netkf::core)
   netkf_target_options(${ARG_LOGIC})
   set_property(GLOBAL APPEND PROPERTY NETKF_LOGIC_LIBS ${ARG_LOGIC})
   if(NETKF_WITH_DDS)
+    set(main_deps ${ARG_LOGIC} netkf_dds)
+    if(ARG_APP)
+      add_library(${ARG_APP} ${ARG_APP_SOURCES})
+      target_link_libraries(${ARG_APP} PUBLIC ${ARG_LOGIC} netkf_dds)
+      netkf_target_options(${ARG_APP})
+      # Boost 1.74 Asio's scheduler trips a false -Wnull-dereference when inlined (GCC 12).
+      target_compile_options(${ARG_APP} PRIVATE -Wno-null-dereference)
+      set_property(GLOBAL APPEND PROPERTY NETKF_APP_LIBS ${ARG_APP})
+      list(APPEND main_deps ${ARG_APP})
+    endif()
     add_executable(${name} src/main.cpp)
-    target_link_libraries(${name} PRIVATE ${ARG_LOGIC} netkf_dds)
+    target_link_libraries(${name} PRIVATE ${main_deps})
     netkf_target_options(${name})
-    # Boost 1.74 Asio's scheduler trips a false -Wnull-dereference when inlined (GCC 12).
     target_compile_options(${name} PRIVATE -Wno-null-dereference)
   endif()
 endfunction()

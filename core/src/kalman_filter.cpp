@@ -314,6 +314,17 @@ void IntermittentKalmanFilter::predict(const Vector* input) {
   refresh_state();
 }
 
+void IntermittentKalmanFilter::restore(const Vector& x, const Matrix& P) {
+  const Eigen::Index n = x_.size();
+  if (x.size() != n || P.rows() != n || P.cols() != n)
+    throw std::invalid_argument("restore: expected a state of " + std::to_string(n) + " entries and a " +
+                                std::to_string(n) + " x " + std::to_string(n) + " covariance");
+  if (!x.allFinite() || !P.allFinite()) throw std::invalid_argument("restore: non-finite state or covariance");
+  x_ = x;
+  P_ = P;
+  refresh_state();
+}
+
 void IntermittentKalmanFilter::saturate() {
   // Below the critical arrival rate E[P] is unbounded and P grows geometrically
   // (like α^2k) until it overflows. We keep it finite instead: every variance P_ii

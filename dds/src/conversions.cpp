@@ -132,6 +132,7 @@ wire::Estimate to_wire(const EstimateRecord& e) {
   w.fused_at_ns(e.fused_at_ns);
   w.stamp_ns(e.stamp_ns);
   w.last_sample_stamp_ns(e.last_sample_stamp_ns);
+  w.restarts(e.restarts);
   return w;
 }
 
@@ -157,6 +158,7 @@ EstimateRecord from_wire(const wire::Estimate& e, int state_dim) {
   r.fused_at_ns = e.fused_at_ns();
   r.stamp_ns = e.stamp_ns();
   r.last_sample_stamp_ns = e.last_sample_stamp_ns();
+  r.restarts = e.restarts();
   return r;
 }
 

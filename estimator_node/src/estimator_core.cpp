@@ -58,7 +58,7 @@ EstimatorCore::EstimatorCore(const Scenario& scenario)
 }
 
 std::uint64_t EstimatorCore::rejected_total() const {
-  std::uint64_t total = 0;
+  std::uint64_t total = rejected_before_restart_;
   for (auto r : rejected_) total += r;
   return total;
 }
@@ -77,6 +77,19 @@ std::optional<std::int64_t> EstimatorCore::pending_deadline_ns() const {
 std::optional<std::uint64_t> EstimatorCore::open_period() const {
   if (!open_) return std::nullopt;
   return open_->k;
+}
+
+void EstimatorCore::resume(const EstimatorCheckpoint& checkpoint) {
+  if (open_ || last_fused_) throw std::invalid_argument("resume: the estimator has already started");
+  filter_.restore(checkpoint.x_hat, checkpoint.P);
+  last_fused_ = checkpoint.k;
+  resumed_after_ = checkpoint.k;
+  late_total_ = checkpoint.late_total;
+  rejected_before_restart_ = checkpoint.rejected_total;
+  restarts_ = checkpoint.restarts;
+  // The input sent for period k (a tick that never arrives is predicted with it, as in on_tick).
+  if (gain_) last_control_ = Vector(-(*gain_) * filter_.x());
+  else if (input_dim_ > 0) last_control_ = Vector::Zero(input_dim_);
 }
 
 void EstimatorCore::count_rejection(SampleRejection reason) { reject(reason); }
@@ -154,6 +167,7 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
     last_control_ = Vector::Zero(input_dim_);
   }
   e.fused_at_ns = now_ns;
+  e.restarts = restarts_;
   e.last_sample_stamp_ns = open_->last_stamp_ns;
   last_fused_ = open_->k;
   open_.reset();
@@ -162,6 +176,7 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
 
 std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector& applied_input, std::int64_t now_ns) {
   std::vector<PeriodEstimate> out;
+  if (resumed_after_ && k <= *resumed_after_) return out;  // the tick history of a restart: already fused
   if ((last_fused_ && k <= *last_fused_) || (open_ && k <= open_->k)) {
     reject(SampleRejection::stale_tick);  // duplicate or reordered tick
     return out;

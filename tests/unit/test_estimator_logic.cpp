@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 
 #include "netkf/nodes/estimator_core.hpp"
@@ -297,6 +298,76 @@ TEST(EstimatorLogic, BelowCriticalRateReportsDivergingAndStaysFinite) {
     diverging = out[0].state == netkf::FilterState::diverging;
   }
   EXPECT_TRUE(diverging);
+}
+
+}  // namespace
+
+namespace {
+
+// A restart: the estimator resumes after period 4 from x̂ = 0.7, P = 0.3 (its last estimate),
+// ignores the replayed ticks up to 4, predicts 5 with the input acknowledged in tick 5 and
+// fuses the periods it missed with nothing; the counters continue.
+TEST(EstimatorLogic, ResumeContinuesFromTheCheckpointWithTheAcknowledgedInputs) {
+  netkf::Scenario sc = scalar_scenario();
+  sc.plant.B = m1(1.0);
+  netkf::ControlSpec control;
+  control.gain = m1(0.9);
+  sc.plant.control = control;
+  EstimatorCore core(sc);
+  core.resume({4, 0.04, v1(0.7), m1(0.3), 2, 11, 5});
+  EXPECT_EQ(core.rejected_total(), 5u);
+  EXPECT_EQ(core.late_total(), 11u);
+  // The tick history replays periods already fused: ignored, not counted as stale.
+  for (std::uint64_t k = 2; k <= 4; ++k) EXPECT_TRUE(core.on_tick(k, v1(9.0), 0).empty());
+  EXPECT_EQ(core.rejected(SampleRejection::stale_tick), 0u);
+  EXPECT_TRUE(core.on_tick(5, v1(0.25), 0).empty());
+  auto out = core.on_tick(6, v1(-0.5), 1 * kMs);  // closes 5 with nothing
+  ASSERT_EQ(out.size(), 1u);
+  const Scalar p5 = predict({0.7, 0.3}, 1.2, 1.0, 0.25);
+  EXPECT_EQ(out[0].k, 5u);
+  EXPECT_TRUE(out[0].fused.empty());
+  EXPECT_NEAR(out[0].x_hat(0), p5.x, 1e-12);
+  EXPECT_NEAR(out[0].P(0, 0), p5.P, 1e-12);
+  EXPECT_EQ(out[0].restarts, 2u);
+  EXPECT_EQ(out[0].late_total, 11u);
+  EXPECT_EQ(out[0].rejected_total, 5u);
+  core.on_sample(1, 6, v1(0.8), 0, 2 * kMs);
+  auto out6 = core.on_sample(2, 6, v1(1.4), 0, 3 * kMs);
+  ASSERT_EQ(out6.size(), 1u);
+  const Scalar p6 = fuse(predict(p5, 1.2, 1.0, -0.5), {{0.8, 0.5}, {1.4, 1.0}});
+  EXPECT_NEAR(out6[0].x_hat(0), p6.x, 1e-12);
+  EXPECT_NEAR(out6[0].P(0, 0), p6.P, 1e-12);
+  EXPECT_NEAR((*out6[0].control)(0), -0.9 * p6.x, 1e-12);
+}
+
+TEST(EstimatorLogic, ResumeRefusesACheckpointThatDoesNotFit) {
+  EstimatorCore core(scalar_scenario());
+  EXPECT_THROW(core.resume({4, 0.04, Vector::Zero(2), Matrix::Identity(2, 2), 1, 0, 0}), std::invalid_argument);
+  EXPECT_THROW(core.resume({4, 0.04, v1(std::nan("")), m1(1.0), 1, 0, 0}), std::invalid_argument);
+  EstimatorCore started(scalar_scenario());
+  started.on_tick(0, Vector(), 0);
+  EXPECT_THROW(started.resume({4, 0.04, v1(0.0), m1(1.0), 1, 0, 0}), std::invalid_argument);
+}
+
+TEST(EstimatorLogic, CheckpointFileRoundTripsBitIdentical) {
+  netkf::nodes::EstimatorCheckpoint c{123456789012ull, 1234.5678, Vector{{0.1, -1.0 / 3.0}},
+                                      Matrix{{2.0 / 3.0, 1e-300}, {1e-300, 5.0e7 / 7.0}}, 3, 42, 7};
+  const std::string path = ::testing::TempDir() + "netkf-checkpoint.json";
+  netkf::nodes::write_checkpoint(path, c);
+  const auto back = netkf::nodes::read_checkpoint(path);
+  EXPECT_EQ(back.k, c.k);
+  EXPECT_EQ(back.t, c.t);
+  EXPECT_EQ(back.x_hat, c.x_hat);  // exactly: a restart must not perturb the estimate
+  EXPECT_EQ(back.P, c.P);
+  EXPECT_EQ(back.restarts, 3u);
+  EXPECT_EQ(back.late_total, 42u);
+  EXPECT_EQ(back.rejected_total, 7u);
+  {
+    std::ofstream bad(path);
+    bad << R"({"k": 1, "t": 0, "x_hat": [1, 2], "P": [1, 0, 0], "restarts": 1, "late_total": 0, "rejected_total": 0})";
+  }
+  EXPECT_THROW(netkf::nodes::read_checkpoint(path), std::runtime_error);
+  EXPECT_THROW(netkf::nodes::read_checkpoint(path + ".missing"), std::runtime_error);
 }
 
 }  // namespace

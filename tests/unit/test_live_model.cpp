@@ -45,6 +45,28 @@ EstimateRecord estimate(std::int64_t k, std::vector<double> xhat, double trace, 
   return e;
 }
 
+// An estimator restarted from its checkpoint: the estimates carry the restart count; the
+// model counts the restart and the periods it predicted open-loop until it fused again.
+TEST(LiveModel, ShowsAnEstimatorRestartAndItsGap) {
+  LiveModel model(default_scenario());
+  model.add_estimate(estimate(9, {0.0, 0.0}, 1.0, 1.0));
+  model.take_events();
+  for (std::int64_t k = 10; k < 16; ++k) {
+    auto e = estimate(k, {0.0, 0.0}, 1.0, 1.0);
+    e.restarts = 1;
+    if (k < 14) e.fused.clear();  // periods 10..13 missed while the estimator was down
+    model.add_estimate(e);
+  }
+  const auto& s = model.snapshot();
+  EXPECT_EQ(s.estimator_restarts, 1u);
+  EXPECT_EQ(s.restart_gap_periods, 4u);
+  const auto events = model.take_events();
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_NE(events[0].text.find("estimator restarted (restart 1): resumed from its estimate of period 9"),
+            std::string::npos) << events[0].text;
+  EXPECT_NE(events[1].text.find("fusing again from period 14 (4 periods"), std::string::npos) << events[1].text;
+}
+
 TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
   LiveModel model(default_scenario());
   model.add_truth({3, 0.03, {1.0, 2.0}});

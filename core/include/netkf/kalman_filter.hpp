@@ -80,6 +80,10 @@ class IntermittentKalmanFilter {
   /// `input` must have B's column count (ignored when the model has no B).
   void predict(const Vector* input = nullptr);
 
+  /// Continue from a filtered x̂_{k|k}, P_{k|k} published earlier (an estimator restarted from
+  /// its last estimate). Throws std::invalid_argument on a wrong size or a non-finite entry.
+  void restore(const Vector& x, const Matrix& P);
+
   const Vector& x() const { return x_; }
   const Matrix& P() const { return P_; }
   double trace_P() const { return P_.trace(); }

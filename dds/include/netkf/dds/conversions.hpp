@@ -68,6 +68,7 @@ struct EstimateRecord {
   std::int64_t fused_at_ns = 0;
   std::int64_t stamp_ns = 0;
   std::int64_t last_sample_stamp_ns = 0;
+  std::uint32_t restarts = 0;   // times the estimator was restarted from its last estimate
 };
 /// Throws ConversionError if x_hat / P are not finite or P is not square of x_hat's size
 /// (the estimator never publishes NaN: this is the last gate).

@@ -73,8 +73,10 @@ template <> struct PubSubTypeOf<wire::LinkChange> { using type = wire::LinkChang
 namespace topics {
 // plant -> sensors, recorders: ground truth x_k (the estimator never subscribes).
 inline constexpr Topic<wire::Truth> truth{"netkf/truth", {true, false, 256}};
-// plant -> estimator: sample clock k, t_k and the input the plant applied.
-inline constexpr Topic<wire::Tick> tick{"netkf/tick", {true, false, 256}};
+// plant -> estimator: sample clock k, t_k and the input the plant applied. Transient-local: a
+// restarted estimator receives the recent ticks and predicts over the periods it missed with
+// the inputs the plant acknowledged (EstimatorCore::resume).
+inline constexpr Topic<wire::Tick> tick{"netkf/tick", {true, true, 256}};
 // sensors -> channel emulator: every sample a sensor produced (one writer per sensor process;
 // a process hosting many sensors asks for a deeper history, history_depth_for_rate).
 inline constexpr Topic<wire::Measurement> raw_measurement{"netkf/measurement/raw", {true, false, 256}};

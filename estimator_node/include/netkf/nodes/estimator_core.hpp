@@ -38,7 +38,27 @@ struct PeriodEstimate {
   std::int64_t fused_at_ns = 0;
   std::int64_t last_sample_stamp_ns = 0;  // newest sensor publish stamp among fused samples
   bool skipped_tick = false;           // tick k never arrived: open-loop period inferred from a later tick
+  std::uint32_t restarts = 0;          // times this run's estimator was restarted from a checkpoint
 };
+
+/// Where a restarted estimator continues: the last estimate its previous life published
+/// (period k, x̂_{k|k}, P_{k|k}) and the run's counters, so the estimates after the restart
+/// stay the MMSE estimate given the samples fused (the periods it missed are fused with
+/// nothing: open-loop predictions with the inputs the plant acknowledged in its ticks).
+struct EstimatorCheckpoint {
+  std::uint64_t k = 0;
+  double t = 0.0;
+  Vector x_hat;
+  Matrix P;
+  std::uint32_t restarts = 0;  // including the restart that resumes from this checkpoint
+  std::uint64_t late_total = 0;
+  std::uint64_t rejected_total = 0;
+};
+
+/// The checkpoint file (JSON; doubles written so that they read back bit-identical).
+/// read_checkpoint throws std::runtime_error naming the file on any problem.
+void write_checkpoint(const std::string& path, const EstimatorCheckpoint& checkpoint);
+EstimatorCheckpoint read_checkpoint(const std::string& path);
 
 /// Why a sample was rejected by the estimator (in addition to late samples, counted apart).
 enum class SampleRejection { unknown_sensor, wrong_size, non_finite, duplicate, buffer_full, stale_tick, count_ };
@@ -53,6 +73,11 @@ class EstimatorCore {
   /// Returns the periods fused because of it (a still-open earlier period, skipped periods,
   /// and period k itself if all its samples were already buffered), in order.
   std::vector<PeriodEstimate> on_tick(std::uint64_t k, const Vector& applied_input, std::int64_t now_ns);
+
+  /// Continue after `checkpoint.k` (before any tick): ticks up to and including it are
+  /// ignored (a transient-local tick history replays them), later ones predict from it.
+  /// Throws std::invalid_argument when the checkpoint does not fit the scenario.
+  void resume(const EstimatorCheckpoint& checkpoint);
 
   /// A delivered sample arrived. Returns period k's estimate if this completed its set.
   std::vector<PeriodEstimate> on_sample(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns,
@@ -74,6 +99,7 @@ class EstimatorCore {
   std::uint64_t rejected(SampleRejection r) const { return rejected_[static_cast<int>(r)]; }
   std::size_t buffered_samples() const;
   const IntermittentKalmanFilter& filter() const { return filter_; }
+  std::uint32_t restarts() const { return restarts_; }
   int sensor_count() const { return static_cast<int>(sensor_dims_.size()); }
 
   /// Future periods buffered at most (samples for k > open + this are rejected: buffer_full).
@@ -112,6 +138,9 @@ class EstimatorCore {
   std::uint64_t late_total_ = 0;
   std::vector<int> late_since_publish_;  // sensor id of each late sample since the previous estimate
   std::uint64_t rejected_[static_cast<int>(SampleRejection::count_)] = {};
+  std::uint64_t rejected_before_restart_ = 0;  // the previous lives' total (from the checkpoint)
+  std::optional<std::uint64_t> resumed_after_;  // ticks up to this period are history: ignored
+  std::uint32_t restarts_ = 0;
 };
 
 }  // namespace netkf::nodes

@@ -1,0 +1,67 @@
+#pragma once
+// The estimator node's DDS wiring (docs/architecture.md, "estimator_node"): reads the plant's
+// ticks and the delivered samples, fuses each period through EstimatorCore, publishes the
+// estimate and (closed loop) the control input. Constructed from its options on a participant;
+// run() serves until stop() (from any thread, e.g. a signal handler's). The integration tests
+// run it in process (tests/integration/test_estimator_app.cpp); main.cpp only parses flags.
+//
+// Threads: delivered samples are handled on the DDS receive thread (bookkeeping, and the fused
+// update when a sample completes its period: microseconds, and a hand-off would add a context
+// switch per sample to the latency; see endpoints.hpp). Ticks, the deadline and the status log
+// run on the io thread, which owns the timers. One mutex guards the estimator core.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
+
+#include <boost/asio/io_context.hpp>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "netkf/dds/participant.hpp"
+#include "netkf/nodes/estimator_core.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::nodes {
+
+struct EstimatorAppOptions {
+  /// Log a summary line this often.
+  int status_period_ms = 10000;
+  /// Continue from this checkpoint (a restart) instead of the scenario's prior.
+  std::optional<EstimatorCheckpoint> resume;
+};
+
+/// What the estimator did so far (for its summary line and for tests).
+struct EstimatorAppStats {
+  std::uint64_t published = 0;
+  std::optional<std::uint64_t> last_fused_period;
+  std::uint64_t late_total = 0;
+  std::uint64_t rejected_total = 0;
+  std::uint32_t restarts = 0;
+  FilterState state = FilterState::ok;
+};
+
+class EstimatorApp {
+ public:
+  /// Throws (std::invalid_argument, DdsError) when the scenario or checkpoint cannot be run.
+  EstimatorApp(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options = {});
+  ~EstimatorApp();
+  EstimatorApp(const EstimatorApp&) = delete;
+  EstimatorApp& operator=(const EstimatorApp&) = delete;
+
+  /// Serve until stop(). Call once.
+  void run();
+  /// End run() soon (thread-safe; idempotent).
+  void stop();
+  /// The io_context run() serves (for a signal_set in main).
+  boost::asio::io_context& io();
+
+  EstimatorAppStats stats() const;
+  /// One line: estimates published, last period, late, rejected, state.
+  void log_summary() const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace netkf::nodes

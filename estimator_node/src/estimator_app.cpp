@@ -1,0 +1,216 @@
+#include "netkf/nodes/estimator_app.hpp"
+
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
+#include <mutex>
+#include <vector>
+
+#include <spdlog/spdlog.h>
+
+#include "netkf/dds/dds.hpp"
+#include "netkf/log_throttle.hpp"
+
+namespace netkf::nodes {
+
+namespace wire = netkf::wire;
+
+class EstimatorApp::Impl {
+ public:
+  Impl(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options)
+      : core_(scenario),
+        input_dim_(scenario.plant.B ? static_cast<int>(scenario.plant.B->cols()) : 0),
+        deadline_timer_(io_),
+        status_timer_(io_),
+        status_period_(std::chrono::milliseconds(options.status_period_ms)),
+        estimate_(participant, dds::topics::estimate),
+        control_(participant, dds::topics::control_input) {
+    if (options.resume) {
+      core_.resume(*options.resume);
+      spdlog::info("restart {}: resuming after period {} (Tr P = {:.4g}); the periods missed since are fused "
+                   "with nothing, predicted with the inputs the plant acknowledged",
+                   options.resume->restarts, options.resume->k, options.resume->P.trace());
+    }
+    // The readers last: their callbacks use everything above. The tick topic is transient-local,
+    // so a restarted estimator receives the recent ticks (and the inputs they acknowledge).
+    tick_.emplace(participant, dds::topics::tick,
+                  dds::post_to<wire::Tick>(io_.get_executor(), [this](wire::Tick t) { on_tick(t); }));
+    delivered_.emplace(participant, dds::topics::delivered_measurement,
+                       [this](wire::Measurement&& m) { on_sample(m); });
+    schedule_status();
+  }
+
+  ~Impl() {
+    // The readers first: no callback may run into a half-destroyed object.
+    delivered_.reset();
+    tick_.reset();
+  }
+
+  void run() {
+    work_.emplace(io_.get_executor());
+    io_.run();
+  }
+
+  void stop() {
+    boost::asio::post(io_, [this] {
+      deadline_timer_.cancel();
+      status_timer_.cancel();
+      work_.reset();
+      io_.stop();
+    });
+  }
+
+  boost::asio::io_context& io() { return io_; }
+
+  EstimatorAppStats stats() const {
+    const std::lock_guard lock(mutex_);
+    EstimatorAppStats s;
+    s.published = published_;
+    s.last_fused_period = core_.last_fused_period();
+    s.late_total = core_.late_total();
+    s.rejected_total = core_.rejected_total();
+    s.restarts = core_.restarts();
+    s.state = core_.filter().state();
+    return s;
+  }
+
+  void log_summary() const {
+    const auto s = stats();
+    spdlog::info("published {} estimates (last period {}), late samples {}, rejected {}, state {}{}", s.published,
+                 s.last_fused_period ? std::to_string(*s.last_fused_period) : std::string("none"), s.late_total,
+                 s.rejected_total, netkf::to_string(s.state),
+                 s.restarts ? ", restarts " + std::to_string(s.restarts) : std::string());
+  }
+
+ private:
+  // io thread
+  void on_tick(const wire::Tick& tick) {
+    const std::lock_guard lock(mutex_);
+    Vector applied;
+    try {
+      applied = dds::tick_applied_input(tick, input_dim_);
+    } catch (const std::exception& e) {
+      spdlog::warn("tick {}: {}; predicting with zero input", tick.k(), e.what());
+    }
+    publish(core_.on_tick(tick.k(), applied, dds::steady_now_ns()));
+    if (tick.final_tick()) spdlog::info("the plant ended the run at period {}", tick.k());
+    arm_deadline();
+  }
+
+  // DDS receive thread
+  void on_sample(const wire::Measurement& m) {
+    const std::lock_guard lock(mutex_);
+    SensorSample s;
+    try {
+      s = dds::to_sensor_sample(m);
+    } catch (const std::exception& e) {
+      core_.count_rejection(SampleRejection::non_finite);
+      if (const auto left_out = rejection_log_.allow())
+        spdlog::warn("sample of sensor {} for period {} rejected: {}{}", m.sensor_id(), m.k(), e.what(),
+                     dds::left_out_text(*left_out));
+      return;
+    }
+    const auto rejected_before = core_.rejected_total();
+    const auto late_before = core_.late_total();
+    publish(core_.on_sample(s.sensor_id, m.k(), s.y, m.stamp_ns(), dds::steady_now_ns()));
+    if (core_.rejected_total() != rejected_before) {
+      if (const auto left_out = rejection_log_.allow())
+        spdlog::warn("sample of sensor {} for period {} rejected ({} rejected so far){}", m.sensor_id(), m.k(),
+                     core_.rejected_total(), dds::left_out_text(*left_out));
+    } else if (core_.late_total() != late_before) {
+      spdlog::debug("late sample of sensor {} for period {} (period already fused)", m.sensor_id(), m.k());
+    }
+    // No timer work here: a sample never opens a period (only a tick does), so the deadline
+    // armed by the tick stays right; when it fires after the period was fused it finds
+    // nothing to do.
+  }
+
+  // io thread, with mutex_ held
+  void arm_deadline() {
+    const auto deadline = core_.pending_deadline_ns();
+    if (!deadline || armed_for_ == deadline) return;
+    armed_for_ = deadline;
+    deadline_timer_.expires_at(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(*deadline)));
+    deadline_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (ec) return;
+      const std::lock_guard lock(mutex_);
+      armed_for_.reset();
+      publish(core_.on_deadline(dds::steady_now_ns()));
+      arm_deadline();
+    });
+  }
+
+  void publish(const std::vector<PeriodEstimate>& estimates) {
+    for (const auto& e : estimates) {
+      dds::EstimateRecord r;
+      r.k = e.k;
+      r.t = e.t;
+      r.x_hat = e.x_hat;
+      r.P = e.P;
+      r.trace_P_pred = e.trace_P_pred;
+      r.fused = e.fused;
+      r.late = e.late;
+      r.late_sensors = e.late_sensors;
+      r.late_total = e.late_total;
+      r.rejected_total = e.rejected_total;
+      r.state = e.state;
+      r.fused_at_ns = e.fused_at_ns;
+      r.last_sample_stamp_ns = e.last_sample_stamp_ns;
+      r.restarts = e.restarts;
+      try {
+        if (e.control) control_.write(dds::make_control_input(e.k, *e.control));
+        r.stamp_ns = dds::steady_now_ns();
+        estimate_.write(dds::to_wire(r));  // to_wire refuses non-finite values: never NaN on the wire
+        ++published_;
+      } catch (const std::exception& ex) {
+        spdlog::error("estimate for period {} not published: {}", e.k, ex.what());
+      }
+      if (e.skipped_tick) spdlog::warn("tick {} never arrived: period fused open-loop from a later tick", e.k);
+      if (e.state != last_state_) {
+        if (e.state == FilterState::diverging) {
+          spdlog::warn("period {}: filter diverging (Tr P = {:.4g}): arrival rates below critical?", e.k, e.P.trace());
+        } else {
+          spdlog::info("period {}: filter ok again (Tr P = {:.4g})", e.k, e.P.trace());
+        }
+        last_state_ = e.state;
+      }
+    }
+  }
+
+  void schedule_status() {
+    status_timer_.expires_after(status_period_);
+    status_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (ec) return;
+      log_summary();
+      schedule_status();
+    });
+  }
+
+  boost::asio::io_context io_;
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
+  mutable std::mutex mutex_;  // core_ and the publication state below
+  LogThrottle rejection_log_;  // a broken or rogue sender: a few warnings, then a count
+  EstimatorCore core_;
+  int input_dim_;
+  boost::asio::steady_timer deadline_timer_;
+  boost::asio::steady_timer status_timer_;
+  std::chrono::milliseconds status_period_;
+  std::optional<std::int64_t> armed_for_;
+  std::uint64_t published_ = 0;
+  FilterState last_state_ = FilterState::ok;
+  dds::Writer<wire::Estimate> estimate_;
+  dds::Writer<wire::ControlInput> control_;
+  std::optional<dds::Reader<wire::Tick>> tick_;
+  std::optional<dds::Reader<wire::Measurement>> delivered_;
+};
+
+EstimatorApp::EstimatorApp(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options)
+    : impl_(std::make_unique<Impl>(scenario, participant, std::move(options))) {}
+EstimatorApp::~EstimatorApp() = default;
+void EstimatorApp::run() { impl_->run(); }
+void EstimatorApp::stop() { impl_->stop(); }
+boost::asio::io_context& EstimatorApp::io() { return impl_->io(); }
+EstimatorAppStats EstimatorApp::stats() const { return impl_->stats(); }
+void EstimatorApp::log_summary() const { impl_->log_summary(); }
+
+}  // namespace netkf::nodes
