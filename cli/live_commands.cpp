@@ -29,6 +29,7 @@
 #include "live_bus.hpp"
 #include "live_status.hpp"
 #include "live_views.hpp"
+#include "netkf/dds/participant.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
 #include "record_mcap.hpp"
@@ -44,12 +45,15 @@ using Clock = std::chrono::steady_clock;
 struct NetworkOptions {
   std::optional<int> domain;
   std::optional<std::string> profile;
+  std::optional<std::string> secure;
   void add_to(CLI::App* cmd) {
     cmd->add_option("--domain", domain, "DDS domain id (default: $NETKF_DOMAIN, else 0)")->check(CLI::Range(0, 232));
     cmd->add_option("--dds-profile", profile,
                     "Fast DDS XML profile (default: $NETKF_DDS_PROFILE, else built-in localhost-only)");
+    cmd->add_option("--secure", secure,
+                    "DDS Security: the directory made by `netkf security init` (default: $NETKF_SECURE, else none)");
   }
-  BusOptions bus(const std::string& name) const { return BusOptions{domain, profile, name}; }
+  BusOptions bus(const std::string& name, dds::Role role) const { return BusOptions{domain, profile, name, secure, role}; }
 };
 
 [[noreturn]] void fail(int code, const std::string& message) {
@@ -378,7 +382,9 @@ int run_launch(const LaunchOptions& o) {
   }
   std::uint64_t invalid_samples = 0;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"),
+    // The dashboard retunes links: a launch serving it needs the ctl identity.
+    const auto role = view_options.dashboard ? dds::Role::ctl : dds::Role::observer;
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch", role),
                                     recording_handlers(recording, views.get(), summary.get(), invalid_samples),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
@@ -392,6 +398,11 @@ int run_launch(const LaunchOptions& o) {
     if (o.network.profile) {
       a.push_back("--dds-profile");
       a.push_back(*o.network.profile);
+    }
+    // Explicit (so a launch secured by $NETKF_SECURE secures its children too) and absolute.
+    if (const auto secure = dds::resolve_secure(o.network.secure)) {
+      a.push_back("--secure");
+      a.push_back(secure->string());
     }
     return a;
   };
@@ -548,7 +559,7 @@ int run_record(const RecordOptions& o) {
   std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"),
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record", dds::Role::observer),
                                     recording_handlers(recording, nullptr, nullptr, invalid_samples), false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
@@ -707,7 +718,7 @@ int run_ctl_status(const CtlOptions& o) {
   h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, false);
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::observer), h, false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -753,7 +764,7 @@ int run_ctl_set_link(const CtlOptions& o) {
   };
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, true);
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::ctl), h, true);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }

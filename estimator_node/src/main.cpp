@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
     netkf::dds::setup_node_logging("estimator", common.log_level);
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     boost::asio::io_context io;
-    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-estimator"));
+    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-estimator", netkf::dds::Role::estimator));
     spdlog::info("scenario '{}': {} sensors, period {} ms, deadline {} ms, {} loop, domain {}", scenario.name,
                  scenario.sensors.size(), scenario.period_ms, scenario.deadline_ms(),
                  scenario.plant.control ? "closed" : "open", participant.domain());
