@@ -6,7 +6,9 @@
 // not fatal: the test reads what happened from the JSON object printed at the end.
 //
 // Usage: netkf_rogue --domain N --seconds S [--secure DIR --role ROLE] [--sensor ID]
-//                    [--marker Y] [--raw] [--delivered] [--link-control]
+//                    [--marker Y] [--raw] [--delivered] [--link-control] [--after-truth]
+// --after-truth: forge only once the truth is received (for the current period), so a test can
+// tell the forged samples' periods from the ones before.
 #include <atomic>
 #include <chrono>
 #include <iostream>
@@ -24,7 +26,7 @@ int main(int argc, char** argv) {
   int domain = -1, sensor = 1;
   double seconds = 5.0, marker = 31337.0;
   std::string secure, role = "observer";
-  bool raw = false, delivered = false, link_control = false;
+  bool raw = false, delivered = false, link_control = false, after_truth = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -106,6 +108,10 @@ int main(int argc, char** argv) {
     const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
     std::uint64_t counter = 0;
     while (std::chrono::steady_clock::now() < end) {
+      if (after_truth && truth_n.load() == 0) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        continue;
+      }
       const std::uint64_t k = last_k.load() > 0 ? last_k.load() + 1 : counter;
       if (raw_w && raw_w->write(ndds::make_measurement(sensor, k, ndds::steady_now_ns(), y))) ++raw_n;
       if (delivered_w && delivered_w->write(ndds::make_measurement(sensor, k, ndds::steady_now_ns(), y))) ++delivered_n;

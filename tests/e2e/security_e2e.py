@@ -66,7 +66,8 @@ def positive_controls(secure_dir):
     check(r.returncode == 0, "control: the secured ctl changes link 1 (rc=%d)" % r.returncode)
     l1 = link_status(secure_dir).get(1, {})
     check(abs(l1.get("loss", -1) - 0.2) < 1e-9, "control: the status shows link 1 at 0.2 (loss %s)" % l1.get("loss"))
-    legit = rogue("--secure", secure_dir, "--role", "sensor", "--raw", "--sensor", "2", "--marker", ALLOWED, seconds=4)
+    legit = rogue("--secure", secure_dir, "--role", "sensor", "--raw", "--sensor", "2", "--marker", ALLOWED,
+                  "--after-truth", seconds=4)
     check(legit["received"].get("truth", 0) > 0, "control: a sensor identity receives the truth (%s)" % legit["received"])
     check(legit["written"].get("raw", 0) > 0 and legit["matched"].get("raw_readers", 0) > 0,
           "control: its raw samples are written to a matched channel (%s)" % legit.get("matched"))
