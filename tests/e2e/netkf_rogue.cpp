@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
       delivered = true;
     else if (a == "--link-control")
       link_control = true;
+    else if (a == "--after-truth")
+      after_truth = true;
     else {
       std::cerr << "netkf_rogue: unknown argument " << a << "\n";
       return 2;
