@@ -3,6 +3,7 @@
 //
 //   scripts/in-netns.sh build/default/bench/bench_latency --repeat 5       # latency, 8 sensors @ 100 Hz
 //   scripts/in-netns.sh build/default/bench/bench_latency --capacity       # largest sensor count @ 100 Hz
+//   scripts/in-netns.sh build/default/bench/bench_latency --repeat 5 --secure-compare DIR     # cost of DDS Security
 //   ... --sensors-per-process K|auto  # sensors per sensor_node process (netkf launch's flag and
 //                                     # default: auto = at most 2 sensor processes per CPU)
 //
@@ -18,6 +19,12 @@
 // on each truth sample instead of on the bench's own clock, i.e. in the same burst of work as
 // the sensors' samples (the pipeline's newest sample always meets that burst; a free-running
 // hop rarely does).
+//
+// Security: `--secure DIR` runs the launch with DDS Security (DIR from `netkf security init`; this
+// process reads the estimates as the observer role). `--secure-compare DIR` alternates a run
+// without and a run with security in each repetition, so both see the same machine load. The
+// bare hop's private topic is not in the permissions: security runs (and both runs of a
+// comparison) measure the pipeline only.
 //
 // Capacity: with lossless links every period must fuse all d samples; a period fusing
 // fewer (late or missing samples) is unintended loss. The sweep doubles d up to
@@ -39,6 +46,7 @@
 #include <iostream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -125,7 +133,7 @@ constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", dds:
   std::mutex m;
   std::atomic<bool> done{false};
   {
-    dds::Participant p({domain, std::nullopt, "bench-hop-rx"});
+    dds::Participant p({domain, std::nullopt, "bench-hop-rx", std::nullopt});
     dds::Reader<netkf::wire::Measurement> r(p, kHopTopic, [&](netkf::wire::Measurement&& s) {
       const auto now = dds::steady_now_ns();
       if (s.sensor_id() < 0) {
@@ -172,7 +180,8 @@ struct LaunchShape {
 };
 
 RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, LaunchShape shape,
-              int rate_hz, double seconds, double warmup_s, bool with_hop) {
+              int rate_hz, double seconds, double warmup_s, bool with_hop,
+              const std::optional<std::filesystem::path>& secure = std::nullopt) {
   RunResult result;
   const int period_ms = 1000 / rate_hz;
   const auto scenario = write_scenario(sensors, period_ms);
@@ -197,7 +206,9 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
   std::map<std::uint64_t, std::size_t> fused_count;
   std::mutex m;
   {
-    dds::Participant p({domain, std::nullopt, "bench"});
+    dds::ParticipantOptions po{domain, std::nullopt, "bench", std::nullopt};
+    if (secure) po.security = dds::ParticipantOptions::Security{*secure, dds::Role::observer};
+    dds::Participant p(po);
     dds::Reader<netkf::wire::Estimate> est(p, dds::topics::estimate, [&](netkf::wire::Estimate&& e) {
       const auto now = dds::steady_now_ns();
       std::lock_guard lock(m);
@@ -222,10 +233,15 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
             });
       }
     }
-    const pid_t launch = spawn({netkf, "launch", scenario.string(), "--duration", std::to_string(seconds + warmup_s),
+    std::vector<std::string> launch_args{netkf, "launch", scenario.string(), "--duration", std::to_string(seconds + warmup_s),
                                 "--domain", std::to_string(domain), "--status-interval", "0",
                                 "--sensors-per-process", shape.per_process, "--sensor-nice",
-                                std::to_string(shape.sensor_nice)});
+                                std::to_string(shape.sensor_nice)};
+    if (secure) {
+      launch_args.push_back("--secure");
+      launch_args.push_back(secure->string());
+    }
+    const pid_t launch = spawn(launch_args);
     // The hop: d samples per period, like the sensors, paced by the same period.
     const auto start = Clock::now();
     auto next = start;
@@ -293,6 +309,8 @@ int main(int argc, char** argv) {
   LaunchShape shape;
   double seconds = 15.0, warmup_s = 1.0;
   bool capacity = false;
+  std::optional<std::filesystem::path> secure;
+  bool secure_compare = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -307,9 +325,14 @@ int main(int argc, char** argv) {
     else if (a == "--hop-clock") shape.hop_clock = next();
     else if (a == "--warmup") warmup_s = std::stod(next());
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
+    else if (a == "--secure") secure = std::filesystem::absolute(next());
+    else if (a == "--secure-compare") {
+      secure = std::filesystem::absolute(next());
+      secure_compare = true;
+    }
     else {
       std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K|auto] [--sensor-nice N] [--hop-clock free|truth] [--rate-hz R] [--seconds S] [--warmup S]\n"
-                  "                     [--repeat N] [--domain N] [--capacity [--max-sensors M]]\n");
+                  "                     [--repeat N] [--domain N] [--capacity [--max-sensors M]] [--secure DIR | --secure-compare DIR]\n");
       return a == "--help" ? 0 : 2;
     }
   }
@@ -332,11 +355,42 @@ int main(int argc, char** argv) {
       // The host's scheduling noise moves a single run's figures by up to 2x (bare hop p50
       // 40-90 us on the same idle VM), so runs are repeated and the median ratio reported.
       std::vector<double> ratios;
+      if (secure_compare) {
+        // Without, then with security, per repetition: the same load for both.
+        std::vector<double> plain_p50, secure_p50;
+        for (int rep = 1; rep <= repeat; ++rep) {
+          for (const bool with_security : {false, true}) {
+            std::printf("latency run %d/%d %s DDS Security: %d sensors (%s per process) at %d Hz for %.0f s after "
+                        "%.0f s warm-up\n",
+                        rep, repeat, with_security ? "WITH" : "without", sensors, shape.per_process.c_str(), rate_hz,
+                        seconds, warmup_s);
+            const auto r = run(netkf, self, domain, sensors, shape, rate_hz, seconds, warmup_s, false,
+                               with_security ? secure : std::nullopt);
+            print("pipeline: sample publish -> estimate publish", r.pipeline);
+            print("  of which sample publish -> fused update done", r.to_fused);
+            print("pipeline: sample publish -> estimate received", r.pipeline_rx);
+            std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d\n",
+                        static_cast<long long>(r.periods), static_cast<long long>(r.gaps),
+                        static_cast<long long>(r.short_periods), static_cast<long long>(r.late), r.launch_status);
+            (with_security ? secure_p50 : plain_p50).push_back(r.pipeline.p50_us);
+            std::fflush(stdout);
+          }
+        }
+        auto median = [](std::vector<double> v) {
+          std::sort(v.begin(), v.end());
+          return v.empty() ? 0.0 : v[v.size() / 2];
+        };
+        std::printf("pipeline p50 over %d runs: without security median %.1f us, with security median %.1f us "
+                    "(x%.2f)\n",
+                    repeat, median(plain_p50), median(secure_p50),
+                    median(plain_p50) > 0 ? median(secure_p50) / median(plain_p50) : 0.0);
+        return 0;
+      }
       for (int rep = 1; rep <= repeat; ++rep) {
         std::printf("latency run %d/%d: %d sensors (%s per process, nice %d) at %d Hz for %.0f s after %.0f s "
                     "warm-up (lossless links)\n",
                     rep, repeat, sensors, shape.per_process.c_str(), shape.sensor_nice, rate_hz, seconds, warmup_s);
-        const auto r = run(netkf, self, domain, sensors, shape, rate_hz, seconds, warmup_s, true);
+        const auto r = run(netkf, self, domain, sensors, shape, rate_hz, seconds, warmup_s, !secure, secure);
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         print("  of which sample publish -> fused update done", r.to_fused);
         print("pipeline: sample publish -> estimate received", r.pipeline_rx);
@@ -361,7 +415,7 @@ int main(int argc, char** argv) {
         std::printf("capacity: %d sensors (%s per process, nice %d) at %d Hz for %.0f s after %.0f s warm-up ...\n",
                     d, shape.per_process.c_str(), shape.sensor_nice, rate_hz, seconds, warmup_s);
         std::fflush(stdout);
-        const auto r = run(netkf, self, domain, d, shape, rate_hz, seconds, warmup_s, false);
+        const auto r = run(netkf, self, domain, d, shape, rate_hz, seconds, warmup_s, false, secure);
         const bool clean = r.launch_status == 0 && r.periods > 0 && r.gaps == 0 && r.short_periods == 0;
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         std::printf("  periods=%lld gaps=%lld periods-with-unintended-loss=%lld late=%lld launch-exit=%d => %s\n",

@@ -61,6 +61,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   po.domain = dds::resolve_domain(options.domain);
   po.profile_file = dds::resolve_profile(options.profile);
   po.name = options.name;
+  if (auto dir = dds::resolve_secure(options.secure)) po.security = dds::ParticipantOptions::Security{*dir, options.role};
   impl_ = std::make_unique<Impl>(po);
   auto ex = io.get_executor();
   auto invalid = [this, cb = h.invalid](const std::string& what) {

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "live_records.hpp"
+#include "netkf/dds/security.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -21,6 +22,8 @@ struct BusOptions {
   std::optional<int> domain;           // --domain (else $NETKF_DOMAIN, else 0)
   std::optional<std::string> profile;  // --dds-profile (else $NETKF_DDS_PROFILE, else localhost-only)
   std::string name = "netkf-cli";
+  std::optional<std::string> secure;   // --secure DIR (else $NETKF_SECURE, else no DDS Security)
+  dds::Role role = dds::Role::observer;  // the identity used with security
 };
 
 struct BusHandlers {

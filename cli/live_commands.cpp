@@ -31,6 +31,7 @@
 #include "live_status.hpp"
 #include "live_views.hpp"
 #include "netkf/nodes/estimator_core.hpp"
+#include "netkf/dds/participant.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
 #include "record_mcap.hpp"
@@ -46,12 +47,15 @@ using Clock = std::chrono::steady_clock;
 struct NetworkOptions {
   std::optional<int> domain;
   std::optional<std::string> profile;
+  std::optional<std::string> secure;
   void add_to(CLI::App* cmd) {
     cmd->add_option("--domain", domain, "DDS domain id (default: $NETKF_DOMAIN, else 0)")->check(CLI::Range(0, 232));
     cmd->add_option("--dds-profile", profile,
                     "Fast DDS XML profile (default: $NETKF_DDS_PROFILE, else built-in localhost-only)");
+    cmd->add_option("--secure", secure,
+                    "DDS Security: the directory made by `netkf security init` (default: $NETKF_SECURE, else none)");
   }
-  BusOptions bus(const std::string& name) const { return BusOptions{domain, profile, name}; }
+  BusOptions bus(const std::string& name, dds::Role role) const { return BusOptions{domain, profile, name, secure, role}; }
 };
 
 [[noreturn]] void fail(int code, const std::string& message) {
@@ -408,7 +412,9 @@ int run_launch(const LaunchOptions& o) {
       last_estimate = e;
       record(std::move(e));
     };
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch"), std::move(handlers),
+    // The dashboard retunes links: a launch serving it needs the ctl identity.
+    const auto role = view_options.dashboard ? dds::Role::ctl : dds::Role::observer;
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch", role), std::move(handlers),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
@@ -421,6 +427,11 @@ int run_launch(const LaunchOptions& o) {
     if (o.network.profile) {
       a.push_back("--dds-profile");
       a.push_back(*o.network.profile);
+    }
+    // Explicit (so a launch secured by $NETKF_SECURE secures its children too) and absolute.
+    if (const auto secure = dds::resolve_secure(o.network.secure)) {
+      a.push_back("--secure");
+      a.push_back(secure->string());
     }
     return a;
   };
@@ -597,7 +608,7 @@ int run_record(const RecordOptions& o) {
   std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record"),
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record", dds::Role::observer),
                                     recording_handlers(recording, nullptr, nullptr, invalid_samples), false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
@@ -756,7 +767,7 @@ int run_ctl_status(const CtlOptions& o) {
   h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, false);
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::observer), h, false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -802,7 +813,7 @@ int run_ctl_set_link(const CtlOptions& o) {
   };
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl"), h, true);
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::ctl), h, true);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }

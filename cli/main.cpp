@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   netkf::cli::add_record_command(app);
   netkf::cli::add_analyze_command(app);
   netkf::cli::add_simulate_command(app);
+  netkf::cli::add_security_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -10,7 +10,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsdp-dev gnuplot-nox python3-numpy python3-yaml
-  iproute2 util-linux tcpdump procps
+  iproute2 util-linux tcpdump procps openssl
   prometheus-cpp-dev prometheus chromium
 )
 missing=()

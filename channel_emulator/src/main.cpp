@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     netkf::nodes::ChannelLinks links(scenario);
     boost::asio::io_context io;
-    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-channel"));
+    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-channel", netkf::dds::Role::channel));
     spdlog::info("scenario '{}': {} links, domain {}", scenario.name, scenario.sensors.size(), participant.domain());
     for (const auto& r : links.reports()) {
       spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", r.sensor_id,

@@ -13,6 +13,8 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
       ->check(CLI::Range(0, 232));
   app.add_option("--dds-profile", flags.dds_profile,
                  "Fast DDS XML profile file (default: $NETKF_DDS_PROFILE, else the built-in localhost-only profile)");
+  app.add_option("--secure", flags.secure,
+                 "DDS Security directory made by `netkf security init` (default: $NETKF_SECURE, else no security)");
   app.add_option("--log-level", flags.log_level, "Log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -26,11 +28,13 @@ void setup_node_logging(const std::string& node_name, const std::string& level) 
   spdlog::set_default_logger(logger);
 }
 
-ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name) {
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name,
+                                            Role role) {
   ParticipantOptions o;
   o.domain = resolve_domain(flags.domain);
   o.profile_file = resolve_profile(flags.dds_profile);
   o.name = participant_name;
+  if (auto dir = resolve_secure(flags.secure)) o.security = ParticipantOptions::Security{*dir, role};
   return o;
 }
 

@@ -1,6 +1,7 @@
 // Participant creation with the project's DDS profile (see participant.hpp).
 #include "netkf/dds/participant.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <limits>
@@ -62,6 +63,33 @@ std::optional<std::filesystem::path> resolve_profile(const std::optional<std::st
   return std::nullopt;
 }
 
+std::optional<std::filesystem::path> resolve_secure(const std::optional<std::string>& flag) {
+  std::string dir;
+  if (flag && !flag->empty()) dir = *flag;
+  else if (const char* env = std::getenv(kSecureEnv); env != nullptr && *env != '\0') dir = env;
+  if (dir.empty()) return std::nullopt;
+  return std::filesystem::absolute(dir).lexically_normal();
+}
+
+void add_security_properties(fdds::DomainParticipantQos& qos, const SecurityFiles& files) {
+  auto& props = qos.properties().properties();
+  // A profile's own dds.sec.* settings would mix with ours into a half-configured plugin.
+  props.erase(std::remove_if(props.begin(), props.end(),
+                             [](const eprosima::fastrtps::rtps::Property& p) { return p.name().rfind("dds.sec.", 0) == 0; }),
+              props.end());
+  auto uri = [](const std::filesystem::path& p) { return "file://" + p.string(); };  // p is absolute
+  auto add = [&props](const std::string& name, const std::string& value) { props.emplace_back(name, value); };
+  add("dds.sec.auth.plugin", "builtin.PKI-DH");
+  add("dds.sec.auth.builtin.PKI-DH.identity_ca", uri(files.ca_cert));
+  add("dds.sec.auth.builtin.PKI-DH.identity_certificate", uri(files.identity_cert));
+  add("dds.sec.auth.builtin.PKI-DH.private_key", uri(files.identity_key));
+  add("dds.sec.access.plugin", "builtin.Access-Permissions");
+  add("dds.sec.access.builtin.Access-Permissions.permissions_ca", uri(files.ca_cert));
+  add("dds.sec.access.builtin.Access-Permissions.governance", uri(files.governance));
+  add("dds.sec.access.builtin.Access-Permissions.permissions", uri(files.permissions));
+  add("dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC");
+}
+
 fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
@@ -85,7 +113,8 @@ fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   return qos;
 }
 
-Participant::Participant(const ParticipantOptions& options) : domain_(options.domain), name_(options.name) {
+Participant::Participant(const ParticipantOptions& options)
+    : domain_(options.domain), name_(options.name), secure_(options.security.has_value()) {
   if (domain_ < 0 || domain_ > 232) throw DdsError("DDS domain id " + std::to_string(domain_) + " is outside [0, 232]");
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   fdds::DomainParticipantQos qos;
@@ -109,10 +138,22 @@ Participant::Participant(const ParticipantOptions& options) : domain_(options.do
       qos = localhost_participant_qos(name_);
     }
   }
+  std::optional<SecurityFiles> security;
+  if (options.security) {
+    security = security_files(options.security->dir, options.security->role);
+    check_security_files(*security);  // a missing file is named here, not in Fast DDS's log
+    add_security_properties(qos, *security);
+  }
   participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_), qos);
   if (participant_ == nullptr) {
-    throw DdsError("cannot create DDS participant '" + name_ + "' on domain " + std::to_string(domain_) +
-                   (options.profile_file ? " with profile " + options.profile_file->string() : std::string()));
+    std::string why = "cannot create DDS participant '" + name_ + "' on domain " + std::to_string(domain_) +
+                      (options.profile_file ? " with profile " + options.profile_file->string() : std::string());
+    if (security)
+      why += " with DDS Security as role " + std::string(role_name(options.security->role)) + " (Fast DDS refused " +
+             security->identity_cert.string() + " / " + security->identity_key.string() + " / " +
+             security->permissions.string() + " / " + security->governance.string() +
+             ": not signed by " + security->ca_cert.string() + ", expired, or not matching; see the log above)";
+    throw DdsError(why);
   }
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);

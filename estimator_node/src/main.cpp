@@ -33,7 +33,8 @@ int main(int argc, char** argv) {
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     if (!resume_from.empty() && std::filesystem::exists(resume_from))
       options.resume = netkf::nodes::read_checkpoint(resume_from);
-    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-estimator"));
+    netkf::dds::Participant participant(
+        netkf::dds::node_participant_options(common, "netkf-estimator", netkf::dds::Role::estimator));
     spdlog::info("scenario '{}': {} sensors, period {} ms, deadline {} ms, {} loop, domain {}", scenario.name,
                  scenario.sensors.size(), scenario.period_ms, scenario.deadline_ms(),
                  scenario.plant.control ? "closed" : "open", participant.domain());

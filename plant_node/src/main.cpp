@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
     netkf::dds::setup_node_logging("plant", common.log_level);
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     boost::asio::io_context io;
-    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-plant"));
+    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-plant", netkf::dds::Role::plant));
     spdlog::info("scenario '{}' period {} ms, domain {}", scenario.name, scenario.period_ms, participant.domain());
     {
       PlantNode node(io, scenario, participant, flags);

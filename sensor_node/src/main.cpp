@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
     for (int id : sensor_ids) sensors.emplace_back(scenario, id);
     const int n = scenario.state_dim();
     boost::asio::io_context io;
-    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-sensor-" + ids));
+    netkf::dds::Participant participant(netkf::dds::node_participant_options(common, "netkf-sensor-" + ids, netkf::dds::Role::sensor));
     spdlog::info("sensor {} of scenario '{}', domain {}", ids, scenario.name, participant.domain());
     {
       netkf::dds::Writer<wire::Measurement> raw(participant, netkf::dds::topics::raw_measurement,

@@ -44,6 +44,12 @@ bool wait_until(F count, int n, std::chrono::milliseconds timeout) {
 }
 }  // namespace detail
 
+/// What to add to "cannot create a writer/reader": under DDS Security the usual cause is the
+/// role's permissions (e.g. a sensor identity asking for link control).
+inline std::string refused_hint(const Participant& p) {
+  return p.secure() ? " (DDS Security: the permissions of this process's role do not allow it)" : std::string();
+}
+
 /// Publishes samples of one topic.
 template <class T>
 class Writer : private eprosima::fastdds::dds::DataWriterListener {
@@ -57,7 +63,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
     qos.depth = history_depth_for_rate(samples_per_second, qos.depth);
     writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(qos), this,
                                                           eprosima::fastdds::dds::StatusMask::publication_matched());
-    if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_);
+    if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_ + refused_hint(participant));
   }
   ~Writer() override {
     writer_->set_listener(nullptr);
@@ -111,7 +117,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
     reader_ = participant_.subscriber()->create_datareader(
         participant_.topic(spec), reader_qos(spec.qos), this,
         eprosima::fastdds::dds::StatusMask::data_available() << eprosima::fastdds::dds::StatusMask::subscription_matched());
-    if (reader_ == nullptr) throw DdsError("cannot create a DDS reader for topic " + topic_name_);
+    if (reader_ == nullptr) throw DdsError("cannot create a DDS reader for topic " + topic_name_ + refused_hint(participant));
   }
   ~Reader() override {
     reader_->set_listener(nullptr);

@@ -1,6 +1,6 @@
 #pragma once
 // What every node main shares: the common flags (--scenario, --domain, --dds-profile,
-// --log-level), spdlog set-up on stderr, and the participant options they resolve to.
+// --secure, --log-level), spdlog set-up on stderr, and the participant options they resolve to.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
@@ -20,6 +20,7 @@ struct CommonNodeFlags {
   std::string scenario;                  // --scenario FILE (required)
   std::optional<int> domain;             // --domain N (default $NETKF_DOMAIN, else 0)
   std::optional<std::string> dds_profile;// --dds-profile FILE (default $NETKF_DDS_PROFILE, else built-in localhost-only)
+  std::optional<std::string> secure;     // --secure DIR (default $NETKF_SECURE, else no DDS Security)
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
 };
 
@@ -34,8 +35,10 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);
 /// Log to stderr with the node's name in every line, at `level` (validated by the flags).
 void setup_node_logging(const std::string& node_name, const std::string& level);
 
-/// Resolve domain and profile (flag, then environment, then default). Throws DdsError.
-ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name);
+/// Resolve domain, profile and security directory (flag, then environment, then default);
+/// `role`: the identity the node uses when security is on. Throws DdsError.
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name,
+                                            Role role);
 
 /// SIGINT/SIGTERM end the node cleanly: `on_stop(signal)` runs on the io thread, then `io`
 /// stops. Constructed before any blocking start-up wait so a signal then is not fatal.

@@ -6,6 +6,8 @@
 // initial peers 127.0.0.1 (docs/dds-notes.md, "Keeping discovery on loopback").
 // A user picks another profile (e.g. deploy/dds/discovery-server.xml) with a file:
 // --dds-profile FILE or NETKF_DDS_PROFILE, never by editing code.
+// DDS Security (--secure DIR or NETKF_SECURE, security.hpp) adds the builtin plugins'
+// properties on top of whichever QoS is in effect (built-in or profile): it never replaces it.
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -22,6 +24,7 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "netkf/dds/security.hpp"
 #include "netkf/dds/topics.hpp"
 
 namespace netkf::dds {
@@ -35,6 +38,7 @@ class DdsError : public std::runtime_error {
 /// Environment variables read by resolve_domain / resolve_profile.
 inline constexpr const char* kDomainEnv = "NETKF_DOMAIN";
 inline constexpr const char* kProfileEnv = "NETKF_DDS_PROFILE";
+inline constexpr const char* kSecureEnv = "NETKF_SECURE";
 /// Participant profile a profile file may define; otherwise its default participant profile is used.
 inline constexpr const char* kProfileName = "netkf_participant";
 
@@ -43,6 +47,13 @@ struct ParticipantOptions {
   /// XML profile file; empty = the built-in localhost-only configuration.
   std::optional<std::filesystem::path> profile_file;
   std::string name = "netkf";
+  /// DDS Security: the directory of `netkf security init` and this process's role in it;
+  /// nullopt = no security.
+  struct Security {
+    std::filesystem::path dir;
+    Role role = Role::observer;
+  };
+  std::optional<Security> security;
 };
 
 /// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
@@ -51,6 +62,13 @@ int resolve_domain(std::optional<int> flag);
 /// Profile file: the flag when given (non-empty), else $NETKF_DDS_PROFILE (if set and
 /// non-empty), else nullopt (built-in localhost-only configuration).
 std::optional<std::filesystem::path> resolve_profile(const std::optional<std::string>& flag);
+/// Security directory: the flag when given (non-empty), else $NETKF_SECURE (if set and
+/// non-empty), else nullopt (no security). Made absolute (Fast DDS wants file:// URIs).
+std::optional<std::filesystem::path> resolve_secure(const std::optional<std::string>& flag);
+
+/// Add the builtin security plugins' properties for `files` to `qos` (replacing any dds.sec.*
+/// property it already had); everything else in `qos` stays.
+void add_security_properties(eprosima::fastdds::dds::DomainParticipantQos& qos, const SecurityFiles& files);
 
 /// The built-in localhost-only participant QoS (exposed for tests and tools).
 eprosima::fastdds::dds::DomainParticipantQos localhost_participant_qos(const std::string& name);
@@ -69,6 +87,8 @@ class Participant {
 
   int domain() const { return domain_; }
   const std::string& name() const { return name_; }
+  /// True when DDS Security is on (endpoint errors then mention the permissions).
+  bool secure() const { return secure_; }
   eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
   eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
@@ -84,6 +104,7 @@ class Participant {
 
   int domain_ = 0;
   std::string name_;
+  bool secure_ = false;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;

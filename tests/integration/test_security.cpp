@@ -1,0 +1,228 @@
+// DDS Security: the generated governance and permissions (parsed as XML, checked against the
+// intended role table), `netkf security init` (files openssl verifies, key modes, refusals),
+// and secured participants over real Fast DDS (runs in a private network namespace).
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <tinyxml2.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "commands.hpp"
+#include "netkf/dds/dds.hpp"
+
+namespace fs = std::filesystem;
+namespace nd = netkf::dds;
+using netkf::dds::Role;
+
+namespace {
+
+std::set<std::string> topic_list(tinyxml2::XMLElement* rule, const char* kind) {
+  std::set<std::string> out;
+  for (auto* k = rule->FirstChildElement(kind); k; k = k->NextSiblingElement(kind))
+    for (auto* t = k->FirstChildElement("topics")->FirstChildElement("topic"); t; t = t->NextSiblingElement("topic"))
+      out.insert(t->GetText());
+  return out;
+}
+
+/// Run `netkf security ARGS...` in-process; the command's exit code.
+int security_cli(std::vector<std::string> args) {
+  CLI::App app;
+  netkf::cli::add_security_command(app);
+  std::vector<const char*> argv{"netkf", "security"};
+  for (const auto& a : args) argv.push_back(a.c_str());
+  try {
+    app.parse(static_cast<int>(argv.size()), argv.data());
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();
+  } catch (const CLI::ParseError& e) {
+    return 2;
+  }
+  return 0;
+}
+
+fs::path fresh_dir(const std::string& name) {
+  auto d = fs::temp_directory_path() / ("netkf-test-security-" + std::to_string(getpid())) / name;
+  fs::remove_all(d);
+  fs::create_directories(d.parent_path());
+  return d;
+}
+
+int sh(const std::string& cmd) { return std::system((cmd + " >/dev/null 2>&1").c_str()); }
+
+}  // namespace
+
+// The intended table, written out here on purpose: the generated permissions must match it.
+TEST(SecurityPolicy, PermissionsAllowExactlyTheIntendedTopics) {
+  const std::set<std::string> observed{"netkf/truth",       "netkf/estimate",    "netkf/measurement/delivered",
+                                       "netkf/link/status", "netkf/link/change", "netkf/link/reply"};
+  const std::map<Role, std::pair<std::set<std::string>, std::set<std::string>>> intended{
+      {Role::plant, {{"netkf/truth", "netkf/tick"}, {"netkf/control"}}},
+      {Role::sensor, {{"netkf/measurement/raw"}, {"netkf/truth"}}},
+      {Role::channel,
+       {{"netkf/measurement/delivered", "netkf/link/status", "netkf/link/reply", "netkf/link/change"},
+        {"netkf/measurement/raw", "netkf/link/control"}}},
+      {Role::estimator, {{"netkf/estimate", "netkf/control"}, {"netkf/tick", "netkf/measurement/delivered"}}},
+      {Role::ctl, {{"netkf/link/control"}, observed}},
+      {Role::observer, {{}, observed}},
+  };
+  ASSERT_EQ(nd::all_roles().size(), intended.size());
+  for (const auto& [role, topics] : intended) {
+    SCOPED_TRACE(std::string(nd::role_name(role)));
+    const std::string xml =
+        nd::permissions_xml(role, nd::role_subject(role), "2020-01-01T00:00:00", "2030-01-01T00:00:00");
+    tinyxml2::XMLDocument doc;
+    ASSERT_EQ(doc.Parse(xml.c_str()), tinyxml2::XML_SUCCESS) << xml;
+    auto* grant = doc.FirstChildElement("dds")->FirstChildElement("permissions")->FirstChildElement("grant");
+    ASSERT_NE(grant, nullptr);
+    EXPECT_EQ(std::string(grant->FirstChildElement("subject_name")->GetText()), nd::role_subject(role));
+    EXPECT_EQ(std::string(grant->FirstChildElement("default")->GetText()), "DENY");
+    auto* allow = grant->FirstChildElement("allow_rule");
+    ASSERT_NE(allow, nullptr);
+    EXPECT_EQ(grant->FirstChildElement("deny_rule"), nullptr);
+    EXPECT_EQ(topic_list(allow, "publish"), topics.first);
+    EXPECT_EQ(topic_list(allow, "subscribe"), topics.second);
+  }
+  // Only ctl may write link control.
+  for (Role r : nd::all_roles()) {
+    const auto& p = nd::role_policy(r).publish;
+    const bool writes = std::find(p.begin(), p.end(), nd::topics::link_control.name) != p.end();
+    EXPECT_EQ(writes, r == Role::ctl) << nd::role_name(r);
+  }
+}
+
+TEST(SecurityPolicy, GovernanceRequiresAuthenticationAndEncryptsEveryTopic) {
+  tinyxml2::XMLDocument doc;
+  const std::string xml = nd::governance_xml();
+  ASSERT_EQ(doc.Parse(xml.c_str()), tinyxml2::XML_SUCCESS) << xml;
+  auto* rule = doc.FirstChildElement("dds")->FirstChildElement("domain_access_rules")->FirstChildElement("domain_rule");
+  ASSERT_NE(rule, nullptr);
+  auto text = [](tinyxml2::XMLElement* e, const char* name) {
+    return std::string(e->FirstChildElement(name)->GetText());
+  };
+  EXPECT_EQ(text(rule, "allow_unauthenticated_participants"), "false");
+  EXPECT_EQ(text(rule, "enable_join_access_control"), "true");
+  EXPECT_EQ(text(rule, "discovery_protection_kind"), "ENCRYPT");
+  EXPECT_EQ(text(rule, "liveliness_protection_kind"), "ENCRYPT");
+  EXPECT_EQ(text(rule, "rtps_protection_kind"), "ENCRYPT");
+  std::vector<std::string> expressions;
+  for (auto* t = rule->FirstChildElement("topic_access_rules")->FirstChildElement("topic_rule"); t;
+       t = t->NextSiblingElement("topic_rule")) {
+    expressions.push_back(text(t, "topic_expression"));
+    EXPECT_EQ(text(t, "enable_read_access_control"), "true");
+    EXPECT_EQ(text(t, "enable_write_access_control"), "true");
+    EXPECT_EQ(text(t, "data_protection_kind"), "ENCRYPT");
+    EXPECT_EQ(text(t, "metadata_protection_kind"), "ENCRYPT");
+  }
+  std::vector<std::string> expected(nd::all_topic_names().begin(), nd::all_topic_names().end());
+  expected.push_back("*");  // last: any other topic is access-controlled too
+  EXPECT_EQ(expressions, expected);
+}
+
+TEST(SecurityInit, MakesFilesOpensslVerifies) {
+  const auto dir = fresh_dir("init");
+  ASSERT_EQ(security_cli({"init", dir.string(), "--days", "30"}), 0);
+  const std::string ca = (dir / "ca" / "cert.pem").string();
+  EXPECT_EQ(sh("openssl smime -verify -in " + (dir / "governance.p7s").string() + " -CAfile " + ca + " -out /dev/null"),
+            0);
+  for (Role r : nd::all_roles()) {
+    SCOPED_TRACE(std::string(nd::role_name(r)));
+    const auto files = nd::security_files(dir, r);
+    EXPECT_NO_THROW(nd::check_security_files(files));
+    EXPECT_EQ(sh("openssl verify -CAfile " + ca + " " + files.identity_cert.string()), 0);
+    EXPECT_EQ(sh("openssl smime -verify -in " + files.permissions.string() + " -CAfile " + ca + " -out /dev/null"), 0);
+    // The signed permissions are the generated document for the certificate's subject.
+    EXPECT_EQ(sh("openssl smime -verify -in " + files.permissions.string() + " -CAfile " + ca +
+                 " | grep -q '<subject_name>" + nd::role_subject(r) + "</subject_name>'"),
+              0);
+    EXPECT_EQ(sh("openssl x509 -in " + files.identity_cert.string() +
+                 " -noout -subject -nameopt RFC2253 | grep -qx 'subject=" + nd::role_subject(r) + "'"),
+              0);
+    struct stat st {};
+    ASSERT_EQ(stat(files.identity_key.c_str(), &st), 0);
+    EXPECT_EQ(st.st_mode & 0777, 0600u);
+  }
+  // A certificate of another CA does not verify against this one.
+  const auto other = fresh_dir("other");
+  ASSERT_EQ(security_cli({"init", other.string()}), 0);
+  EXPECT_NE(sh("openssl verify -CAfile " + ca + " " + nd::security_files(other, Role::ctl).identity_cert.string()), 0);
+
+  // An existing directory is kept unless --force; --force replaces it (a new CA).
+  std::ifstream old_ca_in(ca);
+  const std::string old_ca((std::istreambuf_iterator<char>(old_ca_in)), {});
+  EXPECT_EQ(security_cli({"init", dir.string()}), 2);
+  EXPECT_EQ(security_cli({"init", dir.string(), "--force"}), 0);
+  std::ifstream new_ca_in(ca);
+  EXPECT_NE(std::string((std::istreambuf_iterator<char>(new_ca_in)), {}), old_ca);
+  // --force does not delete a directory that `security init` did not make.
+  const auto foreign = fresh_dir("foreign");
+  fs::create_directories(foreign);
+  std::ofstream(foreign / "precious.txt") << "x";
+  EXPECT_EQ(security_cli({"init", foreign.string(), "--force"}), 2);
+  EXPECT_TRUE(fs::exists(foreign / "precious.txt"));
+  fs::remove_all(dir.parent_path());
+}
+
+TEST(SecurityInit, MissingOpensslIsAClearError) {
+  const char* old = std::getenv("PATH");
+  const std::string saved = old ? old : "";
+  ::setenv("PATH", "/nonexistent", 1);
+  testing::internal::CaptureStderr();
+  const int rc = security_cli({"init", fresh_dir("no-openssl").string()});
+  const std::string err = testing::internal::GetCapturedStderr();
+  ::setenv("PATH", saved.c_str(), 1);
+  EXPECT_EQ(rc, 1);
+  EXPECT_NE(err.find("openssl not found"), std::string::npos) << err;
+}
+
+TEST(SecurityParticipant, MissingIdentityFileIsNamed) {
+  nd::ParticipantOptions o;
+  o.domain = 93;
+  o.security = nd::ParticipantOptions::Security{fresh_dir("absent"), Role::sensor};
+  try {
+    nd::Participant p(o);
+    FAIL() << "a participant was created without its security files";
+  } catch (const nd::DdsError& e) {
+    EXPECT_NE(std::string(e.what()).find("ca/cert.pem"), std::string::npos) << e.what();
+  }
+}
+
+// Real Fast DDS: a secured sensor reaches a secured channel; an unsecured reader gets nothing;
+// a sensor identity cannot create a link-control writer.
+TEST(SecurityParticipant, OnlyAuthenticatedPeersExchangeSamples) {
+  const auto dir = fresh_dir("peers");
+  ASSERT_EQ(security_cli({"init", dir.string()}), 0);
+  auto options = [&](const char* name, std::optional<Role> role) {
+    nd::ParticipantOptions o;
+    o.domain = 93;
+    o.name = name;
+    if (role) o.security = nd::ParticipantOptions::Security{dir, *role};
+    return o;
+  };
+  nd::Participant sensor(options("sensor", Role::sensor));
+  nd::Participant channel(options("channel", Role::channel));
+  nd::Participant outsider(options("outsider", std::nullopt));
+  std::atomic<int> secured_rx{0}, outsider_rx{0};
+  nd::Reader<netkf::wire::Measurement> rx(channel, nd::topics::raw_measurement, [&](netkf::wire::Measurement&&) { ++secured_rx; });
+  nd::Reader<netkf::wire::Measurement> spy(outsider, nd::topics::raw_measurement,
+                                     [&](netkf::wire::Measurement&&) { ++outsider_rx; });
+  nd::Writer<netkf::wire::Measurement> tx(sensor, nd::topics::raw_measurement);
+  ASSERT_TRUE(tx.wait_for_matched(1, std::chrono::seconds(20)));
+  for (int k = 0; k < 20; ++k) tx.write(nd::make_measurement(1, k, nd::steady_now_ns(), netkf::Vector::Ones(1)));
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (secured_rx < 20 && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  EXPECT_EQ(secured_rx.load(), 20);
+  EXPECT_EQ(tx.matched(), 1);  // the channel only
+  EXPECT_EQ(outsider_rx.load(), 0);
+  EXPECT_THROW(nd::Writer<netkf::wire::LinkControl>(sensor, nd::topics::link_control), nd::DdsError);
+  fs::remove_all(dir.parent_path());
+}
