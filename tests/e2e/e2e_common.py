@@ -254,3 +254,61 @@ def all_finite(rows):
 def contiguous(rows):
     ks = [r["k"] for r in rows]
     return ks == list(range(ks[0], ks[0] + len(ks))) if ks else False
+
+
+def netkf_processes(domain):
+    """pids of netkf node processes (from this build) still running on `domain`: a run that
+    ended must leave none behind."""
+    found = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            with open("/proc/%s/cmdline" % pid, "rb") as f:
+                argv = f.read().split(b"\0")
+        except OSError:
+            continue
+        if not argv or not argv[0].startswith(BIN.encode()):
+            continue
+        for i, a in enumerate(argv[:-1]):
+            if a == b"--domain" and argv[i + 1] == str(domain).encode():
+                found.append(int(pid))
+    return found
+
+
+def launch_files_dirs(launch_pid):
+    """The private directories `netkf launch` with this pid keeps its files in (cli/launch_files.hpp)."""
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    base = os.path.join(runtime, "netkf") if runtime and os.path.isdir(runtime) else \
+        os.path.join(tempfile.gettempdir(), "netkf-%d" % os.getuid())
+    try:
+        return [os.path.join(base, d) for d in os.listdir(base) if d.startswith("launch-%d-" % launch_pid)]
+    except OSError:
+        return []
+
+
+def zombie_shm_segments():
+    """Fast DDS shared-memory segments no live process holds (what `fastdds shm clean` would
+    remove), found the way the tool finds them: a segment's lock file that nobody has locked."""
+    import fcntl
+    zombies = []
+    try:
+        names = os.listdir("/dev/shm")
+    except OSError:
+        return zombies
+    import re
+    segment_lock = re.compile(r"^fastrtps_[0-9a-z]{16}_el$")
+    for name in names:
+        if not segment_lock.match(name):
+            continue
+        try:
+            with open(os.path.join("/dev/shm", name), "ab") as f:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    zombies.append(name)
+                except OSError:
+                    pass  # held by a live process
+        except OSError:
+            pass
+    return zombies

@@ -1,0 +1,99 @@
+"""Fault matrix: kill -9 of the estimator mid-run. The launch restarts it; it resumes from the
+last estimate it published (the checkpoint the launch writes) and predicts over the periods it
+missed with nothing fused. Asserted: the run ends cleanly, an estimate for every period, no
+NaN, fusion resumes, the estimates equal an offline replay that treats the missed periods as
+"nothing arrived" (netkf_replay, and an independent NumPy filter), and no process or
+temporary file is left behind."""
+import json
+import os
+import re
+import signal
+import subprocess
+
+import numpy as np
+
+from e2e_common import (DATA, Launch, all_finite, check, contiguous, finish, last_period, launch_files_dirs,
+                        netkf_processes, read_periods, read_samples, require_netns, wait_for, workdir)
+
+require_netns()
+domain = int(os.environ["NETKF_DOMAIN"])
+out = workdir("fault-estimator")
+scenario = os.path.join(DATA, "exact.yaml")
+with Launch(scenario, 14, out, samples=True) as run:
+    check(wait_for(lambda: last_period(run.record) >= 150, 60), "the run reaches period 150")
+    pid = run.child_pids().get("estimator_node")
+    check(pid is not None, "launch wrote the estimator's pid")
+    if pid:
+        os.kill(pid, signal.SIGKILL)
+    rc = run.wait(90)
+    log = run.output()
+    launch_pid = run.proc.pid
+check(rc == 0, "launch exits 0: the estimator was restarted (rc=%s)" % rc)
+check("estimator_node (pid %d) killed by signal 9" % pid in log if pid else False, "launch reports the estimator's death")
+check("restarting estimator_node" in log, "launch restarts the estimator")
+check("estimator restarted (restart 1): resumed from its estimate of period" in log,
+      "the status says the estimator resumed from its last estimate")
+rows = read_periods(run.record, 2)
+samples = read_samples(run.samples)
+check(len(rows) >= 400, "at least 400 periods recorded (got %d)" % len(rows))
+check(bool(rows) and rows[0]["k"] == 0 and contiguous(rows),
+      "an estimate for every period from 0, no gap (%d rows)" % len(rows))
+check(all_finite(rows), "no NaN/Inf")
+m = re.search(r"resumed from its estimate of period (\d+)", log)
+if rows and m:
+    # The gap: the periods after the checkpoint, fused with nothing, until the restarted
+    # estimator hears the channel again.
+    resumed = int(m.group(1))
+    after = [r for r in rows if r["k"] > resumed]
+    first_fused = next((r["k"] for r in after if r["fused"]), None)
+    gap = [r["k"] for r in after if first_fused is not None and r["k"] < first_fused]
+    print("resumed after period %d; fused again from period %s; %d periods open-loop" % (resumed, first_fused, len(gap)))
+    check(first_fused is not None, "the restarted estimator fuses samples again")
+    check(len(gap) >= 1, "the periods it missed are in the recording, fused with nothing (%d)" % len(gap))
+    fused_after = sum(1 for r in after if first_fused is not None and r["k"] >= first_fused and r["fused"])
+    check(fused_after >= 100, "it keeps fusing after the restart (%d periods with samples)" % fused_after)
+
+# The offline replay over the whole run: the fused sets say what each period used, so the
+# missed periods are replayed as "nothing arrived".
+r = subprocess.run([os.environ["NETKF_REPLAY"], scenario, run.samples, run.record], capture_output=True, text=True)
+print(r.stdout, r.stderr)
+check(r.returncode == 0, "netkf_replay compared the run")
+if r.returncode == 0:
+    res = json.loads(r.stdout)
+    check(res["periods_compared"] == len(rows), "every recorded period compared")
+    check(res["max_xhat_diff"] <= 1e-9, "x̂ after the restart equals the offline replay to 1e-9 (%.3g)" %
+          res["max_xhat_diff"])
+    check(res["max_trace_P_diff"] <= 1e-9, "Tr P equals the offline replay to 1e-9 (%.3g)" % res["max_trace_P_diff"])
+    check(res["fused_mismatch"] == 0, "fused sets agree")
+
+# An independent NumPy filter over the same fused samples (exact.yaml's model).
+A = np.array([[0.9, 0.2], [-0.1, 0.8]])
+Q = np.diag([0.2, 0.1])
+C = {1: np.array([[1.0, 0.0]]), 2: np.array([[0.5, 1.0]])}
+R = {1: 0.5, 2: 0.8}
+x = np.array([1.0, -1.0])
+P = np.diag([2.0, 2.0])
+by_k = {}
+for s in samples:
+    if s["fused"]:
+        by_k.setdefault(s["k"], []).append(s)
+recorded = {row["k"]: row for row in rows}
+worst = 0.0
+for k in range(0, rows[-1]["k"] + 1 if rows else 0):
+    got = sorted(by_k.get(k, []), key=lambda s: s["sensor_id"])
+    if got:
+        Cs = np.vstack([C[s["sensor_id"]] for s in got])
+        S = Cs @ P @ Cs.T + np.diag([R[s["sensor_id"]] for s in got])
+        K = P @ Cs.T @ np.linalg.inv(S)
+        x = x + K @ (np.array([s["y"][0] for s in got]) - Cs @ x)
+        P = P - K @ Cs @ P
+    if k in recorded:
+        worst = max(worst, float(np.max(np.abs(x - np.array(recorded[k]["xhat"])))),
+                    abs(np.trace(P) - recorded[k]["trace_P"]))
+    x = A @ x
+    P = A @ P @ A.T + Q
+check(worst <= 1e-8, "an independent NumPy Kalman filter agrees across the restart to 1e-8 (%.3g)" % worst)
+
+check(wait_for(lambda: not netkf_processes(domain), 10), "no netkf process left running on the domain")
+check(not launch_files_dirs(launch_pid), "the launch removed its private files")
+finish()
