@@ -568,6 +568,11 @@ int run_launch(const LaunchOptions& o) {
   io.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
   signals.cancel();
   bus.reset();
+  // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
+  // DDS shared-memory files: every process of the run has ended, so remove them now.
+  if (const auto shm = clean_stale_shared_memory(); shm.zombie_segments + shm.zombie_ports > 0)
+    std::cerr << "netkf launch: removed " << shm.zombie_segments << " Fast DDS shared-memory segments and "
+              << shm.zombie_ports << " ports left by killed processes (fastdds shm clean)\n";
 
   const std::string end_text = end == End::duration   ? "duration reached"
                                : end == End::signal   ? "signal"

@@ -1,0 +1,56 @@
+"""Fault matrix: the channel emulator stopped (SIGSTOP) for 2 s then continued, and later
+killed with kill -9. Asserted: an estimate for every period (open-loop while nothing arrives),
+no NaN, the samples the channel held while stopped arrive late and are counted as late, fusion
+resumes after each fault, the run ends cleanly, and no process, launch file or stale Fast DDS
+shared-memory segment is left behind."""
+import os
+import signal
+import time
+
+from e2e_common import (DATA, Launch, all_finite, check, contiguous, finish, last_period, launch_files_dirs,
+                        netkf_processes, read_periods, require_netns, wait_for, workdir, zombie_shm_segments)
+
+require_netns()
+domain = int(os.environ["NETKF_DOMAIN"])
+out = workdir("fault-channel")
+with Launch(os.path.join(DATA, "kill.yaml"), 16, out, extra=["--sensors-per-process", "1"]) as run:
+    check(wait_for(lambda: last_period(run.record) >= 100, 60), "the run reaches period 100")
+    pid = run.child_pids().get("channel_emulator")
+    check(pid is not None, "launch wrote the channel's pid")
+    if pid:
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(2.0)
+        os.kill(pid, signal.SIGCONT)
+        stopped_until = last_period(run.record)
+        check(wait_for(lambda: last_period(run.record) >= stopped_until + 100, 30), "the run goes on after SIGCONT")
+        os.kill(pid, signal.SIGKILL)
+    rc = run.wait(90)
+    log = run.output()
+    launch_pid = run.proc.pid
+check(rc == 0, "launch exits 0: the channel was restarted (rc=%s)" % rc)
+check("channel_emulator (pid %d) killed by signal 9" % pid in log if pid else False, "launch reports the channel's death")
+check("restarting channel_emulator" in log, "launch restarts the channel")
+rows = read_periods(os.path.join(out, "periods.csv"), 2)
+check(len(rows) >= 400, "at least 400 periods recorded (got %d)" % len(rows))
+check(bool(rows) and rows[0]["k"] == 0 and contiguous(rows), "an estimate for every period, no gap (%d rows)" % len(rows))
+check(all_finite(rows), "no NaN/Inf")
+# Each fault leaves a run of periods fused with nothing (open-loop); fusion resumes after each.
+runs, current = [], 0
+for r in rows:
+    if r["fused"]:
+        if current >= 10:
+            runs.append(current)
+        current = 0
+    else:
+        current += 1
+print("runs of >= 10 periods without samples:", runs)
+check(len(runs) >= 2, "two outages (SIGSTOP, kill -9), each followed by fusion again (%s)" % runs)
+late = sum(r["late"] for r in rows)
+check(late > 0, "the samples held while the channel was stopped arrived late and were counted (%d)" % late)
+check(rows and rows[-1]["fused"] or any(r["fused"] for r in rows[-20:]), "fusing at the end of the run")
+check(wait_for(lambda: not netkf_processes(domain), 10), "no netkf process left running on the domain")
+check(not launch_files_dirs(launch_pid), "the launch removed its private files")
+# The killed channel's shared-memory segment is cleaned by the launch at its end.
+zombies = zombie_shm_segments()
+check(not zombies, "no stale Fast DDS shared-memory segment left (%s)" % zombies[:4])
+finish()
