@@ -61,6 +61,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   po.domain = dds::resolve_domain(options.domain);
   po.profile_file = dds::resolve_profile(options.profile);
   po.name = options.name;
+  po.run = options.run;
   if (auto dir = dds::resolve_secure(options.secure)) po.security = dds::ParticipantOptions::Security{*dir, options.role};
   impl_ = std::make_unique<Impl>(po);
   auto ex = io.get_executor();
@@ -162,5 +163,19 @@ bool LiveBus::send_link_control(std::uint64_t request_id, int sensor_id, const L
 
 int LiveBus::link_control_readers() const { return impl_->link_control ? impl_->link_control->matched() : 0; }
 int LiveBus::link_reply_writers() const { return impl_->link_reply ? impl_->link_reply->matched() : 0; }
+
+std::vector<std::pair<std::string, int>> LiveBus::network_writers() const {
+  std::vector<std::pair<std::string, int>> out;
+  auto add = [&out](const auto& reader) {
+    if (reader && reader->matched() > 0) out.emplace_back(reader->topic_name(), reader->matched());
+  };
+  add(impl_->truth);
+  add(impl_->estimate);
+  add(impl_->delivered);
+  add(impl_->link_status);
+  return out;
+}
+
+std::uint64_t LiveBus::foreign_samples() const { return impl_->participant.foreign_samples(); }
 
 }  // namespace netkf::cli

@@ -4,6 +4,8 @@
 // the DDS library's conversions) and handed to the command's handlers on its own
 // io_context thread (netkf::dds::post_to), never on a DDS listener thread.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
+#include <string>
+#include <vector>
 
 #include <boost/asio/io_context.hpp>
 #include <cstdint>
@@ -24,6 +26,7 @@ struct BusOptions {
   std::string name = "netkf-cli";
   std::optional<std::string> secure;   // --secure DIR (else $NETKF_SECURE, else no DDS Security)
   dds::Role role = dds::Role::observer;  // the identity used with security
+  std::uint64_t run = 0;               // the launch's run id (samples of another run dropped); 0: any
 };
 
 struct BusHandlers {
@@ -52,6 +55,11 @@ class LiveBus {
   int link_control_readers() const;
   /// Writers matched on the link-reply topic.
   int link_reply_writers() const;
+  /// Writers matched on the network's data topics (truth, estimate, delivered, link status), by
+  /// topic: before a launch starts its nodes, any is another network on the domain.
+  std::vector<std::pair<std::string, int>> network_writers() const;
+  /// Samples of another run dropped (BusOptions::run).
+  std::uint64_t foreign_samples() const;
   std::uint64_t invalid_samples() const { return invalid_; }
 
  private:

@@ -22,6 +22,7 @@
 #include <optional>
 #include <random>
 #include <sstream>
+#include <thread>
 #include <unistd.h>
 
 #include "commands.hpp"
@@ -270,6 +271,7 @@ struct LaunchOptions {
   std::vector<std::string> dashboard_allow_origins;
   std::vector<std::string> checks;  // "NAME<VALUE", evaluated at the end of the run
   std::optional<std::string> summary;
+  double domain_check = 1.5;  // seconds to look for another network on the domain before starting
 };
 
 /// "8", "2.5", "1e+03": a number as a person writes it.
@@ -404,6 +406,13 @@ int run_launch(const LaunchOptions& o) {
     fail(2, e.what());
   }
   std::uint64_t invalid_samples = 0;
+  // This run's id: every node stamps it on its samples and drops those of another run.
+  const std::uint64_t run_id = [] {
+    std::random_device rd;  // the kernel's random source: an identifier, not part of the experiment
+    std::uint64_t id = 0;
+    while (id == 0) id = (static_cast<std::uint64_t>(rd()) << 32) | rd();
+    return id;
+  }();
   // The last estimate seen (io thread): the checkpoint a restarted estimator resumes from.
   std::optional<EstimateRecord> last_estimate;
   try {
@@ -414,16 +423,34 @@ int run_launch(const LaunchOptions& o) {
     };
     // The dashboard retunes links: a launch serving it needs the ctl identity.
     const auto role = view_options.dashboard ? dds::Role::ctl : dds::Role::observer;
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-launch", role), std::move(handlers),
+    BusOptions bus_options = o.network.bus("netkf-launch", role);
+    bus_options.run = run_id;
+    bus = std::make_unique<LiveBus>(io, bus_options, std::move(handlers),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
   const int domain = bus->domain();
+  // Another network on this domain (another launch, or nodes started by hand) would mix its
+  // samples with ours: before starting anything, look for writers of the network's topics.
+  // Nothing of ours writes them yet, so any writer found is someone else's.
+  if (o.domain_check > 0) {
+    const auto until = Clock::now() + std::chrono::duration<double>(o.domain_check);
+    std::vector<std::pair<std::string, int>> writers;
+    while (Clock::now() < until && (writers = bus->network_writers()).empty())
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (!writers.empty()) {
+      std::string found;
+      for (const auto& [topic, n] : writers) found += (found.empty() ? "" : ", ") + topic + " (" + std::to_string(n) + ")";
+      fail(2, "DDS domain " + std::to_string(domain) + " already carries a netkf network (writers on " + found +
+                  "), e.g. another `netkf launch`: give this run its own domain with --domain N (or NETKF_DOMAIN), "
+                  "or stop the other one");
+    }
+  }
 
   auto common_args = [&] {
     std::vector<std::string> a{"--scenario", scenario_path.string(), "--domain", std::to_string(domain),
-                               "--log-level", o.log_level};
+                               "--log-level", o.log_level, "--run-id", std::to_string(run_id)};
     if (o.network.profile) {
       a.push_back("--dds-profile");
       a.push_back(*o.network.profile);
@@ -567,6 +594,7 @@ int run_launch(const LaunchOptions& o) {
   io.restart();
   io.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
   signals.cancel();
+  const std::uint64_t foreign_samples = bus->foreign_samples();
   bus.reset();
   // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
   // DDS shared-memory files: every process of the run has ended, so remove them now.
@@ -580,6 +608,7 @@ int run_launch(const LaunchOptions& o) {
                                                       : "failure";
   std::cerr << "netkf launch: stopped (" << end_text << "); " << views->model().snapshot().estimates
             << " estimates seen";
+  if (foreign_samples > 0) std::cerr << ", " << foreign_samples << " samples of another run on the domain dropped";
   if (o.record)
     std::cerr << ", " << recording.rows() << (is_mcap_path(*o.record) ? " periods in " : " rows in ") << *o.record;
   std::cerr << "\n";
@@ -898,6 +927,10 @@ void add_launch_command(CLI::App& app) {
             return "must be 'auto' or a whole number of sensors >= 1, got '" + v + "'";
           },
           "auto|K"))
+      ->capture_default_str();
+  cmd->add_option("--domain-check", o->domain_check,
+                  "Seconds to look for another netkf network on the DDS domain before starting (0: skip)")
+      ->check(CLI::Range(0.0, 60.0))
       ->capture_default_str();
   cmd->add_option("--sensor-nice", o->sensor_nice,
                   "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices; a "

@@ -15,6 +15,8 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
                  "Fast DDS XML profile file (default: $NETKF_DDS_PROFILE, else the built-in localhost-only profile)");
   app.add_option("--secure", flags.secure,
                  "DDS Security directory made by `netkf security init` (default: $NETKF_SECURE, else no security)");
+  app.add_option("--run-id", flags.run_id,
+                 "Run id given by `netkf launch`: samples of another run on the domain are dropped (0: none)");
   app.add_option("--log-level", flags.log_level, "Log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -34,6 +36,7 @@ ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const 
   o.domain = resolve_domain(flags.domain);
   o.profile_file = resolve_profile(flags.dds_profile);
   o.name = participant_name;
+  o.run = flags.run_id;
   if (auto dir = resolve_secure(flags.secure)) o.security = ParticipantOptions::Security{*dir, role};
   return o;
 }

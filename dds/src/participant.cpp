@@ -8,6 +8,8 @@
 #include <mutex>
 #include <system_error>
 
+#include <spdlog/spdlog.h>
+
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
 #include <fastdds/dds/publisher/qos/PublisherQos.hpp>
@@ -114,7 +116,7 @@ fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
 }
 
 Participant::Participant(const ParticipantOptions& options)
-    : domain_(options.domain), name_(options.name), secure_(options.security.has_value()) {
+    : domain_(options.domain), name_(options.name), run_(options.run), secure_(options.security.has_value()) {
   if (domain_ < 0 || domain_ > 232) throw DdsError("DDS domain id " + std::to_string(domain_) + " is outside [0, 232]");
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   fdds::DomainParticipantQos qos;
@@ -213,6 +215,15 @@ fdds::DataReaderQos reader_qos(const TopicQos& qos) {
   fdds::DataReaderQos q = fdds::DATAREADER_QOS_DEFAULT;
   apply_common(q, qos);
   return q;
+}
+
+void Participant::count_foreign_sample(const std::string& topic, std::uint64_t their_run) {
+  const auto n = foreign_samples_.fetch_add(1) + 1;
+  // The first one, then every power of two: a second network can send thousands a second.
+  if ((n & (n - 1)) == 0)
+    spdlog::warn("dropped a sample of another run on {} (run {:x}, ours {:x}; {} dropped so far): another netkf "
+                 "network shares DDS domain {}; give each its own with --domain",
+                 topic, their_run, run_, n, domain_);
 }
 
 }  // namespace netkf::dds

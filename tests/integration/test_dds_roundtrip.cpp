@@ -296,3 +296,40 @@ TEST(DdsQos, HeartbeatPeriodAndHistoryDepthFollowTheWriterRate) {
   EXPECT_EQ(applied.resource_limits().max_samples, 2400);
   EXPECT_EQ(applied.reliable_writer_qos().times.heartbeatPeriod, eprosima::fastrtps::Duration_t(0, 250000000u));
 }
+
+namespace {
+
+// Two launches on one domain by mistake: each stamps its run id and drops the other's samples
+// (counted); a process without a run id (0) neither stamps nor drops. The samples written
+// last by run 7's writer prove delivery still works, so the drop is not a lost match.
+TEST(DdsRunId, SamplesOfAnotherRunAreDroppedAndCounted) {
+  auto with_run = [](const std::string& name, std::uint64_t run) {
+    auto o = options(name);
+    o.run = run;
+    return o;
+  };
+  dds::Participant ours(with_run("run-7-reader", 7)), theirs(with_run("run-9-writer", 9)),
+      same(with_run("run-7-writer", 7)), any(with_run("run-0-reader", 0));
+  Inbox<wire::Measurement> ours_in, any_in;
+  dds::Reader<wire::Measurement> ours_reader(ours, dds::topics::delivered_measurement, ours_in.callback());
+  dds::Reader<wire::Measurement> any_reader(any, dds::topics::delivered_measurement, any_in.callback());
+  dds::Writer<wire::Measurement> foreign_writer(theirs, dds::topics::delivered_measurement);
+  dds::Writer<wire::Measurement> own_writer(same, dds::topics::delivered_measurement);
+  ASSERT_TRUE(foreign_writer.wait_for_matched(2, 10s));
+  ASSERT_TRUE(own_writer.wait_for_matched(2, 10s));
+  for (std::uint64_t k = 0; k < 5; ++k)
+    ASSERT_TRUE(foreign_writer.write(dds::make_measurement(3, k, 0, netkf::Vector{{1.0}})));
+  ASSERT_TRUE(foreign_writer.wait_for_acknowledgments(10s));
+  ASSERT_TRUE(own_writer.write(dds::make_measurement(3, 99, 0, netkf::Vector{{2.0}})));
+  ASSERT_TRUE(ours_in.wait_for(1, 10s));
+  ASSERT_TRUE(any_in.wait_for(6, 10s));
+  const auto got = ours_in.take();
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got.front().k(), 99u);
+  EXPECT_EQ(got.front().run(), 7u);
+  EXPECT_EQ(ours.foreign_samples(), 5u);
+  EXPECT_EQ(any.foreign_samples(), 0u);
+  for (const auto& m : any_in.take()) EXPECT_EQ(m.run(), m.k() == 99 ? 7u : 9u);
+}
+
+}  // namespace

@@ -10,6 +10,7 @@
 // node's io_context: netkf::dds::post_to() moves the sample there.
 #include <atomic>
 #include <chrono>
+#include <concepts>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -30,6 +31,13 @@
 #include "netkf/dds/topics.hpp"
 
 namespace netkf::dds {
+
+/// Wire types that carry the run id (the per-period data; see ParticipantOptions::run).
+template <class T>
+concept CarriesRun = requires(T t, std::uint64_t r) {
+  { t.run() } -> std::convertible_to<std::uint64_t>;
+  t.run(r);
+};
 
 namespace detail {
 /// Poll `count` until it reaches `n` or `timeout` passes (discovery waits in tools/tests).
@@ -72,8 +80,16 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
 
-  /// Publish one sample; false when DDS refused it (e.g. history full and blocking timed out).
+  /// Publish one sample, stamped with this process's run id; false when DDS refused it (e.g.
+  /// history full and blocking timed out).
+  bool write(T&& sample) {
+    if constexpr (CarriesRun<T>) sample.run(participant_.run());
+    return writer_->write(&sample);
+  }
   bool write(const T& sample) {
+    if constexpr (CarriesRun<T>) {
+      if (sample.run() != participant_.run()) return write(T(sample));
+    }
     // DataWriter::write takes a non-const void*; the sample is only read.
     return writer_->write(const_cast<T*>(&sample));
   }
@@ -142,6 +158,15 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
     eprosima::fastdds::dds::SampleInfo info;
     while (reader->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
       if (!info.valid_data) continue;
+      if constexpr (CarriesRun<T>) {
+        // Another launch's network on this domain: never let its samples into this run. A
+        // sample without a run id (0: a process started by hand) goes on to the usual checks.
+        if (participant_.run() != 0 && sample.run() != 0 && sample.run() != participant_.run()) {
+          participant_.count_foreign_sample(topic_name_, sample.run());
+          sample = T{};
+          continue;
+        }
+      }
       received_.fetch_add(1);
       if (on_sample_) on_sample_(std::move(sample));
       sample = T{};

@@ -22,6 +22,7 @@ struct CommonNodeFlags {
   std::optional<std::string> dds_profile;// --dds-profile FILE (default $NETKF_DDS_PROFILE, else built-in localhost-only)
   std::optional<std::string> secure;     // --secure DIR (default $NETKF_SECURE, else no DDS Security)
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
+  std::uint64_t run_id = 0;              // --run-id N (given by `netkf launch`; 0: accept every run)
 };
 
 /// " (N more like it left out)" after a throttled warning (netkf::LogThrottle); "" for none.

@@ -8,6 +8,7 @@
 // --dds-profile FILE or NETKF_DDS_PROFILE, never by editing code.
 // DDS Security (--secure DIR or NETKF_SECURE, security.hpp) adds the builtin plugins'
 // properties on top of whichever QoS is in effect (built-in or profile): it never replaces it.
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -54,6 +55,12 @@ struct ParticipantOptions {
     Role role = Role::observer;
   };
   std::optional<Security> security;
+  /// The run this process belongs to (`netkf launch` makes one per launch; 0 = none). Writers
+  /// stamp it on every per-period sample (truth, tick, measurement, estimate, control) and
+  /// readers drop samples of another run, so two networks that share a domain by mistake
+  /// cannot corrupt each other (each drop is counted and logged). Samples without a run id
+  /// (0: a process started by hand) are not dropped for it.
+  std::uint64_t run = 0;
 };
 
 /// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
@@ -87,6 +94,10 @@ class Participant {
 
   int domain() const { return domain_; }
   const std::string& name() const { return name_; }
+  std::uint64_t run() const { return run_; }
+  /// A sample of another run arrived on `topic` and was dropped (counted; logged, throttled).
+  void count_foreign_sample(const std::string& topic, std::uint64_t their_run);
+  std::uint64_t foreign_samples() const { return foreign_samples_.load(); }
   /// True when DDS Security is on (endpoint errors then mention the permissions).
   bool secure() const { return secure_; }
   eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
@@ -104,6 +115,8 @@ class Participant {
 
   int domain_ = 0;
   std::string name_;
+  std::uint64_t run_ = 0;
+  std::atomic<std::uint64_t> foreign_samples_{0};
   bool secure_ = false;
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
