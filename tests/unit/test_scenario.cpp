@@ -215,6 +215,14 @@ TEST(ScenarioErrors, SeveralDocumentsAreRejected) {
   EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "two.yaml"); }), HasSubstr("2 YAML documents"));
 }
 
+// Found by tests/fuzz/fuzz_scenario_loader (corpus: hang-flow-sequence-then-comma.yaml):
+// yaml-cpp's LoadAll never returned on a flow collection followed by a comma.
+TEST(ScenarioErrors, FlowCollectionThenCommaIsAnErrorNotAHang) {
+  for (const std::string text : {"[0],\n", "{period_ms: 10},\n", "[0] ,\nB: 1\n"}) {
+    EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "comma.yaml"); }), StartsWith("comma.yaml")) << text;
+  }
+}
+
 TEST(ScenarioErrors, SeedAbove64BitsIsRejected) {
   const std::string text =
       "period_ms: 10\nseed: 18446744073709551616\nplant: { A: [[0.5]], Q: [[1.0]] }\n"
