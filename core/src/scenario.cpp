@@ -346,7 +346,7 @@ const SensorSpec* Scenario::find_sensor(int id) const {
 
 int Scenario::deadline_ms() const {
   // Default: 80 % of the period, leaving the rest for the fused update and publishing.
-  // In 64 bits: period_ms * 4 overflows an int for the largest periods (found by fuzzing).
+  // In 64 bits: period_ms * 4 overflows an int for the largest periods.
   return estimator.deadline_ms.value_or(static_cast<int>(std::max<std::int64_t>(1, std::int64_t{period_ms} * 4 / 5)));
 }
 

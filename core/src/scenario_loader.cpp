@@ -464,7 +464,7 @@ class Loader {
   // Seconds as a whole number of periods (rounded to the nearest).
   std::int64_t periods_in(double seconds, const Scenario& s, const YAML::Node& node, const std::string& path) const {
     // Events are read before validate_scenario() reports a period <= 0; converting by it
-    // would give NaN or a negative count (found by fuzzing).
+    // would give NaN or a negative count.
     if (s.period_ms <= 0) return 0;
     const double periods = std::round(seconds * 1000.0 / s.period_ms);
     if (!(periods <= 1e15)) fail(node.Mark(), path + " is too far in the future, got " + node.Scalar());

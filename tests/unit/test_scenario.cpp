@@ -223,7 +223,7 @@ TEST(ScenarioErrors, FlowCollectionThenCommaIsAnErrorNotAHang) {
   }
 }
 
-// Found by tests/fuzz/fuzz_scenario_loader (corpus: ubsan-largest-period.yaml): the default
+// Found with the fuzz build's UBSan (tests/fuzz corpus: ubsan-largest-period.yaml): the default
 // deadline, 80 % of the period, overflowed an int for the largest periods.
 TEST(GoodScenario, DefaultDeadlineOfTheLargestPeriod) {
   const std::string text =
@@ -234,7 +234,7 @@ TEST(GoodScenario, DefaultDeadlineOfTheLargestPeriod) {
   EXPECT_NO_THROW(netkf::with_effective_links(s));
 }
 
-// Found by tests/fuzz/fuzz_scenario_loader (corpus: ubsan-event-seconds-period-zero.yaml):
+// Found with the fuzz build's UBSan (tests/fuzz corpus: ubsan-event-seconds-period-zero.yaml):
 // an event's seconds were converted by a period of 0 (NaN) before the period was refused.
 TEST(ScenarioErrors, EventInSecondsWithAPeriodOfZeroReportsThePeriod) {
   for (const std::string period : {"0", "-10"}) {
