@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "progress_bar.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/monte_carlo.hpp"
 #include "netkf/scenario.hpp"
@@ -149,6 +150,10 @@ void add_analyze_command(CLI::App& app) {
     if (args->points > 0) o.region_points = o.sweep_points = args->points;
     analysis::AnalysisReport r;
     try {
+      // The region's grid is the long part of an analysis (an LMI bisection per point).
+      ProgressBar bar(std::cerr, "analyze --region",
+                      args->region && progress_bar_wanted(stderr_is_terminal(), args->json));
+      o.progress = bar.callback();
       r = analysis::analyze(s, o);
     } catch (const std::exception& e) {
       fail("analyze", e.what());
@@ -238,6 +243,8 @@ void add_simulate_command(CLI::App& app) {
                                            : MonteCarloOptions::Kernel::automatic;
     MonteCarloResult r;
     try {
+      ProgressBar bar(std::cerr, "simulate", progress_bar_wanted(stderr_is_terminal(), args->json));
+      o.progress = bar.callback();
       r = run_monte_carlo(s, o);
     } catch (const std::exception& e) {
       fail("simulate", e.what());

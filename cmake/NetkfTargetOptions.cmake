@@ -9,10 +9,15 @@ function(netkf_target_options target)
 endfunction()
 
 # Sanitizers alone (for targets such as generated DDS code that keep their own warnings).
+# The fuzz build (NETKF_FUZZ) has them too, and libFuzzer's coverage instrumentation
+# (fuzzer-no-link: the fuzzer executables link libFuzzer itself, tests/fuzz).
 function(netkf_target_sanitizers target)
-  if(NETKF_SANITIZE)
+  if(NETKF_SANITIZE OR NETKF_FUZZ)
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined)
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+  if(NETKF_FUZZ)
+    target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link)
   endif()
 endfunction()
 

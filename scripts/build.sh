@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Configure (once) and build a preset: scripts/build.sh [default|asan]
+# Configure (once) and build a preset: scripts/build.sh [default|asan|fuzz]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset=${1:-default}

@@ -5,6 +5,7 @@
 set -euo pipefail
 packages=(
   build-essential cmake ninja-build ccache pkg-config
+  clang-14 libclang-rt-14-dev
   libfastrtps-dev libfastcdr-dev fastddsgen fastdds-tools
   libeigen3-dev libboost-dev libboost-system-dev libspdlog-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev

@@ -79,6 +79,7 @@ std::vector<RegionPoint> stability_region(const Matrix& A, const Matrix& Q, std:
   const double alpha = spectral_radius(A);
   std::vector<RegionPoint> out;
   const int points = std::max(2, options.points);
+  ProgressReporter progress(options.progress, points);
   for (int k = 0; k < points; ++k) {
     RegionPoint p;
     p.lambda1 = static_cast<double>(k) / (points - 1);
@@ -92,6 +93,7 @@ std::vector<RegionPoint> stability_region(const Matrix& A, const Matrix& Q, std:
     if (!options.use_lmi) p.lambda2_upper = p.lambda2_upper_iteration;
     p.lambda2_exact = exact_rate_markov(A, sensors, family, p.lambda2_lower, options.tolerance);
     out.push_back(p);
+    progress.add(1);
   }
   return out;
 }

@@ -249,6 +249,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
       RegionOptions ro;
       ro.points = options.region_points;
       ro.use_lmi = options.use_lmi;
+      ro.progress = options.progress;
       report.region = stability_region(A, Q, sensors, ro);
       report.notes.push_back("region: lambda2_lower = Liu-Goldsmith Thm 3 closed form, lambda2_upper = LMI "
                              "bisection (CSDP), lambda2_exact = Markov criterion where it applies");

@@ -11,6 +11,7 @@
 // x − x̂ computed from a simulated plant (docs/validation.md, "Fig. 7") — but with all
 // their digits: the numbers stay O(|e|) instead of O(α^k).
 #include "netkf/monte_carlo.hpp"
+#include "netkf/progress.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -355,6 +356,7 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
   const int chunks = (options.runs + kChunkRuns - 1) / kChunkRuns;
   std::vector<ChunkStats> chunk_stats(static_cast<std::size_t>(chunks));
   std::atomic<int> next{0};
+  ProgressReporter progress(options.progress, options.runs);
   auto worker = [&] {
     std::array<RunOutcome, kBlockRuns> outcomes;
     for (int c = next.fetch_add(1); c < chunks; c = next.fetch_add(1)) {
@@ -378,6 +380,7 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
           st.err_pred.add(o.err_pred);
           st.err_filt.add(o.err_filt);
         }
+        progress.add(count);
       }
     }
   };

@@ -3,6 +3,7 @@
 // Parsing the YAML text itself lives in scenario_loader.cpp.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <sstream>
 #include <string>
@@ -345,7 +346,8 @@ const SensorSpec* Scenario::find_sensor(int id) const {
 
 int Scenario::deadline_ms() const {
   // Default: 80 % of the period, leaving the rest for the fused update and publishing.
-  return estimator.deadline_ms.value_or(std::max(1, period_ms * 4 / 5));
+  // In 64 bits: period_ms * 4 overflows an int for the largest periods.
+  return estimator.deadline_ms.value_or(static_cast<int>(std::max<std::int64_t>(1, std::int64_t{period_ms} * 4 / 5)));
 }
 
 void validate_scenario(const Scenario& scenario, const ScenarioLocator& locate) {

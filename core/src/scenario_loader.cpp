@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
 #include <yaml-cpp/yaml.h>
 
 #include "netkf/scenario.hpp"
@@ -44,6 +46,51 @@ std::string describe(const YAML::Node& node) {
 
 bool valid(const YAML::Mark& m) { return m.line >= 0 && m.column >= 0; }
 
+// The documents of a YAML stream, counted without YAML::LoadAll: yaml-cpp 0.7's LoadAll
+// never ends on some malformed streams ("[0],": the parser keeps yielding empty documents
+// without consuming the input; yaml-cpp issue #1040), which hung the loader. As yaml-cpp's
+// later fix does, the count stops at the first empty document.
+struct DocumentCount {
+  int count = 0;
+  YAML::Mark second = YAML::Mark::null_mark();  // where the second document starts
+};
+
+class DocumentEvents : public YAML::EventHandler {
+ public:
+  bool empty = true;  // the document so far is nothing (null) at most
+  YAML::Mark first = YAML::Mark::null_mark();  // its root node
+  void OnDocumentStart(const YAML::Mark&) override { empty = true; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override { node(mark); }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void node(const YAML::Mark& mark) {
+    if (empty) first = mark;
+    empty = false;
+  }
+};
+
+DocumentCount count_documents(const std::string& text) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentEvents events;
+  DocumentCount result;
+  while (parser.HandleNextDocument(events) && !events.empty) {
+    if (++result.count == 2) result.second = events.first;
+  }
+  return result;
+}
+
 // A mapping whose keys were checked against the allowed set.
 struct MapView {
   std::string path;
@@ -57,17 +104,18 @@ class Loader {
   explicit Loader(std::string source) : source_(source.empty() ? "<scenario>" : std::move(source)) {}
 
   Scenario load(const std::string& text) {
-    std::vector<YAML::Node> docs;
+    YAML::Node root;
+    DocumentCount documents;
     try {
-      docs = YAML::LoadAll(text);
+      documents = count_documents(text);
+      root = YAML::Load(text);
     } catch (const YAML::ParserException& e) {
       fail(e.mark, "YAML syntax error: " + e.msg);
     }
-    if (docs.empty() || docs.front().IsNull())
+    if (documents.count == 0 || root.IsNull())
       fail(YAML::Mark::null_mark(), "the scenario file is empty (expected a mapping with at least 'period_ms', 'plant' and 'sensors')");
-    if (docs.size() > 1)
-      fail(docs[1].Mark(), "the file holds " + std::to_string(docs.size()) + " YAML documents, expected one scenario");
-    const YAML::Node& root = docs.front();
+    if (documents.count > 1)
+      fail(documents.second, "the file holds " + std::to_string(documents.count) + " YAML documents, expected one scenario");
 
     Scenario s;
     s.source = source_;
@@ -415,8 +463,11 @@ class Loader {
 
   // Seconds as a whole number of periods (rounded to the nearest).
   std::int64_t periods_in(double seconds, const Scenario& s, const YAML::Node& node, const std::string& path) const {
+    // Events are read before validate_scenario() reports a period <= 0; converting by it
+    // would give NaN or a negative count.
+    if (s.period_ms <= 0) return 0;
     const double periods = std::round(seconds * 1000.0 / s.period_ms);
-    if (periods > 1e15) fail(node.Mark(), path + " is too far in the future, got " + node.Scalar());
+    if (!(periods <= 1e15)) fail(node.Mark(), path + " is too far in the future, got " + node.Scalar());
     return static_cast<std::int64_t>(periods);
   }
 
@@ -474,15 +525,19 @@ std::string read_text_file(const std::filesystem::path& path, const char* what) 
 }
 }  // namespace
 
-std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const Scenario& scenario) {
-  const std::string text = read_text_file(path, "events file");
+std::vector<LinkEvent> parse_events(const std::string& yaml_text, const Scenario& scenario,
+                                    const std::string& source_name) {
   try {
-    return Loader(path.string()).load_events(text, scenario);
+    return Loader(source_name).load_events(yaml_text, scenario);
   } catch (const YAML::Exception& e) {
-    std::string prefix = path.string();
+    std::string prefix = source_name;
     if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
     throw ScenarioError(prefix + ": " + e.msg);
   }
+}
+
+std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const Scenario& scenario) {
+  return parse_events(read_text_file(path, "events file"), scenario, path.string());
 }
 
 Scenario load_scenario_file(const std::filesystem::path& path) {

@@ -3,9 +3,12 @@
 // valid data converts without loss. No participant is created here.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <limits>
+#include <vector>
 
 #include "netkf/dds/conversions.hpp"
+#include "netkf/dds/topics.hpp"
 
 namespace {
 
@@ -125,6 +128,32 @@ TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
   EXPECT_DOUBLE_EQ(s.in_time(), 0.5);
   EXPECT_EQ(s.held(), 7u);
   EXPECT_EQ(dds::link_of(s), netkf::LinkSpec(netkf::BernoulliLink{0.25}));
+}
+
+// A received payload Fast CDR cannot read is refused (the sample dropped), never an
+// exception out of the reader (tests/fuzz/corpus/fuzz_wire_conversions/crash-unknown-encapsulation:
+// an encapsulation kind other than CDR BE/LE made the generated deserialize throw).
+TEST(Conversions, UnreadablePayloadIsRefusedNotThrown) {
+  using Payload = eprosima::fastrtps::rtps::SerializedPayload_t;
+  dds::PubSubTypeOf<netkf::wire::Measurement>::type type;
+  auto sample = dds::make_measurement(2, 5, 10, netkf::Vector{{0.25, -1.0}});
+  Payload valid(type.getSerializedSizeProvider(&sample)());
+  ASSERT_TRUE(type.serialize(&sample, &valid));
+
+  netkf::wire::Measurement read;
+  ASSERT_TRUE(type.deserialize(&valid, &read));
+  EXPECT_EQ(read.y(), sample.y());
+
+  Payload bad(valid.length);
+  std::memcpy(bad.data, valid.data, valid.length);
+  bad.length = valid.length;
+  bad.data[1] = 0xff;  // the encapsulation kind
+  netkf::wire::MeasurementPubSubType generated;
+  EXPECT_ANY_THROW(generated.deserialize(&bad, &read));  // why the checked type exists
+  EXPECT_FALSE(type.deserialize(&bad, &read));
+
+  bad.length = 3;  // shorter than the encapsulation header
+  EXPECT_FALSE(type.deserialize(&bad, &read));
 }
 
 }  // namespace

@@ -3,10 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdint>
+#include <vector>
 #include <cmath>
 #include <limits>
 
 #include "netkf/analysis/operating_point.hpp"
+#include "netkf/analysis/report.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "../validation/theory_systems.hpp"
 
@@ -74,6 +77,26 @@ TEST(Analysis, ConfiguredGilbertLinksUseTheMarkovCriterion) {
   EXPECT_EQ(a.stable, Verdict::no);
   ASSERT_TRUE(a.markov_criterion.has_value());
   EXPECT_NEAR(*a.markov_criterion, 1.5625 * 0.7, 1e-10);
+}
+
+// `analyze --region`'s progress bar is fed the region's grid points done.
+TEST(Analysis, RegionReportsItsGridPointsAsProgress) {
+  const auto s = netkf::testing::liu_goldsmith_case1(0.5, 0.5);
+  AnalyzeOptions o;
+  o.region = true;
+  o.region_points = 4;
+  o.use_lmi = false;
+  std::vector<std::int64_t> done;
+  o.progress = [&](std::int64_t d, std::int64_t total) {
+    EXPECT_EQ(total, 4);
+    done.push_back(d);
+  };
+  const auto report = analyze(s, o);
+  ASSERT_EQ(report.region.size(), 4u);
+  ASSERT_GE(done.size(), 2u);
+  EXPECT_EQ(done.front(), 0);
+  EXPECT_EQ(done.back(), 4);
+  for (std::size_t i = 1; i < done.size(); ++i) EXPECT_GT(done[i], done[i - 1]);
 }
 
 }  // namespace

@@ -2,7 +2,15 @@
 // with the reference kernel (the core IntermittentKalmanFilter itself).
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <thread>
+#include <utility>
+#include <vector>
+
 #include "netkf/monte_carlo.hpp"
+#include "netkf/progress.hpp"
 #include "../validation/theory_systems.hpp"
 
 namespace netkf {
@@ -85,6 +93,77 @@ TEST(MonteCarlo, RejectsEmptyRuns) {
   MonteCarloOptions o;
   o.runs = 0;
   EXPECT_THROW(run_monte_carlo(netkf::testing::sinopoli_scalar(0.6), o), std::invalid_argument);
+}
+
+// Progress (netkf/progress.hpp): what the CLI's bar is drawn from.
+struct ProgressLog {
+  std::mutex mutex;
+  std::vector<std::pair<std::int64_t, std::int64_t>> calls;
+  std::atomic<int> inside{0};
+  bool overlapped = false;
+  ProgressCallback callback() {
+    return [this](std::int64_t done, std::int64_t total) {
+      if (inside.fetch_add(1) != 0) overlapped = true;
+      {
+        const std::lock_guard<std::mutex> lock(mutex);
+        calls.emplace_back(done, total);
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(50));  // widen any overlap
+      inside.fetch_sub(1);
+    };
+  }
+  void expect_monotone_to(std::int64_t total) {
+    ASSERT_FALSE(calls.empty());
+    EXPECT_FALSE(overlapped);
+    for (std::size_t i = 0; i < calls.size(); ++i) {
+      EXPECT_EQ(calls[i].second, total);
+      if (i > 0) {
+        EXPECT_GT(calls[i].first, calls[i - 1].first) << "call " << i;
+      }
+    }
+    EXPECT_EQ(calls.back().first, total);
+  }
+};
+
+TEST(MonteCarlo, ReportsProgressFromItsWorkersMonotoneToTheLastRun) {
+  const auto s = netkf::testing::liu_goldsmith_fig5(0.6, 0.7);
+  MonteCarloOptions o;
+  o.runs = 300;
+  o.steps = 50;
+  o.threads = 3;
+  const auto without = run_monte_carlo(s, o);
+  ProgressLog log;
+  o.progress = log.callback();
+  const auto with = run_monte_carlo(s, o);
+  log.expect_monotone_to(300);
+  EXPECT_EQ(log.calls.front().first, 0);  // the bar can show at once
+  expect_same(with, without, 0.0);        // watching does not change the numbers
+}
+
+TEST(ProgressReporter, BoundsTheRateButAlwaysReportsTheEnd) {
+  ProgressLog log;
+  {
+    ProgressReporter progress(log.callback(), 4000, std::chrono::hours(1));
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 4; ++t)
+      threads.emplace_back([&] {
+        for (int i = 0; i < 1000; ++i) progress.add(1);
+      });
+    for (auto& t : threads) t.join();
+  }
+  // Nothing is due within the hour but the start and the end.
+  ASSERT_EQ(log.calls.size(), 2u);
+  log.expect_monotone_to(4000);
+  EXPECT_EQ(log.calls.front().first, 0);
+}
+
+TEST(ProgressReporter, ReportsWhenDueAndDoesNothingWithoutACallback) {
+  ProgressLog log;
+  ProgressReporter progress(log.callback(), 3, std::chrono::nanoseconds(0));
+  for (int i = 0; i < 3; ++i) progress.add(1);
+  EXPECT_EQ(log.calls, (std::vector<std::pair<std::int64_t, std::int64_t>>{{0, 3}, {1, 3}, {2, 3}, {3, 3}}));
+  ProgressReporter silent({}, 3);
+  EXPECT_NO_THROW(silent.add(3));
 }
 
 }  // namespace

@@ -215,6 +215,37 @@ TEST(ScenarioErrors, SeveralDocumentsAreRejected) {
   EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "two.yaml"); }), HasSubstr("2 YAML documents"));
 }
 
+// Found by tests/fuzz/fuzz_scenario_loader (corpus: hang-flow-sequence-then-comma.yaml):
+// yaml-cpp's LoadAll never returned on a flow collection followed by a comma.
+TEST(ScenarioErrors, FlowCollectionThenCommaIsAnErrorNotAHang) {
+  for (const std::string text : {"[0],\n", "{period_ms: 10},\n", "[0] ,\nB: 1\n"}) {
+    EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "comma.yaml"); }), StartsWith("comma.yaml")) << text;
+  }
+}
+
+// Found with the fuzz build's UBSan (tests/fuzz corpus: ubsan-largest-period.yaml): the default
+// deadline, 80 % of the period, overflowed an int for the largest periods.
+TEST(GoodScenario, DefaultDeadlineOfTheLargestPeriod) {
+  const std::string text =
+      "period_ms: 2147483647\nplant: { A: [[0.5]], Q: [[1.0]] }\n"
+      "sensors: [ { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.1 } } ]\n";
+  const auto s = netkf::parse_scenario(text, "long.yaml");
+  EXPECT_EQ(s.deadline_ms(), 1717986917);  // floor(0.8 * (2^31 - 1))
+  EXPECT_NO_THROW(netkf::with_effective_links(s));
+}
+
+// Found with the fuzz build's UBSan (tests/fuzz corpus: ubsan-event-seconds-period-zero.yaml):
+// an event's seconds were converted by a period of 0 (NaN) before the period was refused.
+TEST(ScenarioErrors, EventInSecondsWithAPeriodOfZeroReportsThePeriod) {
+  for (const std::string period : {"0", "-10"}) {
+    const std::string text =
+        "period_ms: " + period + "\nplant: { A: [[0.5]], Q: [[1.0]] }\n"
+        "sensors: [ { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.1 } } ]\n"
+        "events: [ { at_s: 1.5, link: 1, ramp: { to: { loss: 0.2 }, over_s: 2 } } ]\n";
+    EXPECT_THAT(error_of([&] { netkf::parse_scenario(text, "p.yaml"); }), HasSubstr("period_ms must be > 0")) << period;
+  }
+}
+
 TEST(ScenarioErrors, SeedAbove64BitsIsRejected) {
   const std::string text =
       "period_ms: 10\nseed: 18446744073709551616\nplant: { A: [[0.5]], Q: [[1.0]] }\n"

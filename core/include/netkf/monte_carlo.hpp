@@ -12,6 +12,7 @@
 #include <optional>
 #include <vector>
 
+#include "netkf/progress.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf {
@@ -27,6 +28,8 @@ struct MonteCarloOptions {
   /// (scalar-output sensors, n ≤ 6, at most 16 sensors); `automatic` takes the fast kernel where
   /// it applies. Both use the real LinkLossProcess and draw the same numbers for a run.
   enum class Kernel { automatic, reference, fixed_size } kernel = Kernel::automatic;
+  /// Runs done of `runs`, from the worker threads at most every 100 ms (netkf/progress.hpp).
+  ProgressCallback progress;
 };
 
 /// Mean and standard error of the mean over runs.

@@ -93,6 +93,9 @@ std::vector<std::size_t> event_application_order(const std::vector<LinkEvent>& e
 /// Parse an `events:` file (the format `--record` writes: a mapping with one key,
 /// `events`, or a bare list) for `scenario`'s links and period; errors as FILE:LINE:COL.
 std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const Scenario& scenario);
+/// Same, from YAML text; `source_name` is used in error messages.
+std::vector<LinkEvent> parse_events(const std::string& yaml_text, const Scenario& scenario,
+                                    const std::string& source_name);
 /// The events as YAML text in the scenario's `events:` format (what --record writes).
 std::string events_to_yaml(const std::vector<LinkEvent>& events);
 /// Add `replayed` to the scenario's events: at the same period a replayed event applies

@@ -13,6 +13,7 @@
 #include <span>
 #include <vector>
 
+#include "netkf/progress.hpp"
 #include "netkf/scenario.hpp"
 #include "netkf/types.hpp"
 
@@ -57,6 +58,8 @@ struct RegionOptions {
   int points = 21;          // λ1 grid over [0, 1]
   bool use_lmi = true;
   double tolerance = 1e-4;
+  /// Grid points done of `points` (netkf/progress.hpp).
+  ProgressCallback progress;
 };
 
 /// Stability region bounds for exactly two sensors (Liu-Goldsmith Thm 3, Figs. 4-5).

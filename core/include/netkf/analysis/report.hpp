@@ -60,6 +60,8 @@ struct AnalyzeOptions {
   /// (6 states, 4 sensors), so above this size the bisection uses the g iteration only (it
   /// computes the same λ̄ = inf{λ : ∃X > g_λ(X)}) and says so in the notes. 0: no limit.
   int lmi_max_block = 48;
+  /// With `region`: the region's grid points done (netkf/progress.hpp).
+  ProgressCallback progress;
 };
 
 /// Analyse a validated scenario. Never throws for a valid scenario; what does not apply

@@ -5,6 +5,9 @@
 #include <cstdint>
 #include <string_view>
 
+#include <fastcdr/exceptions/Exception.h>
+#include <fastdds/rtps/common/SerializedPayload.h>
+
 #include "netkf/dds/wire.hpp"
 
 namespace netkf::dds {
@@ -57,18 +60,37 @@ struct Topic {
   TopicQos qos;
 };
 
-/// The fastddsgen type support of each wire type.
+/// A fastddsgen type support whose deserialize refuses (returns false, the sample is
+/// dropped) every payload Fast CDR cannot read. The generated one catches only a payload
+/// too short: an unknown encapsulation makes Fast CDR throw BadParamException out of it,
+/// which a single malformed packet would carry into the reader's callback and end the
+/// process (found by tests/fuzz/fuzz_wire_conversions).
+template <class Generated>
+class CheckedPubSubType : public Generated {
+ public:
+  bool deserialize(eprosima::fastrtps::rtps::SerializedPayload_t* payload, void* data) override {
+    try {
+      return Generated::deserialize(payload, data);
+    } catch (const eprosima::fastcdr::exception::Exception&) {
+      return false;
+    }
+  }
+};
+
+/// The type support of each wire type (registered by Participant::topic).
 template <class T>
 struct PubSubTypeOf;
-template <> struct PubSubTypeOf<wire::Truth> { using type = wire::TruthPubSubType; };
-template <> struct PubSubTypeOf<wire::Tick> { using type = wire::TickPubSubType; };
-template <> struct PubSubTypeOf<wire::Measurement> { using type = wire::MeasurementPubSubType; };
-template <> struct PubSubTypeOf<wire::Estimate> { using type = wire::EstimatePubSubType; };
-template <> struct PubSubTypeOf<wire::ControlInput> { using type = wire::ControlInputPubSubType; };
-template <> struct PubSubTypeOf<wire::LinkControl> { using type = wire::LinkControlPubSubType; };
-template <> struct PubSubTypeOf<wire::LinkControlReply> { using type = wire::LinkControlReplyPubSubType; };
-template <> struct PubSubTypeOf<wire::LinkStatus> { using type = wire::LinkStatusPubSubType; };
-template <> struct PubSubTypeOf<wire::LinkChange> { using type = wire::LinkChangePubSubType; };
+template <> struct PubSubTypeOf<wire::Truth> { using type = CheckedPubSubType<wire::TruthPubSubType>; };
+template <> struct PubSubTypeOf<wire::Tick> { using type = CheckedPubSubType<wire::TickPubSubType>; };
+template <> struct PubSubTypeOf<wire::Measurement> { using type = CheckedPubSubType<wire::MeasurementPubSubType>; };
+template <> struct PubSubTypeOf<wire::Estimate> { using type = CheckedPubSubType<wire::EstimatePubSubType>; };
+template <> struct PubSubTypeOf<wire::ControlInput> { using type = CheckedPubSubType<wire::ControlInputPubSubType>; };
+template <> struct PubSubTypeOf<wire::LinkControl> { using type = CheckedPubSubType<wire::LinkControlPubSubType>; };
+template <> struct PubSubTypeOf<wire::LinkControlReply> {
+  using type = CheckedPubSubType<wire::LinkControlReplyPubSubType>;
+};
+template <> struct PubSubTypeOf<wire::LinkStatus> { using type = CheckedPubSubType<wire::LinkStatusPubSubType>; };
+template <> struct PubSubTypeOf<wire::LinkChange> { using type = CheckedPubSubType<wire::LinkChangePubSubType>; };
 
 namespace topics {
 // plant -> sensors, recorders: ground truth x_k (the estimator never subscribes).
