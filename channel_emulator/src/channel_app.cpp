@@ -1,0 +1,246 @@
+#include "netkf/nodes/channel_app.hpp"
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "netkf/dds/dds.hpp"
+#include "netkf/log_throttle.hpp"
+#include "netkf/nodes/release_queue.hpp"
+
+namespace netkf::nodes {
+
+namespace wire = netkf::wire;
+
+class ChannelApp::Impl {
+ public:
+  Impl(const Scenario& scenario, dds::Participant& participant, ChannelAppOptions options)
+      : links_(scenario),
+        deadline_ms_(scenario.deadline_ms()),
+        release_timer_(io_),
+        status_timer_(io_),
+        status_period_(std::chrono::milliseconds(options.status_period_ms)),
+        delivered_(participant, dds::topics::delivered_measurement,
+                   static_cast<double>(scenario.sensors.size()) / scenario.period_s()),
+        status_(participant, dds::topics::link_status),
+        reply_(participant, dds::topics::link_control_reply),
+        journal_(participant, dds::topics::link_change) {
+    for (const auto& r : links_.reports()) {
+      spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", r.sensor_id,
+                   describe_link(r.link), stationary_loss(r.link.loss), probability_within(r.link.delay, deadline_ms_));
+    }
+    if (!scenario.events.empty()) spdlog::info("timeline: {} link events", scenario.events.size());
+    // The readers last: their callbacks use everything above.
+    raw_.emplace(participant, dds::topics::raw_measurement, [this](wire::Measurement&& m) { on_raw(m); });
+    control_.emplace(participant, dds::topics::link_control,
+                     dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
+    // The first status as soon as run() serves, then one per status period.
+    boost::asio::post(io_, [this] {
+      status_next_ = std::chrono::steady_clock::now();
+      status_loop();
+    });
+  }
+
+  ~Impl() {
+    // The readers first: no callback may run into a half-destroyed object.
+    control_.reset();
+    raw_.reset();
+  }
+
+  void run() {
+    work_.emplace(io_.get_executor());
+    io_.run();
+    {
+      const std::lock_guard lock(mutex_);
+      if (held_.size() > 0) spdlog::info("{} delayed samples still held at shutdown: not relayed", held_.size());
+    }
+    publish_status();  // final counts for late joiners (transient-local)
+    status_.wait_for_acknowledgments(std::chrono::milliseconds(500));
+  }
+
+  void stop() {
+    boost::asio::post(io_, [this] {
+      release_timer_.cancel();
+      status_timer_.cancel();
+      work_.reset();
+      io_.stop();
+    });
+  }
+
+  boost::asio::io_context& io() { return io_; }
+
+  ChannelAppStats stats() const {
+    ChannelAppStats s;
+    {
+      const std::lock_guard lock(mutex_);
+      s.links = links_.reports();
+      s.held = held_.size();
+      s.unknown_sensor_samples = links_.unknown_sensor_samples();
+    }
+    s.delivered_readers = delivered_.matched();
+    return s;
+  }
+
+  void log_summary() const {
+    const std::lock_guard lock(mutex_);  // the raw reader still delivers until it is gone
+    for (const auto& r : links_.reports()) {
+      spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", r.sensor_id,
+                   r.lifetime.samples(), r.lifetime.delivered(), r.lifetime.dropped(), r.lifetime.observed_loss(),
+                   r.lifetime.mean_burst_length());
+    }
+  }
+
+ private:
+  // Any thread (io thread; run()'s caller once the io thread is done).
+  void publish_status() {
+    const auto now = dds::steady_now_ns();
+    std::vector<dds::LinkStatusFacts> facts;
+    {
+      const std::lock_guard lock(mutex_);
+      for (const auto& r : links_.reports()) {
+        facts.push_back({r.sensor_id, r.link, probability_within(r.link.delay, deadline_ms_), r.stats, r.lifetime,
+                         r.last_request_id, r.last_request_rejected, r.reject_reason, held_.held(r.sensor_id),
+                         r.past_deadline});
+      }
+    }
+    for (const auto& f : facts) status_.write(dds::make_link_status(f, now));
+  }
+
+  // DDS receive thread. Journal entries are written where they are made (a sample or a
+  // request: rare, short).
+  void publish_changes(const std::vector<AppliedLinkChange>& changes) {
+    for (const auto& c : changes) {
+      if (!c.failure.empty()) {
+        spdlog::warn("timeline: link {} event at period {} not applied: {}", c.sensor_id, c.at_period, c.failure);
+        continue;
+      }
+      if (c.origin == AppliedLinkChange::Origin::timeline)
+        spdlog::info("timeline: link {} from period {}: {}", c.sensor_id, c.at_period, describe_link(c.link));
+      journal_.write(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), to_string(c.origin),
+                                           c.request_id, c.link, dds::steady_now_ns()));
+    }
+  }
+
+  // io thread. The release timer: relay what is due, then sleep until the next release;
+  // re-armed from the receive thread (posted) when a new earliest sample arrives.
+  void release_due() {
+    std::vector<wire::Measurement> due;
+    std::optional<std::chrono::steady_clock::time_point> next;
+    {
+      const std::lock_guard lock(mutex_);
+      due = held_.take_due(std::chrono::steady_clock::now());
+      next = held_.next_release();
+    }
+    for (const auto& m : due) delivered_.write(m);
+    if (next) {
+      release_timer_.expires_at(*next);
+      release_timer_.async_wait([this](const boost::system::error_code& ec) {
+        if (!ec) release_due();
+      });
+    }
+  }
+
+  // DDS receive thread
+  void on_raw(const wire::Measurement& m) {
+    std::uint64_t unknown_so_far = 0;
+    bool rearm = false;
+    std::vector<AppliedLinkChange> changes;
+    const auto fate = [&] {
+      const std::lock_guard lock(mutex_);
+      const auto f = links_.on_sample(m.sensor_id(), static_cast<std::int64_t>(m.k()));
+      unknown_so_far = links_.unknown_sensor_samples();
+      changes = links_.take_changes();
+      if (f.verdict == SampleFate::Verdict::delivered && f.delay_ms > 0.0) {
+        const auto release = std::chrono::steady_clock::now() +
+                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double, std::milli>(f.delay_ms));
+        rearm = held_.hold(release, m.sensor_id(), m);
+      }
+      return f;
+    }();
+    if (!changes.empty()) publish_changes(changes);
+    switch (fate.verdict) {
+      case SampleFate::Verdict::delivered:
+        if (fate.delay_ms <= 0.0) {
+          delivered_.write(m);  // relayed unchanged (stamp is the sensor's publish time)
+        } else if (rearm) {
+          boost::asio::post(io_, [this] { release_due(); });
+        }
+        break;
+      case SampleFate::Verdict::dropped:
+        spdlog::trace("dropped sensor {} period {}", m.sensor_id(), m.k());
+        break;
+      case SampleFate::Verdict::unknown_sensor: {
+        const std::lock_guard lock(mutex_);  // the throttle's state
+        if (const auto left_out = unknown_log_.allow())
+          spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far){}", m.sensor_id(), m.k(),
+                       unknown_so_far, dds::left_out_text(*left_out));
+        break;
+      }
+    }
+  }
+
+  // io thread
+  void on_control(const wire::LinkControl& c) {
+    LinkChangeResult result;
+    LinkSpec applied;
+    {
+      const std::lock_guard lock(mutex_);
+      result = links_.request(c.request_id(), c.sensor_id(), dds::link_keys_of(c));
+      if (result.applied) applied = links_.report(c.sensor_id())->link;
+    }
+    if (result.applied) {
+      spdlog::info("request {}: link {} set to {} (stationary loss {:.4f}) from its next sample", c.request_id(),
+                   c.sensor_id(), describe_link(applied), stationary_loss(applied.loss));
+    } else {
+      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), c.sensor_id(), result.reason);
+    }
+    reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, result.applied, result.reason));
+    publish_status();
+  }
+
+  // io thread
+  void status_loop() {
+    publish_status();
+    status_next_ += status_period_;
+    status_timer_.expires_at(status_next_);
+    status_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec) status_loop();
+    });
+  }
+
+  boost::asio::io_context io_;
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
+  mutable std::mutex mutex_;  // the links, the release queue and the throttle
+  ChannelLinks links_;
+  ReleaseQueue<wire::Measurement> held_;
+  LogThrottle unknown_log_;  // a rogue sender: a few warnings, then a count
+  int deadline_ms_;
+  boost::asio::steady_timer release_timer_;
+  boost::asio::steady_timer status_timer_;
+  std::chrono::milliseconds status_period_;
+  std::chrono::steady_clock::time_point status_next_;
+  dds::Writer<wire::Measurement> delivered_;
+  dds::Writer<wire::LinkStatus> status_;
+  dds::Writer<wire::LinkControlReply> reply_;
+  dds::Writer<wire::LinkChange> journal_;
+  std::optional<dds::Reader<wire::Measurement>> raw_;
+  std::optional<dds::Reader<wire::LinkControl>> control_;
+};
+
+ChannelApp::ChannelApp(const Scenario& scenario, dds::Participant& participant, ChannelAppOptions options)
+    : impl_(std::make_unique<Impl>(scenario, participant, options)) {}
+ChannelApp::~ChannelApp() = default;
+void ChannelApp::run() { impl_->run(); }
+void ChannelApp::stop() { impl_->stop(); }
+boost::asio::io_context& ChannelApp::io() { return impl_->io(); }
+ChannelAppStats ChannelApp::stats() const { return impl_->stats(); }
+void ChannelApp::log_summary() const { impl_->log_summary(); }
+
+}  // namespace netkf::nodes

@@ -1,0 +1,228 @@
+#include "netkf/nodes/plant_app.hpp"
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include <spdlog/spdlog.h>
+
+#include "netkf/dds/dds.hpp"
+#include "netkf/nodes/plant_simulator.hpp"
+
+namespace netkf::nodes {
+
+namespace wire = netkf::wire;
+using namespace std::chrono_literals;
+
+class PlantApp::Impl {
+ public:
+  Impl(const Scenario& scenario, dds::Participant& participant, PlantAppOptions options)
+      : options_(options),
+        truth_readers_wanted_(options.truth_readers >= 0 ? options.truth_readers
+                                                         : static_cast<int>(scenario.sensors.size())),
+        state_bound_(scenario.plant.state_bound),
+        sim_(scenario),
+        period_(std::chrono::milliseconds(scenario.period_ms)),
+        timer_(io_),
+        startup_timer_(io_),
+        truth_(participant, dds::topics::truth),
+        tick_(participant, dds::topics::tick) {
+    // The reader last: its callback uses everything above.
+    control_.emplace(participant, dds::topics::control_input,
+                     dds::post_to<wire::ControlInput>(io_.get_executor(),
+                                                      [this](wire::ControlInput c) { on_control(c); }));
+  }
+
+  ~Impl() {
+    // The reader first: no callback may run into a half-destroyed object.
+    control_.reset();
+  }
+
+  void run() {
+    work_.emplace(io_.get_executor());
+    boost::asio::post(io_, [this] { wait_for_subscribers(); });
+    io_.run();
+  }
+
+  void stop() {
+    boost::asio::post(io_, [this] { end(); });
+  }
+
+  boost::asio::io_context& io() { return io_; }
+
+  PlantAppStats stats() const {
+    const std::lock_guard lock(mutex_);
+    return {sim_.next_period(), sim_.missing_inputs(), sim_.stale_inputs(), finished_};
+  }
+
+  void log_summary() const {
+    const auto s = stats();
+    spdlog::info("stepped {} periods; control inputs missing at their step {} (of which arrived late {})", s.periods,
+                 s.missing_inputs, s.stale_inputs);
+  }
+
+ private:
+  // io thread: all below.
+
+  /// Wait (bounded) until the sensors and the estimator are matched, so period 0 is seen by all.
+  void wait_for_subscribers() {
+    startup_deadline_ = std::chrono::steady_clock::now() + std::chrono::milliseconds(options_.startup_wait_ms);
+    poll_subscribers();
+  }
+
+  void poll_subscribers() {
+    if (stopped_) return;
+    const bool truth_ok = truth_.matched() >= truth_readers_wanted_;
+    const bool tick_ok = tick_.matched() >= 1;
+    if ((!truth_ok || !tick_ok) && std::chrono::steady_clock::now() < startup_deadline_) {
+      startup_timer_.expires_after(10ms);
+      startup_timer_.async_wait([this](const boost::system::error_code& ec) {
+        if (!ec) poll_subscribers();
+      });
+      return;
+    }
+    if (!truth_ok || !tick_ok) {
+      spdlog::warn("starting without all subscribers: truth readers {} (want >= {}), tick readers {} (want >= 1)",
+                   truth_.matched(), truth_readers_wanted_, tick_.matched());
+    } else {
+      spdlog::info("subscribers matched: truth readers {}, tick readers {}", truth_.matched(), tick_.matched());
+    }
+    // Matching the plant's writers does not mean sensors already match the channel, etc.
+    startup_timer_.expires_after(std::chrono::milliseconds(options_.settle_ms));
+    startup_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (!ec && !stopped_) start();
+    });
+  }
+
+  void start() {
+    start_ = std::chrono::steady_clock::now();
+    schedule();
+  }
+
+  void schedule() {
+    // Absolute deadline: period k fires at start + k T regardless of how long work took.
+    timer_.expires_at(start_ + period_ * static_cast<std::int64_t>(next_period()));
+    timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (ec || stopped_) return;
+      on_period();
+    });
+  }
+
+  std::uint64_t next_period() const {
+    const std::lock_guard lock(mutex_);
+    return sim_.next_period();
+  }
+
+  void on_period() {
+    PlantStep s;
+    bool closed_loop = false;
+    std::uint64_t missing = 0, stale = 0;
+    {
+      const std::lock_guard lock(mutex_);
+      s = sim_.step();
+      closed_loop = sim_.closed_loop();
+      missing = sim_.missing_inputs();
+      stale = sim_.stale_inputs();
+    }
+    const bool max_reached = options_.max_periods > 0 && s.k + 1 >= options_.max_periods;
+    const bool final_period = s.bound_exceeded || max_reached;
+    if (s.input_missing) {
+      spdlog::debug("period {}: no control input for period {} arrived in time; applied zero", s.k, s.k - 1);
+    }
+    const Vector applied = closed_loop ? s.applied_input : Vector();
+    if (s.x.allFinite()) truth_.write(dds::make_truth(s.k, s.t, s.x, applied));
+    tick_.write(dds::make_tick(s.k, s.t, applied, final_period));
+    if (s.k % 1000 == 0) {
+      spdlog::info("period {} t={:.3f}s |x|_inf={:.4g}; inputs missing so far {} (late: {})", s.k, s.t,
+                   s.x.lpNorm<Eigen::Infinity>(), missing, stale);
+    }
+    if (s.bound_exceeded) {
+      if (closed_loop) {
+        spdlog::warn(
+            "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the closed loop went "
+            "unstable (are the links below the critical arrival rate?)",
+            s.k, s.x.lpNorm<Eigen::Infinity>(), state_bound_);
+      } else {
+        spdlog::warn(
+            "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the plant is open-loop "
+            "unstable and the scenario has no control (add plant.B and control to close the loop)",
+            s.k, s.x.lpNorm<Eigen::Infinity>(), state_bound_);
+      }
+    } else if (max_reached) {
+      spdlog::info("run ends after --max-periods {} periods", options_.max_periods);
+    }
+    if (final_period) {
+      {
+        const std::lock_guard lock(mutex_);
+        finished_ = true;
+      }
+      end();
+      return;
+    }
+    schedule();
+  }
+
+  void on_control(const wire::ControlInput& c) {
+    try {
+      std::string why;
+      bool accepted = false;
+      {
+        const std::lock_guard lock(mutex_);
+        const Vector u = dds::control_input_u(c, sim_.input_dim());
+        accepted = sim_.set_input(c.k(), u, &why);
+      }
+      if (!accepted) {
+        // A stale input (fused at the deadline and delivered after the next step) is expected
+        // now and then on a loaded machine: the plant applied zero and acknowledged that.
+        if (why.find("stale") != std::string::npos) {
+          spdlog::debug("control input rejected: {}", why);
+        } else {
+          spdlog::warn("control input rejected: {}", why);
+        }
+      }
+    } catch (const std::exception& e) {
+      spdlog::warn("control input for period {} rejected: {}", c.k(), e.what());
+    }
+  }
+
+  void end() {
+    stopped_ = true;
+    timer_.cancel();
+    startup_timer_.cancel();
+    work_.reset();
+    io_.stop();
+  }
+
+  boost::asio::io_context io_;
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
+  PlantAppOptions options_;
+  int truth_readers_wanted_;
+  double state_bound_;
+  mutable std::mutex mutex_;  // sim_ and finished_ (read by stats() from any thread)
+  PlantSimulator sim_;
+  bool finished_ = false;
+  std::chrono::steady_clock::duration period_;
+  boost::asio::steady_timer timer_;          // the period clock
+  boost::asio::steady_timer startup_timer_;  // the subscriber poll, then the settle delay
+  std::chrono::steady_clock::time_point startup_deadline_;
+  std::chrono::steady_clock::time_point start_;
+  bool stopped_ = false;
+  dds::Writer<wire::Truth> truth_;
+  dds::Writer<wire::Tick> tick_;
+  std::optional<dds::Reader<wire::ControlInput>> control_;
+};
+
+PlantApp::PlantApp(const Scenario& scenario, dds::Participant& participant, PlantAppOptions options)
+    : impl_(std::make_unique<Impl>(scenario, participant, options)) {}
+PlantApp::~PlantApp() = default;
+void PlantApp::run() { impl_->run(); }
+void PlantApp::stop() { impl_->stop(); }
+boost::asio::io_context& PlantApp::io() { return impl_->io(); }
+PlantAppStats PlantApp::stats() const { return impl_->stats(); }
+void PlantApp::log_summary() const { impl_->log_summary(); }
+
+}  // namespace netkf::nodes

@@ -1,0 +1,119 @@
+#include "netkf/nodes/sensor_app.hpp"
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/post.hpp>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <stdexcept>
+
+#include <spdlog/spdlog.h>
+
+#include "netkf/dds/dds.hpp"
+#include "netkf/nodes/sensor_simulator.hpp"
+
+namespace netkf::nodes {
+
+namespace wire = netkf::wire;
+
+std::string describe_sensor_ids(const std::vector<int>& ids) {
+  std::string text;
+  for (int id : ids) text += (text.empty() ? "" : ",") + std::to_string(id);
+  return text;
+}
+
+namespace {
+std::vector<SensorSimulator> make_sensors(const Scenario& scenario, const std::vector<int>& ids) {
+  if (ids.empty()) throw std::invalid_argument("no sensor id given");
+  if (std::set<int>(ids.begin(), ids.end()).size() != ids.size())
+    throw std::invalid_argument("sensor ids " + describe_sensor_ids(ids) + " name a sensor twice");
+  std::vector<SensorSimulator> sensors;
+  for (int id : ids) sensors.emplace_back(scenario, id);
+  return sensors;
+}
+}  // namespace
+
+class SensorApp::Impl {
+ public:
+  Impl(const Scenario& scenario, dds::Participant& participant, const SensorAppOptions& options)
+      : sensors_(make_sensors(scenario, options.sensor_ids)),
+        state_dim_(scenario.state_dim()),
+        raw_(participant, dds::topics::raw_measurement, static_cast<double>(sensors_.size()) / scenario.period_s()) {
+    // The reader last: its callback uses everything above.
+    truth_.emplace(participant, dds::topics::truth, [this](wire::Truth&& truth) { on_truth(truth); });
+  }
+
+  ~Impl() {
+    // The reader first: nothing measures any more, and no callback runs into a half-destroyed object.
+    truth_.reset();
+  }
+
+  void run() {
+    work_.emplace(io_.get_executor());
+    io_.run();
+  }
+
+  void stop() {
+    boost::asio::post(io_, [this] {
+      work_.reset();
+      io_.stop();
+    });
+  }
+
+  boost::asio::io_context& io() { return io_; }
+
+  SensorAppStats stats() const {
+    SensorAppStats s;
+    {
+      const std::lock_guard lock(mutex_);
+      for (const auto& sensor : sensors_) s.sensors.push_back({sensor.id(), sensor.measured(), sensor.skipped()});
+    }
+    s.raw_readers = raw_.matched();
+    return s;
+  }
+
+  void log_summary() const {
+    for (const auto& sensor : stats().sensors) spdlog::info("sensor {}: {} samples measured", sensor.id, sensor.measured);
+  }
+
+ private:
+  // DDS receive thread
+  void on_truth(const wire::Truth& truth) {
+    Vector x;
+    try {
+      x = dds::truth_state(truth, state_dim_);
+    } catch (const std::exception& e) {
+      spdlog::warn("truth for period {} rejected: {}", truth.k(), e.what());
+      return;
+    }
+    const std::lock_guard lock(mutex_);
+    for (auto& sensor : sensors_) {
+      std::string why;
+      const auto y = sensor.measure(truth.k(), x, &why);
+      if (!y) {
+        spdlog::warn("sensor {}: period {} not measured: {}", sensor.id(), truth.k(), why);
+        continue;
+      }
+      raw_.write(dds::make_measurement(sensor.id(), truth.k(), dds::steady_now_ns(), *y));
+    }
+  }
+
+  boost::asio::io_context io_;
+  std::optional<boost::asio::executor_work_guard<boost::asio::io_context::executor_type>> work_;
+  mutable std::mutex mutex_;  // sensors_
+  std::vector<SensorSimulator> sensors_;
+  int state_dim_;
+  dds::Writer<wire::Measurement> raw_;
+  std::optional<dds::Reader<wire::Truth>> truth_;
+};
+
+SensorApp::SensorApp(const Scenario& scenario, dds::Participant& participant, SensorAppOptions options)
+    : impl_(std::make_unique<Impl>(scenario, participant, options)) {}
+SensorApp::~SensorApp() = default;
+void SensorApp::run() { impl_->run(); }
+void SensorApp::stop() { impl_->stop(); }
+boost::asio::io_context& SensorApp::io() { return impl_->io(); }
+SensorAppStats SensorApp::stats() const { return impl_->stats(); }
+void SensorApp::log_summary() const { impl_->log_summary(); }
+
+}  // namespace netkf::nodes
