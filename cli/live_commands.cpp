@@ -225,6 +225,13 @@ BusHandlers recording_handlers(Recording& recording, LiveViews* views, RunSummar
   return h;
 }
 
+/// True when every link is set to lose every sample (then an estimate without samples is right).
+bool all_links_drop_everything(const LiveSnapshot& s) {
+  for (const auto& l : s.links)
+    if (stationary_loss(l.link.loss) < 1.0) return false;
+  return true;
+}
+
 /// The checkpoint a restarted estimator resumes from: the last estimate it published.
 nodes::EstimatorCheckpoint checkpoint_of(const EstimateRecord& e) {
   nodes::EstimatorCheckpoint c;
@@ -251,6 +258,9 @@ Scenario load_or_default(const std::optional<std::string>& file) {
 }
 
 // ---------------------------------------------------------------- launch
+
+/// Sensors a live network runs at most (see run_launch).
+constexpr std::size_t kMaxLiveSensors = 256;
 
 struct LaunchOptions {
   std::optional<std::string> scenario;
@@ -330,6 +340,11 @@ int run_launch(const LaunchOptions& o) {
     return s;
   }();
   const RestartPolicy policy = parse_restart_policy(o.restart_policy);
+  // The largest live network measured to run (BENCHMARKS.md, "Sensor count limit"); a larger
+  // one started, matched partly and fused nothing. The theory commands have no such limit.
+  if (scenario.sensors.size() > kMaxLiveSensors)
+    fail(2, "the scenario has " + std::to_string(scenario.sensors.size()) + " sensors; a live network runs at most " +
+                std::to_string(kMaxLiveSensors) + " (analyze and simulate take any number)");
 
   // Checks and the summary file are the user's input: a mistake in them is exit 2 before
   // anything starts, not a failed check after a long run.
@@ -415,9 +430,11 @@ int run_launch(const LaunchOptions& o) {
   }();
   // The last estimate seen (io thread): the checkpoint a restarted estimator resumes from.
   std::optional<EstimateRecord> last_estimate;
+  std::uint64_t fused_periods = 0;  // estimates that fused at least one sample
   try {
     BusHandlers handlers = recording_handlers(recording, views.get(), summary.get(), invalid_samples);
-    handlers.estimate = [record = std::move(handlers.estimate), &last_estimate](EstimateRecord&& e) {
+    handlers.estimate = [record = std::move(handlers.estimate), &last_estimate, &fused_periods](EstimateRecord&& e) {
+      fused_periods += e.fused.empty() ? 0 : 1;
       last_estimate = e;
       record(std::move(e));
     };
@@ -614,13 +631,34 @@ int run_launch(const LaunchOptions& o) {
   std::cerr << "\n";
   if (views->model().saw_non_finite() || invalid_samples > 0)
     std::cerr << "netkf launch: WARNING: " << invalid_samples << " invalid samples were rejected\n";
+  // A run in which a sensor never sent anything (its process never started, never matched, or
+  // the plant ran without it) or in which no estimate arrived is not a run of the scenario: it
+  // fails loudly rather than ending "ok" (judged once the run had time: 10 estimates).
+  std::optional<std::string> incomplete;
+  {
+    const auto& snap = views->model().snapshot();
+    std::string silent;
+    for (const auto& l : snap.links)
+      if (l.samples_total == 0) silent += (silent.empty() ? "" : ", ") + std::to_string(l.sensor_id);
+    if (end != End::failed && snap.estimates == 0 && o.duration >= 5)
+      incomplete = "no estimate arrived during the run: the network never ran";
+    else if (end != End::failed && snap.estimates >= 10 && !silent.empty())
+      incomplete = "sensors " + silent + " never sent a sample to the channel: the run did not include them";
+    else if (end != End::failed && snap.estimates >= 100 && fused_periods == 0 && !all_links_drop_everything(snap))
+      incomplete = "no sample was fused in " + std::to_string(snap.estimates) +
+                   " periods although the links deliver: the estimator never heard the channel";
+  }
+  if (incomplete) std::cerr << "netkf launch: ERROR: " << *incomplete << "\n";
   // Checks are judged after everything is recorded; a run that failed keeps its own failure.
   std::optional<std::string> checks_failure;
   if (summary)
     checks_failure = conclude_run(*summary, checks, scenario,
-                                  end == End::failed ? "failure: " + supervisor.failure_reason() : end_text,
+                                  end == End::failed ? "failure: " + supervisor.failure_reason()
+                                  : incomplete       ? "failure: " + *incomplete
+                                                     : end_text,
                                   o.summary, summary_out);
   if (end == End::failed) fail(1, supervisor.failure_reason());
+  if (incomplete) fail(1, *incomplete);
   if (checks_failure) fail(1, *checks_failure);
   return 0;
 }

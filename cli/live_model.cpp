@@ -46,6 +46,15 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   }
   auto& s = snapshot_;
   ++s.estimates;
+  if (s.estimates == kSilentSensorCheck) {
+    // By now every sensor has published many samples (status arrives once a second).
+    std::string silent;
+    for (const auto& l : s.links)
+      if (l.samples_total == 0) silent += (silent.empty() ? "" : ", ") + std::to_string(l.sensor_id);
+    if (!silent.empty())
+      raise(LiveEvent::Level::error, "sensors " + silent + " have sent nothing to the channel in " +
+                                         std::to_string(kSilentSensorCheck) + " periods: is every sensor process running?");
+  }
   sum_trace_ += e.trace_P;
   sum_trace_pred_ += e.trace_P_pred;
   s.mean_trace_P = sum_trace_ / static_cast<double>(s.estimates);

@@ -17,6 +17,9 @@ namespace netkf::cli {
 
 class LiveModel {
  public:
+  /// After this many estimates, a sensor the channel never heard from is reported.
+  static constexpr std::uint64_t kSilentSensorCheck = 200;
+
   explicit LiveModel(Scenario scenario);
 
   void add_truth(const TruthRecord& truth);

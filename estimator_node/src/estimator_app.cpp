@@ -76,9 +76,19 @@ class EstimatorApp::Impl {
 
   void log_summary() const {
     const auto s = stats();
-    spdlog::info("published {} estimates (last period {}), late samples {}, rejected {}, state {}{}", s.published,
+    std::string reasons;
+    {
+      const std::lock_guard lock(mutex_);
+      for (int r = 0; r < static_cast<int>(SampleRejection::count_); ++r) {
+        const auto reason = static_cast<SampleRejection>(r);
+        if (const auto n = core_.rejected(reason))
+          reasons += (reasons.empty() ? " (" : ", ") + std::string(to_string(reason)) + " " + std::to_string(n);
+      }
+      if (!reasons.empty()) reasons += ")";
+    }
+    spdlog::info("published {} estimates (last period {}), late samples {}, rejected {}{}, state {}{}", s.published,
                  s.last_fused_period ? std::to_string(*s.last_fused_period) : std::string("none"), s.late_total,
-                 s.rejected_total, netkf::to_string(s.state),
+                 s.rejected_total, reasons, netkf::to_string(s.state),
                  s.restarts ? ", restarts " + std::to_string(s.restarts) : std::string());
   }
 

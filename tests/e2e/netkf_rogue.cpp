@@ -9,9 +9,15 @@
 //                    [--marker Y] [--raw] [--delivered] [--link-control] [--after-truth]
 // --after-truth: forge only once the truth is received (for the current period), so a test can
 // tell the forged samples' periods from the ones before.
+// --hostile: instead of plausible forgeries, every kind of bad input each cycle: on each
+// measurement topic a NaN sample, a wrong-size one, an unknown sensor id, the same sample
+// twice, one far in the past and one far in the future; on link control an unknown sensor, a
+// NaN loss, an unknown key and a Gilbert-Elliott link with p = r = 0.
 #include <atomic>
 #include <chrono>
 #include <iostream>
+#include <limits>
+#include <vector>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -26,7 +32,7 @@ int main(int argc, char** argv) {
   int domain = -1, sensor = 1;
   double seconds = 5.0, marker = 31337.0;
   std::string secure, role = "observer";
-  bool raw = false, delivered = false, link_control = false, after_truth = false;
+  bool raw = false, delivered = false, link_control = false, after_truth = false, hostile = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&] { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
@@ -50,6 +56,8 @@ int main(int argc, char** argv) {
       link_control = true;
     else if (a == "--after-truth")
       after_truth = true;
+    else if (a == "--hostile")
+      hostile = true;
     else {
       std::cerr << "netkf_rogue: unknown argument " << a << "\n";
       return 2;
@@ -115,6 +123,38 @@ int main(int argc, char** argv) {
         continue;
       }
       const std::uint64_t k = last_k.load() > 0 ? last_k.load() + 1 : counter;
+      if (hostile) {
+        const double nan = std::numeric_limits<double>::quiet_NaN();
+        const std::vector<wire::Measurement> bad{
+            ndds::make_measurement(sensor, k, ndds::steady_now_ns(), netkf::Vector::Constant(1, 1.0)),  // fine once,
+            ndds::make_measurement(sensor, k, ndds::steady_now_ns(), netkf::Vector::Constant(1, 1.0)),  // then a duplicate
+            ndds::make_measurement(99, k, ndds::steady_now_ns(), y),                                       // unknown id
+            ndds::make_measurement(sensor, k + 1000, ndds::steady_now_ns(), y),                            // far future
+            ndds::make_measurement(sensor, k > 500 ? k - 500 : 0, ndds::steady_now_ns(), y)};              // far past
+        for (auto* w : {raw_w.get(), delivered_w.get()}) {
+          if (!w) continue;
+          for (const auto& m : bad) w->write(m);
+          // NaN and a wrong size: the conversion refuses to make them, so build them by hand.
+          wire::Measurement m = ndds::make_measurement(sensor, k, ndds::steady_now_ns(), y);
+          m.y({nan});
+          w->write(m);
+          m.y({1.0, 2.0});
+          w->write(m);
+          (w == raw_w.get() ? raw_n : delivered_n) += bad.size() + 2;
+        }
+        if (control_w && counter % 10 == 0) {
+          const std::vector<wire::LinkControl> requests{
+              ndds::make_link_control(2000 + counter, 99, {{"loss", 0.5}}),
+              ndds::make_link_control(2001 + counter, sensor, {{"loss", nan}}),
+              ndds::make_link_control(2002 + counter, sensor, {{"bogus", 0.5}}),
+              ndds::make_link_control(2003 + counter, sensor,
+                                      {{"model", std::string("gilbert_elliott")}, {"p", 0.0}, {"r", 0.0}})};
+          for (const auto& c : requests) control_n += control_w->write(c) ? 1 : 0;
+        }
+        ++counter;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        continue;
+      }
       if (raw_w && raw_w->write(ndds::make_measurement(sensor, k, ndds::steady_now_ns(), y))) ++raw_n;
       if (delivered_w && delivered_w->write(ndds::make_measurement(sensor, k, ndds::steady_now_ns(), y))) ++delivered_n;
       if (control_w && counter % 10 == 0 &&

@@ -67,6 +67,23 @@ TEST(LiveModel, ShowsAnEstimatorRestartAndItsGap) {
   EXPECT_NE(events[1].text.find("fusing again from period 14 (4 periods"), std::string::npos) << events[1].text;
 }
 
+// A sensor the channel never heard from is an error in the event log, not a quiet "ok".
+TEST(LiveModel, NamesSensorsThatNeverSentAnything) {
+  const Scenario scenario = default_scenario();
+  ASSERT_GE(scenario.sensors.size(), 2u);
+  LiveModel model(scenario);
+  const int silent_id = scenario.sensors.back().id;
+  for (const auto& sensor : scenario.sensors)
+    if (sensor.id != silent_id) model.add_link_status(link_status(sensor.id, sensor.link.loss, 100, 90));
+  model.take_events();
+  for (std::int64_t k = 0; k < static_cast<std::int64_t>(LiveModel::kSilentSensorCheck); ++k)
+    model.add_estimate(estimate(k, {0.0, 0.0}, 1.0, 1.0));
+  const auto events = model.take_events();
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].level, LiveEvent::Level::error);
+  EXPECT_EQ(events[0].text.rfind("sensors " + std::to_string(silent_id) + " have sent nothing", 0), 0u) << events[0].text;
+}
+
 TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
   LiveModel model(default_scenario());
   model.add_truth({3, 0.03, {1.0, 2.0}});

@@ -12,7 +12,9 @@ namespace netkf {
 namespace {
 
 void expect_between_bounds(const Scenario& s, int runs, int steps) {
-  const auto bounds = analysis::analyze(s, {.use_lmi = false});
+  analysis::AnalyzeOptions options;
+  options.use_lmi = false;
+  const auto bounds = analysis::analyze(s, options);
   ASSERT_TRUE(bounds.lower_trace && bounds.upper_trace);
   MonteCarloOptions o;
   o.runs = runs;
