@@ -640,7 +640,8 @@ int run_launch(const LaunchOptions& o) {
     std::string silent;
     for (const auto& l : snap.links)
       if (l.samples_total == 0) silent += (silent.empty() ? "" : ", ") + std::to_string(l.sensor_id);
-    if (end != End::failed && snap.estimates == 0 && o.duration >= 5)
+    const auto ran_for = std::chrono::duration<double>(Clock::now() - start).count();
+    if (end != End::failed && snap.estimates == 0 && ran_for >= 5)
       incomplete = "no estimate arrived during the run: the network never ran";
     else if (end != End::failed && snap.estimates >= 10 && !silent.empty())
       incomplete = "sensors " + silent + " never sent a sample to the channel: the run did not include them";

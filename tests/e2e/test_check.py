@@ -50,7 +50,7 @@ extra = ["--dashboard", "off", "--summary", summary_path]
 for c in passing:
     extra += ["--check", c]
 extra.append(scenario)  # after a --check: each --check takes exactly one value
-with Launch(None, 6, pass_dir, samples=True, extra=extra, own_stdout=True) as run:
+with Launch(None, 8, pass_dir, samples=True, extra=extra, own_stdout=True) as run:
     rc = run.wait(60)
 stdout = run.stdout()
 check(rc == 0, "passing checks: launch exits 0 (rc=%s)" % rc)
@@ -77,7 +77,7 @@ check(sorted(s["link"]) == ["1", "2", "3"], "summary has links 1, 2, 3")
 
 # Every period the launch received has its row (truth and estimate both arrived).
 n = len(rows)
-check(n >= 100, "a 6 s run at 40 ms recorded at least 100 periods (%d)" % n)
+check(n >= 100, "an 8 s run at 40 ms recorded at least 100 periods (%d)" % n)
 check(s["periods"] == n, "periods %s == rows of the recording %d" % (s["periods"], n))
 sq = [sum((a - b) ** 2 for a, b in zip(r["x"], r["xhat"])) for r in rows]
 rms = math.sqrt(sum(sq) / n)
