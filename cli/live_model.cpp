@@ -70,11 +70,12 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
                                          "): resumed from its estimate of period " + std::to_string(e.k - 1) +
                                          "; the periods it missed are predicted open-loop");
   }
-  if (restart_gap_from_ && !e.fused.empty() && e.k > *restart_gap_from_) {
+  if (restart_gap_from_ && !e.fused.empty() && e.k >= *restart_gap_from_) {
     const auto gap = static_cast<std::uint64_t>(e.k - *restart_gap_from_);
     s.restart_gap_periods += gap;
-    raise(LiveEvent::Level::info, "estimator fusing again from period " + std::to_string(e.k) + " (" +
-                                      std::to_string(gap) + " periods without samples after its restart)");
+    if (gap > 0)
+      raise(LiveEvent::Level::info, "estimator fusing again from period " + std::to_string(e.k) + " (" +
+                                        std::to_string(gap) + " periods without samples after its restart)");
     restart_gap_from_.reset();
   }
   if (!s.period || e.k >= s.period->k) {
