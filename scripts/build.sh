@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Configure (once) and build a preset: scripts/build.sh [default|asan|fuzz]
+# Configure (once) and build a preset: scripts/build.sh [default|asan|asan-dds|fuzz] [TARGET...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 preset=${1:-default}
@@ -9,4 +9,9 @@ export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=true
 if [ ! -f "build/$preset/build.ninja" ]; then
   cmake --preset "$preset" >/dev/null
 fi
-cmake --build --preset "$preset"
+shift || true
+if [ $# -gt 0 ]; then
+  cmake --build --preset "$preset" --target "$@"
+else
+  cmake --build --preset "$preset"
+fi
