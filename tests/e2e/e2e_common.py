@@ -312,3 +312,36 @@ def zombie_shm_segments():
         except OSError:
             pass
     return zombies
+
+
+def numpy_filter_worst(rows, samples):
+    """An independent NumPy Kalman filter for data/exact.yaml's model (stacked form, Sinopoli
+    eqs. 14-16 with the received rows only) over the samples the live run fused: the largest
+    difference from the recorded x̂ and Tr P. Periods fused with nothing are predictions."""
+    import numpy as np
+    A = np.array([[0.9, 0.2], [-0.1, 0.8]])
+    Q = np.diag([0.2, 0.1])
+    C = {1: np.array([[1.0, 0.0]]), 2: np.array([[0.5, 1.0]])}
+    R = {1: 0.5, 2: 0.8}
+    x = np.array([1.0, -1.0])
+    P = np.diag([2.0, 2.0])
+    by_k = {}
+    for s in samples:
+        if s["fused"]:
+            by_k.setdefault(s["k"], []).append(s)
+    recorded = {r["k"]: r for r in rows}
+    worst = 0.0
+    for k in range(0, rows[-1]["k"] + 1 if rows else 0):
+        got = sorted(by_k.get(k, []), key=lambda s: s["sensor_id"])
+        if got:
+            Cs = np.vstack([C[s["sensor_id"]] for s in got])
+            S = Cs @ P @ Cs.T + np.diag([R[s["sensor_id"]] for s in got])
+            K = P @ Cs.T @ np.linalg.inv(S)
+            x = x + K @ (np.array([s["y"][0] for s in got]) - Cs @ x)
+            P = P - K @ Cs @ P
+        if k in recorded:
+            worst = max(worst, float(np.max(np.abs(x - np.array(recorded[k]["xhat"])))),
+                        abs(np.trace(P) - recorded[k]["trace_P"]))
+        x = A @ x
+        P = A @ P @ A.T + Q
+    return worst

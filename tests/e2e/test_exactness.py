@@ -5,10 +5,8 @@ import json
 import os
 import subprocess
 
-import numpy as np
-
-from e2e_common import (DATA, Launch, all_finite, check, finish, read_periods, read_samples, require_netns,
-                        workdir)
+from e2e_common import (DATA, Launch, all_finite, check, finish, numpy_filter_worst, read_periods, read_samples,
+                        require_netns, workdir)
 
 require_netns()
 out = workdir("exact")
@@ -34,34 +32,7 @@ if r.returncode == 0:
           res["max_trace_P_diff"])
     check(res["fused_mismatch"] == 0, "fused sets agree")
 
-# 2) An independent NumPy Kalman filter (stacked form, Sinopoli eqs. 14-16 with the
-#    received rows only) on the same fused samples.
-A = np.array([[0.9, 0.2], [-0.1, 0.8]])
-Q = np.diag([0.2, 0.1])
-C = {1: np.array([[1.0, 0.0]]), 2: np.array([[0.5, 1.0]])}
-R = {1: np.array([[0.5]]), 2: np.array([[0.8]])}
-x = np.array([1.0, -1.0])
-P = np.diag([2.0, 2.0])
-by_k = {}
-for s in samples:
-    if s["fused"]:
-        by_k.setdefault(s["k"], []).append(s)
-worst = 0.0
-recorded = {r_["k"]: r_ for r_ in rows}
-for k in range(0, rows[-1]["k"] + 1 if rows else 0):
-    got = sorted(by_k.get(k, []), key=lambda s: s["sensor_id"])
-    if got:
-        Cs = np.vstack([C[s["sensor_id"]] for s in got])
-        Rs = np.diag([R[s["sensor_id"]][0, 0] for s in got])
-        ys = np.array([s["y"][0] for s in got])
-        S = Cs @ P @ Cs.T + Rs
-        K = P @ Cs.T @ np.linalg.inv(S)
-        x = x + K @ (ys - Cs @ x)
-        P = P - K @ Cs @ P
-    if k in recorded:
-        worst = max(worst, float(np.max(np.abs(x - np.array(recorded[k]["xhat"])))),
-                    abs(np.trace(P) - recorded[k]["trace_P"]))
-    x = A @ x
-    P = A @ P @ A.T + Q
+# 2) An independent NumPy Kalman filter on the same fused samples (e2e_common).
+worst = numpy_filter_worst(rows, samples)
 check(worst <= 1e-8, "an independent NumPy Kalman filter agrees to 1e-8 (%.3g)" % worst)
 finish()

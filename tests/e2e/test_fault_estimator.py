@@ -10,10 +10,8 @@ import re
 import signal
 import subprocess
 
-import numpy as np
-
 from e2e_common import (DATA, Launch, all_finite, check, contiguous, finish, last_period, launch_files_dirs,
-                        netkf_processes, read_periods, read_samples, require_netns, wait_for, workdir)
+                        netkf_processes, numpy_filter_worst, read_periods, read_samples, require_netns, wait_for, workdir)
 
 require_netns()
 domain = int(os.environ["NETKF_DOMAIN"])
@@ -66,32 +64,8 @@ if r.returncode == 0:
     check(res["max_trace_P_diff"] <= 1e-9, "Tr P equals the offline replay to 1e-9 (%.3g)" % res["max_trace_P_diff"])
     check(res["fused_mismatch"] == 0, "fused sets agree")
 
-# An independent NumPy filter over the same fused samples (exact.yaml's model).
-A = np.array([[0.9, 0.2], [-0.1, 0.8]])
-Q = np.diag([0.2, 0.1])
-C = {1: np.array([[1.0, 0.0]]), 2: np.array([[0.5, 1.0]])}
-R = {1: 0.5, 2: 0.8}
-x = np.array([1.0, -1.0])
-P = np.diag([2.0, 2.0])
-by_k = {}
-for s in samples:
-    if s["fused"]:
-        by_k.setdefault(s["k"], []).append(s)
-recorded = {row["k"]: row for row in rows}
-worst = 0.0
-for k in range(0, rows[-1]["k"] + 1 if rows else 0):
-    got = sorted(by_k.get(k, []), key=lambda s: s["sensor_id"])
-    if got:
-        Cs = np.vstack([C[s["sensor_id"]] for s in got])
-        S = Cs @ P @ Cs.T + np.diag([R[s["sensor_id"]] for s in got])
-        K = P @ Cs.T @ np.linalg.inv(S)
-        x = x + K @ (np.array([s["y"][0] for s in got]) - Cs @ x)
-        P = P - K @ Cs @ P
-    if k in recorded:
-        worst = max(worst, float(np.max(np.abs(x - np.array(recorded[k]["xhat"])))),
-                    abs(np.trace(P) - recorded[k]["trace_P"]))
-    x = A @ x
-    P = A @ P @ A.T + Q
+# An independent NumPy filter over the same fused samples (e2e_common).
+worst = numpy_filter_worst(rows, samples)
 check(worst <= 1e-8, "an independent NumPy Kalman filter agrees across the restart to 1e-8 (%.3g)" % worst)
 
 check(wait_for(lambda: not netkf_processes(domain), 10), "no netkf process left running on the domain")
