@@ -117,7 +117,8 @@ std::vector<Channel> make_channels() {
                                 {"items", schema_object({{"name", {{"type", "string"}}},
                                                          {"pid", {{"type", "integer"}}},
                                                          {"running", {{"type", "boolean"}}},
-                                                         {"restarts", {{"type", "integer"}}}},
+                                                         {"restarts", {{"type", "integer"}}},
+                                                         {"host", {{"type", "string"}}}},
                                                         {"name"})}}}},
                              {"estimates", "processes"})});
   return c;
@@ -353,7 +354,8 @@ json theory_message(const TheoryView& t) {
 json network_message(const LiveSnapshot& s) {
   json processes = json::array();
   for (const auto& p : s.processes)
-    processes.push_back({{"name", p.name}, {"pid", p.pid}, {"running", p.running}, {"restarts", p.restarts}});
+    processes.push_back(
+        {{"name", p.name}, {"pid", p.pid}, {"running", p.running}, {"restarts", p.restarts}, {"host", p.host}});
   return json{{"k", s.period ? json(s.period->k) : json(nullptr)},
               {"estimates", s.estimates},
               {"rms_error", optional_number(s.rms_error)},

@@ -10,6 +10,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <set>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -301,6 +304,86 @@ unsigned usable_cpus() {
   CPU_ZERO(&set);
   if (sched_getaffinity(0, sizeof set, &set) == 0) return static_cast<unsigned>(std::max(1, CPU_COUNT(&set)));
   return std::max(1u, std::thread::hardware_concurrency());
+}
+
+LaunchRoles parse_launch_roles(const std::string& text, const std::vector<int>& scenario_sensor_ids) {
+  LaunchRoles roles;
+  roles.plant = roles.channel = roles.estimator = false;
+  roles.all = false;
+  bool all_sensors = false, in_sensor_list = false;
+  std::set<int> chosen;
+  std::string rest = text;
+  std::vector<std::string> words;
+  for (std::size_t start = 0;;) {
+    const auto comma = rest.find(',', start);
+    words.push_back(rest.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  auto sensor_id = [&](const std::string& w) {
+    int id = 0;
+    const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), id);
+    if (ec != std::errc() || end != w.data() + w.size())
+      throw std::invalid_argument("--only: '" + w + "' is not a sensor id");
+    if (std::find(scenario_sensor_ids.begin(), scenario_sensor_ids.end(), id) == scenario_sensor_ids.end())
+      throw std::invalid_argument("--only: the scenario has no sensor " + w);
+    chosen.insert(id);
+  };
+  for (const auto& w : words) {
+    if (w == "all") {
+      roles.plant = roles.channel = roles.estimator = all_sensors = true;
+      in_sensor_list = false;
+    } else if (w == "plant") {
+      roles.plant = true;
+      in_sensor_list = false;
+    } else if (w == "channel") {
+      roles.channel = true;
+      in_sensor_list = false;
+    } else if (w == "estimator") {
+      roles.estimator = true;
+      in_sensor_list = false;
+    } else if (w == "sensors") {
+      all_sensors = true;
+      in_sensor_list = false;
+    } else if (w.rfind("sensors=", 0) == 0) {
+      sensor_id(w.substr(8));
+      in_sensor_list = true;
+    } else if (in_sensor_list && !w.empty() && std::isdigit(static_cast<unsigned char>(w[0]))) {
+      sensor_id(w);
+    } else {
+      throw std::invalid_argument("--only: unknown role '" + w +
+                                  "' (give a comma list of plant, sensors, sensors=ID[,ID...], channel, estimator)");
+    }
+  }
+  for (int id : scenario_sensor_ids)
+    if (all_sensors || chosen.count(id)) roles.sensor_ids.push_back(id);
+  if (!roles.plant && !roles.channel && !roles.estimator && roles.sensor_ids.empty())
+    throw std::invalid_argument("--only '" + text + "' selects no process");
+  roles.all = roles.plant && roles.channel && roles.estimator && roles.sensor_ids.size() == scenario_sensor_ids.size();
+  return roles;
+}
+
+std::string describe_launch_roles(const LaunchRoles& roles) {
+  std::string text;
+  auto add = [&text](const std::string& w) { text += (text.empty() ? "" : ", ") + w; };
+  if (roles.plant) add("plant");
+  if (!roles.sensor_ids.empty()) {
+    std::string ids;
+    for (int id : roles.sensor_ids) ids += (ids.empty() ? "" : ",") + std::to_string(id);
+    add("sensors " + ids);
+  }
+  if (roles.channel) add("channel");
+  if (roles.estimator) add("estimator");
+  return text;
+}
+
+std::uint64_t derived_run_id(std::uint64_t scenario_hash, int domain) {
+  // splitmix64 of the two: a different scenario or domain gives an unrelated run id.
+  std::uint64_t z = scenario_hash ^ (0x9e3779b97f4a7c15ULL * static_cast<std::uint64_t>(domain + 1));
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return z == 0 ? 1 : z;
 }
 
 std::string sensor_process_name(const std::vector<int>& sensor_ids) {

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <functional>
 #include <optional>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -138,6 +139,25 @@ int auto_sensors_per_process(std::size_t sensors, unsigned cpus);
 unsigned usable_cpus();
 /// The supervisor's name of a sensor process: "sensor_node[3]", "sensor_node[1,2,3]".
 std::string sensor_process_name(const std::vector<int>& sensor_ids);
+
+/// The roles one `netkf launch` runs (`--only`): on several hosts, each runs its part.
+struct LaunchRoles {
+  bool plant = true;
+  bool channel = true;
+  bool estimator = true;
+  std::vector<int> sensor_ids;  // in scenario order
+  /// All of the scenario: plant, channel, estimator and every sensor.
+  bool all = true;
+};
+/// `--only` text: a comma list of plant, sensors (all of them), sensors=ID (then further bare
+/// ids belong to it: "sensors=1,3"), channel, estimator, or "all". Throws std::invalid_argument
+/// naming the bad word, an id the scenario does not have, or an empty selection.
+LaunchRoles parse_launch_roles(const std::string& text, const std::vector<int>& scenario_sensor_ids);
+/// "plant, sensors 1,3, channel" (for the launch line and the presence detail).
+std::string describe_launch_roles(const LaunchRoles& roles);
+/// The run id that every host's launch derives alike when none is given: the scenario's hash and
+/// the domain mixed (never 0), so hosts with the same scenario and domain join the same run.
+std::uint64_t derived_run_id(std::uint64_t scenario_hash, int domain);
 
 /// Directory holding the node executables: $NETKF_BIN_DIR if set, else the build
 /// tree's root found from /proc/self/exe (build/<preset>/cli/netkf -> build/<preset>).

@@ -42,10 +42,14 @@ struct LiveBus::Impl {
   std::unique_ptr<dds::Reader<wire::LinkChange>> link_change;
   std::unique_ptr<dds::Reader<wire::LinkControlReply>> link_reply;
   std::unique_ptr<dds::Writer<wire::LinkControl>> link_control;
+  std::unique_ptr<dds::PresenceWatcher> presence_watch;
+  std::unique_ptr<dds::PresenceAnnouncer> presence;
 
   explicit Impl(const dds::ParticipantOptions& o) : participant(o) {}
   ~Impl() {
     // Endpoints hold a reference to the participant: destroy them first.
+    presence.reset();
+    presence_watch.reset();
     link_control.reset();
     link_reply.reset();
     link_status.reset();
@@ -63,7 +67,15 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   po.name = options.name;
   po.run = options.run;
   if (auto dir = dds::resolve_secure(options.secure)) po.security = dds::ParticipantOptions::Security{*dir, options.role};
+  po.discovery_server = dds::resolve_discovery_server(options.discovery_server);
   impl_ = std::make_unique<Impl>(po);
+  if (options.presence) {
+    impl_->presence_watch = std::make_unique<dds::PresenceWatcher>(impl_->participant);
+    if (!options.presence->role.empty())
+      impl_->presence = std::make_unique<dds::PresenceAnnouncer>(impl_->participant, options.presence->role,
+                                                                 std::vector<int>{}, options.presence->scenario_hash,
+                                                                 options.presence->detail);
+  }
   auto ex = io.get_executor();
   auto invalid = [this, cb = h.invalid](const std::string& what) {
     ++invalid_;
@@ -177,5 +189,13 @@ std::vector<std::pair<std::string, int>> LiveBus::network_writers() const {
 }
 
 std::uint64_t LiveBus::foreign_samples() const { return impl_->participant.foreign_samples(); }
+
+std::vector<dds::PresenceRecord> LiveBus::processes() const {
+  return impl_->presence_watch ? impl_->presence_watch->processes() : std::vector<dds::PresenceRecord>{};
+}
+
+void LiveBus::end_presence(const std::string& why) {
+  if (impl_->presence) impl_->presence->end(why);
+}
 
 }  // namespace netkf::cli

@@ -15,6 +15,7 @@
 #include <string>
 
 #include "live_records.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/dds/security.hpp"
 #include "netkf/scenario.hpp"
 
@@ -27,6 +28,15 @@ struct BusOptions {
   std::optional<std::string> secure;   // --secure DIR (else $NETKF_SECURE, else no DDS Security)
   dds::Role role = dds::Role::observer;  // the identity used with security
   std::uint64_t run = 0;               // the launch's run id (samples of another run dropped); 0: any
+  std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (else $NETKF_DISCOVERY_SERVER)
+  /// Announce this process on netkf/presence (as a launch or a recorder, which read the truth:
+  /// the plant waits for them) and watch everyone's presence (LiveBus::processes).
+  struct Presence {
+    std::string role;  // dds::presence_role::launch or ::record; empty: only watch the others
+    std::uint64_t scenario_hash = 0;
+    std::string detail;  // a launch: the roles it runs
+  };
+  std::optional<Presence> presence;
 };
 
 struct BusHandlers {
@@ -58,6 +68,11 @@ class LiveBus {
   /// Writers matched on the network's data topics (truth, estimate, delivered, link status), by
   /// topic: before a launch starts its nodes, any is another network on the domain.
   std::vector<std::pair<std::string, int>> network_writers() const;
+  /// Every process whose presence was seen (empty without BusOptions::presence).
+  std::vector<dds::PresenceRecord> processes() const;
+  /// Tell the others that this process has ended its part (a launch without the plant that
+  /// stops, a recorder); no-op without BusOptions::presence.
+  void end_presence(const std::string& why);
   /// Samples of another run dropped (BusOptions::run).
   std::uint64_t foreign_samples() const;
   std::uint64_t invalid_samples() const { return invalid_; }

@@ -20,7 +20,9 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <limits>
 #include <random>
+#include <set>
 #include <sstream>
 #include <thread>
 #include <unistd.h>
@@ -33,6 +35,7 @@
 #include "live_views.hpp"
 #include "netkf/nodes/estimator_core.hpp"
 #include "netkf/dds/participant.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
 #include "record_mcap.hpp"
@@ -49,14 +52,22 @@ struct NetworkOptions {
   std::optional<int> domain;
   std::optional<std::string> profile;
   std::optional<std::string> secure;
+  std::optional<std::string> discovery_server;
   void add_to(CLI::App* cmd) {
     cmd->add_option("--domain", domain, "DDS domain id (default: $NETKF_DOMAIN, else 0)")->check(CLI::Range(0, 232));
     cmd->add_option("--dds-profile", profile,
                     "Fast DDS XML profile (default: $NETKF_DDS_PROFILE, else built-in localhost-only)");
     cmd->add_option("--secure", secure,
                     "DDS Security: the directory made by `netkf security init` (default: $NETKF_SECURE, else none)");
+    cmd->add_option("--discovery-server", discovery_server,
+                    "Discover the network through the Fast DDS Discovery Server at ADDR:PORT, e.g. on another host "
+                    "(default: $NETKF_DISCOVERY_SERVER, else the localhost-only profile; deploy/README.md)");
   }
-  BusOptions bus(const std::string& name, dds::Role role) const { return BusOptions{domain, profile, name, secure, role}; }
+  BusOptions bus(const std::string& name, dds::Role role) const {
+    BusOptions b{domain, profile, name, secure, role};
+    b.discovery_server = discovery_server;
+    return b;
+  }
 };
 
 [[noreturn]] void fail(int code, const std::string& message) {
@@ -282,7 +293,32 @@ struct LaunchOptions {
   std::vector<std::string> checks;  // "NAME<VALUE", evaluated at the end of the run
   std::optional<std::string> summary;
   double domain_check = 1.5;  // seconds to look for another network on the domain before starting
+  std::string only = "all";   // --only: the roles this launch runs (LaunchRoles)
+  std::optional<std::uint64_t> run_id;       // --run-id: shared by every host's launch
+  std::optional<std::string> serve_discovery;  // --serve-discovery ADDR:PORT
+  double ready_timeout = 30.0;  // the plant's wait for the whole network (presence)
 };
+
+/// The plant of `run` ended the run (its presence says so, or it left): why, else nothing.
+std::optional<std::string> plant_ended(const std::vector<dds::PresenceRecord>& processes, std::uint64_t run) {
+  for (const auto& p : processes) {
+    if (p.role != dds::presence_role::plant || (run != 0 && p.run != run)) continue;
+    if (p.ended) return "the plant (" + p.who() + ") ended the run" + (p.detail.empty() ? "" : ": " + p.detail);
+    if (!p.alive) return "the plant (" + p.who() + ") left the network";
+  }
+  return std::nullopt;
+}
+
+/// "sensors 1,3 (pid 12 on host-a) scenario 1a2b..." for messages about another run.
+std::string describe_other_run(const dds::PresenceRecord& p, std::uint64_t our_hash) {
+  char text[96];
+  if (p.scenario_hash != our_hash)
+    std::snprintf(text, sizeof text, " loaded another scenario (hash %016llx; this launch's %016llx)",
+                  static_cast<unsigned long long>(p.scenario_hash), static_cast<unsigned long long>(our_hash));
+  else
+    std::snprintf(text, sizeof text, " belongs to run %016llx", static_cast<unsigned long long>(p.run));
+  return p.who() + text;
+}
 
 /// "8", "2.5", "1e+03": a number as a person writes it.
 std::string number_text(double v) {
@@ -345,6 +381,32 @@ int run_launch(const LaunchOptions& o) {
   if (scenario.sensors.size() > kMaxLiveSensors)
     fail(2, "the scenario has " + std::to_string(scenario.sensors.size()) + " sensors; a live network runs at most " +
                 std::to_string(kMaxLiveSensors) + " (the largest measured to run; README, \"Failure behaviour\")");
+  std::vector<int> scenario_sensor_ids;
+  for (const auto& sensor : scenario.sensors) scenario_sensor_ids.push_back(sensor.id);
+  LaunchRoles roles;
+  try {
+    roles = parse_launch_roles(o.only, scenario_sensor_ids);
+  } catch (const std::invalid_argument& e) {
+    fail(2, e.what());
+  }
+  const std::uint64_t scenario_hash = dds::scenario_hash(scenario);
+  // Discovery: the localhost profile, or a Discovery Server (this launch's own with
+  // --serve-discovery: it lives in this process and ends with it).
+  std::optional<dds::DiscoveryServerAddress> served, discovery;
+  int domain = 0;
+  try {
+    domain = dds::resolve_domain(o.network.domain);
+    discovery = dds::resolve_discovery_server(o.network.discovery_server);
+    if (o.serve_discovery) {
+      served = dds::parse_discovery_server(*o.serve_discovery);
+      if (discovery && discovery->text() != served->text())
+        fail(2, "--serve-discovery " + served->text() + " and --discovery-server " + discovery->text() +
+                    " name different servers");
+      discovery = served;
+    }
+  } catch (const dds::DdsError& e) {
+    fail(2, e.what());
+  }
 
   // Checks and the summary file are the user's input: a mistake in them is exit 2 before
   // anything starts, not a failed check after a long run.
@@ -391,6 +453,22 @@ int run_launch(const LaunchOptions& o) {
   }
   const auto checkpoint_path = files->file("estimator-checkpoint.json");
 
+  std::unique_ptr<dds::Participant> discovery_server;
+  if (served) {
+    dds::ParticipantOptions so;
+    so.domain = domain;
+    so.name = "netkf-discovery-server";
+    so.discovery_server = served;
+    so.serve_discovery = true;
+    if (auto dir = dds::resolve_secure(o.network.secure))
+      so.security = dds::ParticipantOptions::Security{*dir, dds::Role::observer};
+    try {
+      discovery_server = std::make_unique<dds::Participant>(so);
+    } catch (const std::exception& e) {
+      fail(2, "cannot serve discovery on " + served->text() + ": " + e.what());
+    }
+  }
+
   boost::asio::io_context io;
   Recording recording(o.record, o.record_samples, scenario);
   std::unique_ptr<LiveBus> bus;
@@ -421,8 +499,12 @@ int run_launch(const LaunchOptions& o) {
     fail(2, e.what());
   }
   std::uint64_t invalid_samples = 0;
-  // This run's id: every node stamps it on its samples and drops those of another run.
-  const std::uint64_t run_id = [] {
+  // This run's id: every node stamps it on its samples and drops those of another run. A launch
+  // of the whole network draws one; the launches of one network on several hosts (--only) share
+  // one: given (--run-id), or derived alike from the scenario and the domain.
+  const std::uint64_t run_id = [&] {
+    if (o.run_id) return *o.run_id;
+    if (!roles.all) return derived_run_id(scenario_hash, domain);
     std::random_device rd;  // the kernel's random source: an identifier, not part of the experiment
     std::uint64_t id = 0;
     while (id == 0) id = (static_cast<std::uint64_t>(rd()) << 32) | rd();
@@ -442,20 +524,36 @@ int run_launch(const LaunchOptions& o) {
     const auto role = view_options.dashboard ? dds::Role::ctl : dds::Role::observer;
     BusOptions bus_options = o.network.bus("netkf-launch", role);
     bus_options.run = run_id;
+    if (discovery) bus_options.discovery_server = discovery->text();
+    bus_options.presence = BusOptions::Presence{dds::presence_role::launch, scenario_hash, describe_launch_roles(roles)};
     bus = std::make_unique<LiveBus>(io, bus_options, std::move(handlers),
                                     /*link_control_writer=*/view_options.dashboard.has_value());
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
-  const int domain = bus->domain();
   // Another network on this domain (another launch, or nodes started by hand) would mix its
-  // samples with ours: before starting anything, look for writers of the network's topics.
-  // Nothing of ours writes them yet, so any writer found is someone else's.
+  // samples with ours: before starting anything, look for processes of another run (presence)
+  // and, for a launch of the whole network, for writers of the network's topics (nothing of
+  // ours writes them yet, so any writer found is someone else's). The launches of one network
+  // on several hosts share the run and write from several hosts: only presence tells them apart.
   if (o.domain_check > 0) {
     const auto until = Clock::now() + std::chrono::duration<double>(o.domain_check);
     std::vector<std::pair<std::string, int>> writers;
-    while (Clock::now() < until && (writers = bus->network_writers()).empty())
+    std::vector<dds::PresenceRecord> others;
+    while (Clock::now() < until) {
+      others = dds::other_runs(bus->processes(), run_id);
+      if (roles.all) writers = bus->network_writers();
+      if (!others.empty() || !writers.empty()) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    if (!others.empty()) {
+      const bool other_scenario = others.front().scenario_hash != scenario_hash;
+      fail(2, "DDS domain " + std::to_string(domain) + " already carries another netkf run: " +
+                  describe_other_run(others.front(), scenario_hash) +
+                  (other_scenario ? "; every host of a network must run the same scenario file"
+                                  : "; give this run its own domain with --domain N (or NETKF_DOMAIN), or stop the "
+                                    "other one (hosts of one network: the same --run-id, or none)"));
+    }
     if (!writers.empty()) {
       std::string found;
       for (const auto& [topic, n] : writers) found += (found.empty() ? "" : ", ") + topic + " (" + std::to_string(n) + ")";
@@ -468,6 +566,10 @@ int run_launch(const LaunchOptions& o) {
   auto common_args = [&] {
     std::vector<std::string> a{"--scenario", scenario_path.string(), "--domain", std::to_string(domain),
                                "--log-level", o.log_level, "--run-id", std::to_string(run_id)};
+    if (discovery) {
+      a.push_back("--discovery-server");
+      a.push_back(discovery->text());
+    }
     if (o.network.profile) {
       a.push_back("--dds-profile");
       a.push_back(*o.network.profile);
@@ -486,6 +588,23 @@ int run_launch(const LaunchOptions& o) {
   Supervisor supervisor(so);
   // Trouble: a process that died unexpectedly, a restart, a failure to start; a clean exit
   // (the plant ending the run, or any exit during the stop) is not.
+  // The processes of the run: this launch's children, then what the other hosts run (presence).
+  const std::string here = dds::this_host();
+  auto refresh_processes = [&] {
+    std::vector<ProcessView> processes;
+    std::set<int> children;
+    for (const auto& c : supervisor.children()) {
+      processes.push_back({c.name, c.pid, c.running, c.restarts, here});
+      children.insert(c.pid);
+    }
+    for (const auto& p : bus->processes()) {
+      if (p.run != run_id || (p.host == here && (children.count(p.pid) || p.pid == getpid()))) continue;
+      std::string name = p.role;
+      if (!p.sensor_ids.empty()) name = sensor_process_name(p.sensor_ids);
+      processes.push_back({name, p.pid, p.running(), 0, p.host});
+    }
+    views->set_processes(std::move(processes));
+  };
   auto report = [&](const std::vector<SupervisorEvent>& events, bool stopping = false) {
     for (const auto& e : events) {
       const bool clean_exit = e.kind == SupervisorEvent::Kind::exited && e.exit.clean();
@@ -493,16 +612,13 @@ int run_launch(const LaunchOptions& o) {
       views->announce(trouble ? LiveEvent::Level::warning : LiveEvent::Level::info, e.message());
       if (e.kind == SupervisorEvent::Kind::restart_scheduled) views->count_restart(e.child);
     }
-    if (!events.empty()) {
-      std::vector<ProcessView> processes;
-      for (const auto& c : supervisor.children()) processes.push_back({c.name, c.pid, c.running, c.restarts});
-      views->set_processes(std::move(processes));
-    }
+    if (!events.empty()) refresh_processes();
   };
   std::vector<SupervisorEvent> started;
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
-  started.push_back(supervisor.start({"channel_emulator", node_executable("channel_emulator"), common_args(), false}));
-  {
+  if (roles.channel)
+    started.push_back(supervisor.start({"channel_emulator", node_executable("channel_emulator"), common_args(), false}));
+  if (roles.estimator) {
     // A restarted estimator resumes from the last estimate this launch saw (written just before
     // the restart, after the backoff, so no estimate of the previous life is still in flight).
     auto args = common_args();
@@ -523,8 +639,7 @@ int run_launch(const LaunchOptions& o) {
     started.push_back(supervisor.start({"estimator_node", node_executable("estimator_node"), args, false, 0},
                                        write_checkpoint_for_restart));
   }
-  std::vector<int> sensor_ids;
-  for (const auto& sensor : scenario.sensors) sensor_ids.push_back(sensor.id);
+  const std::vector<int>& sensor_ids = roles.sensor_ids;
   const bool auto_grouping = o.sensors_per_process == "auto";
   const unsigned cpus = usable_cpus();
   const int per_process =
@@ -539,12 +654,15 @@ int run_launch(const LaunchOptions& o) {
     started.push_back(supervisor.start(
         {sensor_process_name(group), node_executable("sensor_node"), args, false, o.sensor_nice}));
   }
-  // The launch's own bus reads the truth too (status, recording): the plant waits for it as
-  // well as for every sensor process, so the recording starts at k = 0.
-  auto plant_args = common_args();
-  plant_args.push_back("--truth-readers");
-  plant_args.push_back(std::to_string(sensor_groups.size() + 1));
-  started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), plant_args, true}));
+  // The plant starts when presence shows the whole network, on every host, and its truth has
+  // matched every sensor process, launch and recorder present (so recordings start at k = 0).
+  if (roles.plant) {
+    auto plant_args = common_args();
+    plant_args.push_back("--wait-for-presence");
+    plant_args.push_back("--startup-wait-ms");
+    plant_args.push_back(std::to_string(static_cast<long long>(o.ready_timeout * 1000.0)));
+    started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), plant_args, true}));
+  }
   report(started);
   if (supervisor.failed()) {
     supervisor.stop_all();
@@ -558,14 +676,22 @@ int run_launch(const LaunchOptions& o) {
     for (const auto& e : started) pids << e.child << " " << e.pid << "\n";
   }
   std::ostringstream launch_line;
-  launch_line << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", "
-              << scenario.sensors.size() << " sensors in " << sensor_groups.size() << " processes"
+  launch_line << "netkf launch: scenario '" << scenario.name << "' on DDS domain " << domain << ", ";
+  if (!roles.all) {
+    char run_text[24];
+    std::snprintf(run_text, sizeof run_text, "%016llx", static_cast<unsigned long long>(run_id));
+    launch_line << "this host runs " << describe_launch_roles(roles) << " (run " << run_text << "; the rest of the "
+                << "network on other hosts), ";
+  }
+  launch_line << sensor_ids.size() << " sensors in " << sensor_groups.size() << " processes"
               << (auto_grouping && per_process > 1
                       ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
                             std::to_string(cpus) + " CPUs; --sensors-per-process 1 for one each)"
                       : std::string())
               << ", period " << scenario.period_ms << " ms"
               << (o.duration > 0 ? ", for " + number_text(o.duration) + " s" : ", Ctrl-C stops");
+  if (served) launch_line << "\nnetkf launch: serving discovery on " << served->text();
+  else if (discovery) launch_line << "\nnetkf launch: discovery through the server at " << discovery->text();
   if (const auto url = views->dashboard_url()) launch_line << "\nnetkf launch: dashboard: " << *url;
   std::cerr << launch_line.str() << "\n" << std::flush;
   views->set_header(launch_line.str());
@@ -577,13 +703,25 @@ int run_launch(const LaunchOptions& o) {
   });
   const auto start = Clock::now();
   boost::asio::steady_timer timer(io);
+  std::optional<std::string> ended_elsewhere;  // a launch without the plant: why the run ended
+  Clock::time_point end_after = Clock::time_point::max();
+  auto last_presence_look = start;
   std::function<void()> tick = [&] {
     report(supervisor.poll());
     recording.flush();
     const auto now = Clock::now();
+    if (now - last_presence_look >= std::chrono::milliseconds(500)) {
+      last_presence_look = now;
+      refresh_processes();
+      if (!roles.plant && !ended_elsewhere) {
+        ended_elsewhere = plant_ended(bus->processes(), run_id);
+        // The last periods' samples and estimates are still on their way: let them arrive.
+        if (ended_elsewhere) end_after = now + std::chrono::seconds(1);
+      }
+    }
     if (end == End::running) {
       if (supervisor.failed()) end = End::failed;
-      else if (supervisor.finished()) end = End::finished;
+      else if (supervisor.finished() || now >= end_after) end = End::finished;
       else if (o.duration > 0 && now - start >= std::chrono::duration<double>(o.duration)) end = End::duration;
     }
     views->tick(now);
@@ -611,18 +749,20 @@ int run_launch(const LaunchOptions& o) {
   io.restart();
   io.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
   signals.cancel();
+  const std::string end_text = end == End::duration   ? "duration reached"
+                               : end == End::signal   ? "signal"
+                               : end == End::finished ? ended_elsewhere.value_or(supervisor.finished_reason())
+                                                      : "failure";
   const std::uint64_t foreign_samples = bus->foreign_samples();
+  bus->end_presence(end_text);
   bus.reset();
+  discovery_server.reset();
   // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
   // DDS shared-memory files: every process of the run has ended, so remove them now.
   if (const auto shm = clean_stale_shared_memory(); shm.zombie_segments + shm.zombie_ports > 0)
     std::cerr << "netkf launch: removed " << shm.zombie_segments << " Fast DDS shared-memory segments and "
               << shm.zombie_ports << " ports left by killed processes (fastdds shm clean)\n";
 
-  const std::string end_text = end == End::duration   ? "duration reached"
-                               : end == End::signal   ? "signal"
-                               : end == End::finished ? supervisor.finished_reason()
-                                                      : "failure";
   std::cerr << "netkf launch: stopped (" << end_text << "); " << views->model().snapshot().estimates
             << " estimates seen";
   if (foreign_samples > 0) std::cerr << ", " << foreign_samples << " samples of another run on the domain dropped";
@@ -681,8 +821,11 @@ int run_record(const RecordOptions& o) {
   std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-record", dds::Role::observer),
-                                    recording_handlers(recording, nullptr, nullptr, invalid_samples), false);
+    // Present as a recorder: a plant waits for it, so the recording starts at period 0.
+    BusOptions bus_options = o.network.bus("netkf-record", dds::Role::observer);
+    bus_options.presence = BusOptions::Presence{dds::presence_role::record, dds::scenario_hash(scenario), {}};
+    bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, invalid_samples),
+                                    false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -691,9 +834,23 @@ int run_record(const RecordOptions& o) {
   signals.async_wait([&](const boost::system::error_code& ec, int) { stop = !ec; });
   const auto start = Clock::now();
   boost::asio::steady_timer timer(io);
+  // The recording ends with the run: once a plant was seen running, its end (presence) stops it.
+  bool plant_seen = false;
+  std::optional<std::string> run_ended;
+  Clock::time_point stop_after = Clock::time_point::max();
+  auto last_presence_look = start;
   std::function<void()> tick = [&] {
     recording.flush();
-    if (stop || (o.duration > 0 && Clock::now() - start >= std::chrono::duration<double>(o.duration))) {
+    if (!run_ended && Clock::now() - last_presence_look >= std::chrono::milliseconds(500)) {
+      last_presence_look = Clock::now();
+      const auto processes = bus->processes();
+      for (const auto& p : processes) plant_seen = plant_seen || (p.role == dds::presence_role::plant && p.running());
+      if (plant_seen) run_ended = plant_ended(processes, 0);
+      // The estimates of the last periods are still on their way: take them first.
+      if (run_ended) stop_after = Clock::now() + std::chrono::milliseconds(1500);
+    }
+    if (stop || Clock::now() >= stop_after ||
+        (o.duration > 0 && Clock::now() - start >= std::chrono::duration<double>(o.duration))) {
       io.stop();
       return;
     }
@@ -708,7 +865,9 @@ int run_record(const RecordOptions& o) {
   recording.finish();
   signals.cancel();
   const int domain = bus->domain();
+  bus->end_presence(run_ended ? *run_ended : "stopped");
   bus.reset();
+  if (run_ended) std::cerr << "netkf record: " << *run_ended << "\n";
   std::cerr << "netkf record: " << recording.rows() << (is_mcap_path(o.out) ? " periods" : " rows")
             << " written to " << o.out << "\n";
   if (recording.rows() == 0)
@@ -840,7 +999,9 @@ int run_ctl_status(const CtlOptions& o) {
   h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
   std::unique_ptr<LiveBus> bus;
   try {
-    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::observer), h, false);
+    BusOptions bus_options = o.network.bus("netkf-ctl", dds::Role::observer);
+    bus_options.presence = BusOptions::Presence{};  // watch who takes part, without announcing
+    bus = std::make_unique<LiveBus>(io, bus_options, h, false);
   } catch (const std::exception& e) {
     fail(2, std::string("DDS: ") + e.what());
   }
@@ -853,12 +1014,28 @@ int run_ctl_status(const CtlOptions& o) {
   run_until(io, [] { return false; }, std::chrono::milliseconds(400));
   std::vector<LinkStatusRecord> list;
   for (auto& [id, l] : links) list.push_back(l);
+  // The processes of the network, on every host (presence), running ones first.
+  std::vector<dds::PresenceRecord> processes;
+  for (const auto& p : bus->processes())
+    if (p.running()) processes.push_back(p);
   if (o.json) {
-    nlohmann::json j{{"domain", bus->domain()}, {"links", nlohmann::json::array()}};
+    nlohmann::json j{{"domain", bus->domain()}, {"links", nlohmann::json::array()},
+                     {"processes", nlohmann::json::array()}};
     for (const auto& l : list) j["links"].push_back(link_json(l));
+    for (const auto& p : processes) {
+      char run_text[24];
+      std::snprintf(run_text, sizeof run_text, "%016llx", static_cast<unsigned long long>(p.run));
+      j["processes"].push_back({{"role", p.role}, {"sensor_ids", p.sensor_ids}, {"host", p.host}, {"pid", p.pid},
+                                {"run", run_text}, {"detail", p.detail}});
+    }
     std::cout << j.dump(2) << "\n";
   } else {
     std::cout << render_link_table(list);
+    if (!processes.empty()) {
+      std::cout << "\nprocesses (" << processes.size() << "):\n";
+      for (const auto& p : processes)
+        std::cout << "  " << p.who() << (p.detail.empty() ? "" : ": " + p.detail) << "\n";
+    }
   }
   return 0;
 }
@@ -966,6 +1143,23 @@ void add_launch_command(CLI::App& app) {
             return "must be 'auto' or a whole number of sensors >= 1, got '" + v + "'";
           },
           "auto|K"))
+      ->capture_default_str();
+  cmd->add_option("--only", o->only,
+                  "Run only these roles on this host (the rest of the network runs on other hosts): a comma list "
+                  "of plant, sensors, sensors=ID[,ID...], channel, estimator; default all (deploy/README.md)")
+      ->capture_default_str();
+  cmd->add_option("--run-id", o->run_id,
+                  "The run id every process stamps on its samples; the launches of one network on several hosts "
+                  "share it (default: drawn at random for a whole network, derived from the scenario and the domain "
+                  "with --only)")
+      ->check(CLI::Range(std::uint64_t{1}, std::numeric_limits<std::uint64_t>::max()));
+  cmd->add_option("--serve-discovery", o->serve_discovery,
+                  "Also be the network's Fast DDS Discovery Server, listening on ADDR:PORT (an address of this host); "
+                  "this host's processes use it, the other hosts' launches give --discovery-server ADDR:PORT");
+  cmd->add_option("--ready-timeout", o->ready_timeout,
+                  "Seconds the plant waits for every sensor, the channel and the estimator (on any host) to be "
+                  "present before it fails naming the missing")
+      ->check(CLI::Range(0.1, 3600.0))
       ->capture_default_str();
   cmd->add_option("--domain-check", o->domain_check,
                   "Seconds to look for another netkf network on the DDS domain before starting (0: skip)")

@@ -70,6 +70,7 @@ struct ProcessView {
   int pid = -1;
   bool running = false;
   int restarts = 0;
+  std::string host;  // the host it runs on (presence; this launch's host for its children)
 };
 
 struct LiveSnapshot {

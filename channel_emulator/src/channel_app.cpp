@@ -11,6 +11,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/log_throttle.hpp"
 #include "netkf/nodes/release_queue.hpp"
 
@@ -40,6 +41,7 @@ class ChannelApp::Impl {
     raw_.emplace(participant, dds::topics::raw_measurement, [this](wire::Measurement&& m) { on_raw(m); });
     control_.emplace(participant, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
+    presence_.emplace(participant, dds::presence_role::channel, std::vector<int>{}, dds::scenario_hash(scenario));
     // The first status as soon as run() serves, then one per status period.
     boost::asio::post(io_, [this] {
       status_next_ = std::chrono::steady_clock::now();
@@ -232,6 +234,7 @@ class ChannelApp::Impl {
   dds::Writer<wire::LinkChange> journal_;
   std::optional<dds::Reader<wire::Measurement>> raw_;
   std::optional<dds::Reader<wire::LinkControl>> control_;
+  std::optional<dds::PresenceAnnouncer> presence_;
 };
 
 ChannelApp::ChannelApp(const Scenario& scenario, dds::Participant& participant, ChannelAppOptions options)

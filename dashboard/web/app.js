@@ -1583,7 +1583,7 @@
     if (!nw) return;
     const body = document.querySelector('#process-table tbody');
     body.replaceChildren(...(nw.processes || []).map((p) => el('tr', { class: p.running ? '' : 'down' }, [
-      el('td', { text: String(p.name) }), el('td', { text: String(p.pid) }),
+      el('td', { text: String(p.name) }), el('td', { text: String(p.host || '') }), el('td', { text: String(p.pid) }),
       el('td', { text: p.running ? 'yes' : 'no' }), el('td', { text: String(p.restarts) })])));
     $('network-counters').textContent = 'estimates ' + nw.estimates + ' · mean Tr P ' + fmt(nw.mean_trace_P, 3) +
       ' · mean Tr P k|k−1 ' + fmt(nw.mean_trace_P_pred, 3) + ' · late ' + nw.late_total + ' · rejected ' + nw.rejected_total +

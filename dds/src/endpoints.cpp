@@ -12,6 +12,7 @@ template class Writer<wire::LinkControl>;
 template class Writer<wire::LinkControlReply>;
 template class Writer<wire::LinkStatus>;
 template class Writer<wire::LinkChange>;
+template class Writer<wire::Presence>;
 template class Reader<wire::Truth>;
 template class Reader<wire::Tick>;
 template class Reader<wire::Measurement>;
@@ -21,4 +22,5 @@ template class Reader<wire::LinkControl>;
 template class Reader<wire::LinkControlReply>;
 template class Reader<wire::LinkStatus>;
 template class Reader<wire::LinkChange>;
+template class Reader<wire::Presence>;
 }  // namespace netkf::dds

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <csignal>
+#include <cstdlib>
 
 namespace netkf::dds {
 
@@ -17,6 +18,9 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
                  "DDS Security directory made by `netkf security init` (default: $NETKF_SECURE, else no security)");
   app.add_option("--run-id", flags.run_id,
                  "Run id given by `netkf launch`: samples of another run on the domain are dropped (0: none)");
+  app.add_option("--discovery-server", flags.discovery_server,
+                 "Discover the others through the Fast DDS Discovery Server at ADDR:PORT (default: "
+                 "$NETKF_DISCOVERY_SERVER, else the localhost-only profile)");
   app.add_option("--log-level", flags.log_level, "Log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -37,8 +41,16 @@ ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const 
   o.profile_file = resolve_profile(flags.dds_profile);
   o.name = participant_name;
   o.run = flags.run_id;
+  o.discovery_server = resolve_discovery_server(flags.discovery_server);
   if (auto dir = resolve_secure(flags.secure)) o.security = ParticipantOptions::Security{*dir, role};
   return o;
+}
+
+std::optional<DiscoveryServerAddress> resolve_discovery_server(const std::optional<std::string>& flag) {
+  if (flag && !flag->empty()) return parse_discovery_server(*flag);
+  if (const char* env = std::getenv(kDiscoveryServerEnv); env != nullptr && *env != '\0')
+    return parse_discovery_server(env);
+  return std::nullopt;
 }
 
 StopOnSignal::StopOnSignal(boost::asio::io_context& io, std::function<void(int)> on_stop)

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <system_error>
@@ -18,7 +19,16 @@
 #include <fastdds/dds/topic/qos/TopicQos.hpp>
 #include <fastdds/rtps/transport/UDPv4TransportDescriptor.h>
 #include <fastdds/rtps/transport/shared_mem/SharedMemTransportDescriptor.h>
+#include <fastdds/rtps/attributes/ServerAttributes.h>
 #include <fastrtps/utils/IPLocator.h>
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <charconv>
+#include <sstream>
 
 namespace netkf::dds {
 
@@ -31,14 +41,73 @@ std::mutex& factory_mutex() {
   return m;
 }
 
-eprosima::fastrtps::rtps::Locator_t loopback_locator() {
+/// A UDPv4 locator; port 0 = automatic (expands to the well-known participant ports).
+eprosima::fastrtps::rtps::Locator_t udp_locator(const std::string& address, std::uint16_t port = 0) {
   eprosima::fastrtps::rtps::Locator_t loc;
   loc.kind = LOCATOR_KIND_UDPv4;
-  eprosima::fastrtps::rtps::IPLocator::setIPv4(loc, 127, 0, 0, 1);
-  loc.port = 0;  // automatic: expands to the well-known participant ports
+  eprosima::fastrtps::rtps::IPLocator::setIPv4(loc, address);
+  loc.port = port;
   return loc;
 }
+
+eprosima::fastrtps::rtps::Locator_t loopback_locator() { return udp_locator("127.0.0.1"); }
+
+/// Shared memory plus UDPv4 on `address` only (builtin transports off: they would add every
+/// interface and multicast).
+void use_transports_on(fdds::DomainParticipantQos& qos, const std::string& address) {
+  qos.transport().use_builtin_transports = false;
+  auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
+  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
+  udp->interfaceWhiteList.emplace_back(address);
+  qos.transport().user_transports.push_back(shm);
+  qos.transport().user_transports.push_back(udp);
+}
 }  // namespace
+
+DiscoveryServerAddress parse_discovery_server(std::string_view text) {
+  const auto bad = [&](const std::string& why) {
+    return DdsError("discovery server '" + std::string(text) + "': " + why + " (give ADDR:PORT, e.g. 10.0.0.1:11811)");
+  };
+  DiscoveryServerAddress server;
+  const auto colon = text.rfind(':');
+  server.address = std::string(text.substr(0, colon));
+  if (colon != std::string_view::npos) {
+    const auto port_text = text.substr(colon + 1);
+    unsigned port = 0;
+    const auto [end, ec] = std::from_chars(port_text.data(), port_text.data() + port_text.size(), port);
+    if (ec != std::errc() || end != port_text.data() + port_text.size() || port == 0 || port > 65535)
+      throw bad("the port must be a number in 1-65535");
+    server.port = static_cast<std::uint16_t>(port);
+  }
+  in_addr parsed{};
+  if (inet_pton(AF_INET, server.address.c_str(), &parsed) != 1) throw bad("the address must be a dotted IPv4 address");
+  if (parsed.s_addr == htonl(INADDR_ANY)) throw bad("0.0.0.0 is not an address a client can reach");
+  return server;
+}
+
+std::string local_address_towards(const DiscoveryServerAddress& server) {
+  in_addr target{};
+  if (inet_pton(AF_INET, server.address.c_str(), &target) != 1)
+    throw DdsError("discovery server address '" + server.address + "' is not IPv4");
+  if ((ntohl(target.s_addr) >> 24) == 127) return "127.0.0.1";
+  // connect() on a UDP socket only asks the kernel for the route: nothing is sent.
+  const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+  if (fd < 0) throw DdsError(std::string("cannot open a UDP socket: ") + std::strerror(errno));
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(server.port);
+  to.sin_addr = target;
+  sockaddr_in local{};
+  socklen_t len = sizeof local;
+  const bool ok = ::connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) == 0 &&
+                  ::getsockname(fd, reinterpret_cast<sockaddr*>(&local), &len) == 0;
+  const int err = errno;
+  ::close(fd);
+  if (!ok) throw DdsError("no interface of this host reaches the discovery server " + server.text() + ": " + std::strerror(err));
+  char buf[INET_ADDRSTRLEN] = {};
+  inet_ntop(AF_INET, &local.sin_addr, buf, sizeof buf);
+  return buf;
+}
 
 int resolve_domain(std::optional<int> flag) {
   int domain = 0;
@@ -95,16 +164,11 @@ void add_security_properties(fdds::DomainParticipantQos& qos, const SecurityFile
 fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
-  // Builtin transports would add UDP on every interface and multicast discovery.
-  qos.transport().use_builtin_transports = false;
-  auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
-  auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
-  udp->interfaceWhiteList.emplace_back("127.0.0.1");
+  use_transports_on(qos, "127.0.0.1");
   // How many participants per host find each other through the initial peers
   // (docs/dds-notes.md: >= 32; a launch with 64 sensors has ~70 participants).
-  udp->maxInitialPeersRange = 128;
-  qos.transport().user_transports.push_back(shm);
-  qos.transport().user_transports.push_back(udp);
+  std::static_pointer_cast<eprosima::fastdds::rtps::UDPv4TransportDescriptor>(qos.transport().user_transports.back())
+      ->maxInitialPeersRange = 128;
 
   auto& builtin = qos.wire_protocol().builtin;
   builtin.metatrafficUnicastLocatorList.clear();
@@ -112,6 +176,38 @@ fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   builtin.metatrafficMulticastLocatorList.clear();  // no multicast discovery
   builtin.initialPeersList.clear();
   builtin.initialPeersList.push_back(loopback_locator());
+  return qos;
+}
+
+fdds::DomainParticipantQos discovery_client_qos(const std::string& name, const DiscoveryServerAddress& server) {
+  const std::string own = local_address_towards(server);
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  use_transports_on(qos, own);
+  auto& builtin = qos.wire_protocol().builtin;
+  builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::CLIENT;
+  eprosima::fastdds::rtps::RemoteServerAttributes remote;
+  remote.ReadguidPrefix(eprosima::fastdds::rtps::DEFAULT_ROS2_SERVER_GUIDPREFIX);  // server id 0
+  remote.metatrafficUnicastLocatorList.push_back(udp_locator(server.address, server.port));
+  builtin.discovery_config.m_DiscoveryServers.push_back(remote);
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(udp_locator(own));
+  builtin.metatrafficMulticastLocatorList.clear();
+  builtin.initialPeersList.clear();
+  return qos;
+}
+
+fdds::DomainParticipantQos discovery_server_qos(const std::string& name, const DiscoveryServerAddress& server) {
+  fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
+  qos.name(name);
+  use_transports_on(qos, server.address);
+  auto& builtin = qos.wire_protocol().builtin;
+  builtin.discovery_config.discoveryProtocol = eprosima::fastrtps::rtps::DiscoveryProtocol_t::SERVER;
+  std::istringstream(eprosima::fastdds::rtps::DEFAULT_ROS2_SERVER_GUIDPREFIX) >> qos.wire_protocol().prefix;
+  builtin.metatrafficUnicastLocatorList.clear();
+  builtin.metatrafficUnicastLocatorList.push_back(udp_locator(server.address, server.port));
+  builtin.metatrafficMulticastLocatorList.clear();
+  builtin.initialPeersList.clear();
   return qos;
 }
 
@@ -136,6 +232,10 @@ Participant::Participant(const ParticipantOptions& options)
         qos = factory->get_default_participant_qos();
       }
       qos.name(name_);
+    } else if (options.discovery_server && options.serve_discovery) {
+      qos = discovery_server_qos(name_, *options.discovery_server);
+    } else if (options.discovery_server) {
+      qos = discovery_client_qos(name_, *options.discovery_server);
     } else {
       qos = localhost_participant_qos(name_);
     }
@@ -196,10 +296,10 @@ void apply_common(Q& q, const TopicQos& qos) {
   q.durability().kind = qos.transient_local ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS : fdds::VOLATILE_DURABILITY_QOS;
   q.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
   q.history().depth = qos.depth;
-  // No keyed types: one instance, so the per-instance limit is the history depth.
-  q.resource_limits().max_instances = 1;
+  // Unkeyed topics have one instance, so the per-instance limit is the history depth.
+  q.resource_limits().max_instances = qos.instances;
   q.resource_limits().max_samples_per_instance = qos.depth;
-  q.resource_limits().max_samples = qos.depth;
+  q.resource_limits().max_samples = qos.depth * qos.instances;
 }
 }  // namespace
 

@@ -9,6 +9,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/log_throttle.hpp"
 
 namespace netkf::nodes {
@@ -37,6 +38,7 @@ class EstimatorApp::Impl {
                   dds::post_to<wire::Tick>(io_.get_executor(), [this](wire::Tick t) { on_tick(t); }));
     delivered_.emplace(participant, dds::topics::delivered_measurement,
                        [this](wire::Measurement&& m) { on_sample(m); });
+    presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, dds::scenario_hash(scenario));
     schedule_status();
   }
 
@@ -212,6 +214,7 @@ class EstimatorApp::Impl {
   dds::Writer<wire::ControlInput> control_;
   std::optional<dds::Reader<wire::Tick>> tick_;
   std::optional<dds::Reader<wire::Measurement>> delivered_;
+  std::optional<dds::PresenceAnnouncer> presence_;
 };
 
 EstimatorApp::EstimatorApp(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options)

@@ -7,10 +7,12 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/nodes/plant_simulator.hpp"
 
 namespace netkf::nodes {
@@ -30,7 +32,12 @@ class PlantApp::Impl {
         timer_(io_),
         startup_timer_(io_),
         truth_(participant, dds::topics::truth),
-        tick_(participant, dds::topics::tick) {
+        tick_(participant, dds::topics::tick),
+        run_(participant.run()),
+        scenario_hash_(dds::scenario_hash(scenario)) {
+    for (const auto& sensor : scenario.sensors) sensor_ids_.push_back(sensor.id);
+    if (options_.wait_for_presence) presence_watch_.emplace(participant);
+    presence_.emplace(participant, dds::presence_role::plant, std::vector<int>{}, scenario_hash_);
     // The reader last: its callback uses everything above.
     control_.emplace(participant, dds::topics::control_input,
                      dds::post_to<wire::ControlInput>(io_.get_executor(),
@@ -46,6 +53,10 @@ class PlantApp::Impl {
     work_.emplace(io_.get_executor());
     boost::asio::post(io_, [this] { wait_for_subscribers(); });
     io_.run();
+    presence_->end(not_ready_     ? "not started: " + *not_ready_
+                   : finished_    ? "the run ended"
+                                  : "stopped");
+    if (not_ready_) throw std::runtime_error(*not_ready_);
   }
 
   void stop() {
@@ -76,6 +87,32 @@ class PlantApp::Impl {
 
   void poll_subscribers() {
     if (stopped_) return;
+    if (presence_watch_) {
+      // Across hosts nobody counts the readers by hand: presence says who takes part.
+      const auto readiness = dds::assess_readiness(presence_watch_->processes(), sensor_ids_, run_, scenario_hash_);
+      if (readiness.conflict) {
+        not_ready_ = "refusing to start: " + *readiness.conflict;
+        end();
+        return;
+      }
+      truth_readers_wanted_ = readiness.truth_readers;
+      if (!readiness.ready) {
+        if (std::chrono::steady_clock::now() >= startup_deadline_) {
+          std::string missing;
+          for (const auto& m : readiness.missing) missing += (missing.empty() ? "" : ", ") + m;
+          not_ready_ = "not started: after " + std::to_string(options_.startup_wait_ms) + " ms still missing " +
+                       missing + " (no presence on netkf/presence of this run; are their hosts launched with the "
+                       "same scenario, --domain and discovery server?)";
+          end();
+          return;
+        }
+        startup_timer_.expires_after(10ms);
+        startup_timer_.async_wait([this](const boost::system::error_code& ec) {
+          if (!ec) poll_subscribers();
+        });
+        return;
+      }
+    }
     const bool truth_ok = truth_.matched() >= truth_readers_wanted_;
     const bool tick_ok = tick_.matched() >= 1;
     if ((!truth_ok || !tick_ok) && std::chrono::steady_clock::now() < startup_deadline_) {
@@ -83,6 +120,14 @@ class PlantApp::Impl {
       startup_timer_.async_wait([this](const boost::system::error_code& ec) {
         if (!ec) poll_subscribers();
       });
+      return;
+    }
+    if ((!truth_ok || !tick_ok) && presence_watch_) {
+      not_ready_ = "not started: every process is present, but after " + std::to_string(options_.startup_wait_ms) +
+                   " ms the truth has " + std::to_string(truth_.matched()) + " readers (want " +
+                   std::to_string(truth_readers_wanted_) + ") and the tick " + std::to_string(tick_.matched()) +
+                   " (want 1)";
+      end();
       return;
     }
     if (!truth_ok || !tick_ok) {
@@ -213,7 +258,13 @@ class PlantApp::Impl {
   bool stopped_ = false;
   dds::Writer<wire::Truth> truth_;
   dds::Writer<wire::Tick> tick_;
+  std::uint64_t run_;
+  std::uint64_t scenario_hash_;
+  std::vector<int> sensor_ids_;
+  std::optional<dds::PresenceWatcher> presence_watch_;  // with wait_for_presence
+  std::optional<std::string> not_ready_;                // why the run did not start
   std::optional<dds::Reader<wire::ControlInput>> control_;
+  std::optional<dds::PresenceAnnouncer> presence_;
 };
 
 PlantApp::PlantApp(const Scenario& scenario, dds::Participant& participant, PlantAppOptions options)

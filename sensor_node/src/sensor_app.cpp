@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/dds/presence.hpp"
 #include "netkf/nodes/sensor_simulator.hpp"
 
 namespace netkf::nodes {
@@ -41,6 +42,8 @@ class SensorApp::Impl {
         raw_(participant, dds::topics::raw_measurement, static_cast<double>(sensors_.size()) / scenario.period_s()) {
     // The reader last: its callback uses everything above.
     truth_.emplace(participant, dds::topics::truth, [this](wire::Truth&& truth) { on_truth(truth); });
+    // Present once it can measure: the plant waits for every sensor's presence.
+    presence_.emplace(participant, dds::presence_role::sensors, options.sensor_ids, dds::scenario_hash(scenario));
   }
 
   ~Impl() {
@@ -105,6 +108,7 @@ class SensorApp::Impl {
   int state_dim_;
   dds::Writer<wire::Measurement> raw_;
   std::optional<dds::Reader<wire::Truth>> truth_;
+  std::optional<dds::PresenceAnnouncer> presence_;
 };
 
 SensorApp::SensorApp(const Scenario& scenario, dds::Participant& participant, SensorAppOptions options)

@@ -63,17 +63,21 @@ def workdir(name):
 class Launch:
     """`netkf launch` in the background; ended (and its children with it) on exit."""
 
-    def __init__(self, scenario, duration, outdir, record=True, samples=False, extra=(), own_stdout=False):
+    def __init__(self, scenario, duration, outdir, record=True, samples=False, extra=(), own_stdout=False, prefix=(),
+                 name="launch"):
         """own_stdout: keep launch's stdout (e.g. the checks' table) apart from its log, in
-        self.stdout_path, instead of merging it into the log."""
+        self.stdout_path, instead of merging it into the log. prefix: run it through this command
+        (e.g. in another test host's namespace; it must exec netkf, so the pid is launch's own)."""
         self.record = os.path.join(outdir, "periods.csv") if record else None
         self.samples = os.path.join(outdir, "samples.csv") if samples else None
-        self.pid_file = os.path.join(outdir, "pids.txt")
-        self.log_path = os.path.join(outdir, "launch.log")
-        cmd = [NETKF, "launch"]
+        self.pid_file = os.path.join(outdir, "%s-pids.txt" % name)
+        self.log_path = os.path.join(outdir, "%s.log" % name)
+        cmd = list(prefix) + [NETKF, "launch"]
         if scenario:
             cmd.append(scenario)
-        cmd += ["--duration", str(duration), "--pid-file", self.pid_file, "--status-interval", "1"]
+        if duration:
+            cmd += ["--duration", str(duration)]
+        cmd += ["--pid-file", self.pid_file, "--status-interval", "1"]
         if self.record:
             cmd += ["--record", self.record]
         if self.samples:
@@ -81,7 +85,7 @@ class Launch:
         cmd += list(extra)
         print("$", " ".join(cmd), flush=True)
         self.log = open(self.log_path, "w")
-        self.stdout_path = os.path.join(outdir, "stdout.txt") if own_stdout else None
+        self.stdout_path = os.path.join(outdir, "%s-stdout.txt" % name) if own_stdout else None
         self.stdout_file = open(self.stdout_path, "w") if own_stdout else None
         # Own session: the fixture can signal launch and everything it spawned.
         self.proc = subprocess.Popen(cmd, stdout=self.stdout_file or self.log, stderr=subprocess.STDOUT if not own_stdout
@@ -156,7 +160,7 @@ class Launch:
             print("---- launch stdout ----")
             print(self.stdout(), end="", flush=True)
             self.stdout_file.close()
-        print("---- launch output (tail) ----")
+        print("---- %s output (tail) ----" % os.path.basename(self.log_path))
         print("\n".join(text.splitlines()[-40:]), flush=True)
         return False
 

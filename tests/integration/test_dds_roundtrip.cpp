@@ -18,6 +18,7 @@
 #include <fastrtps/utils/IPLocator.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/dds/presence.hpp"
 
 namespace {
 
@@ -330,6 +331,135 @@ TEST(DdsRunId, SamplesOfAnotherRunAreDroppedAndCounted) {
   EXPECT_EQ(ours.foreign_samples(), 5u);
   EXPECT_EQ(any.foreign_samples(), 0u);
   for (const auto& m : any_in.take()) EXPECT_EQ(m.run(), m.k() == 99 ? 7u : 9u);
+}
+
+}  // namespace
+
+namespace {
+
+// Presence: what a process announces reaches a watcher that joins later (transient-local), its
+// end is seen, and so is its leaving (the writer's instance becomes not-alive).
+TEST(DdsPresence, AnnouncedEndedAndGoneAsTheyHappen) {
+  auto with_run = [](const std::string& name, std::uint64_t run) {
+    auto o = options(name);
+    o.run = run;
+    return o;
+  };
+  auto sensor = std::make_unique<dds::Participant>(with_run("presence-sensor", 5));
+  auto announcer = std::make_unique<dds::PresenceAnnouncer>(*sensor, dds::presence_role::sensors,
+                                                            std::vector<int>{1, 2}, 0xabcdefULL);
+  dds::Participant observer(options("presence-watcher"));
+  dds::PresenceWatcher watcher(observer);
+  auto find = [&]() -> std::optional<dds::PresenceRecord> {
+    for (const auto& p : watcher.processes())
+      if (p.pid == ::getpid() && p.role == dds::presence_role::sensors) return p;
+    return std::nullopt;
+  };
+  ASSERT_TRUE(dds::detail::wait_until([&] { return find() ? 1 : 0; }, 1, 10s)) << "the late watcher sees the presence";
+  auto p = *find();
+  EXPECT_EQ(p.host, dds::this_host());
+  EXPECT_EQ(p.sensor_ids, (std::vector<int>{1, 2}));
+  EXPECT_EQ(p.scenario_hash, 0xabcdefULL);
+  EXPECT_EQ(p.run, 5u);
+  EXPECT_TRUE(p.running());
+  EXPECT_EQ(p.who(), "sensors 1,2 (pid " + std::to_string(::getpid()) + " on " + dds::this_host() + ")");
+
+  announcer->end("the run ended");
+  ASSERT_TRUE(dds::detail::wait_until([&] { return find() && find()->ended ? 1 : 0; }, 1, 10s));
+  EXPECT_EQ(find()->detail, "the run ended");
+  EXPECT_TRUE(find()->alive);
+
+  announcer.reset();
+  sensor.reset();
+  ASSERT_TRUE(dds::detail::wait_until([&] { return find() && !find()->alive ? 1 : 0; }, 1, 10s))
+      << "a process that left is no longer alive";
+}
+
+dds::PresenceRecord present(const std::string& role, std::vector<int> ids, std::uint64_t run, std::uint64_t hash) {
+  dds::PresenceRecord p;
+  p.host = "host-x";
+  p.pid = 100 + static_cast<int>(ids.empty() ? role.size() : ids.front());
+  p.role = role;
+  p.sensor_ids = std::move(ids);
+  p.run = run;
+  p.scenario_hash = hash;
+  return p;
+}
+
+TEST(DdsPresence, ReadinessNamesWhatIsMissingAndRefusesAnotherScenario) {
+  namespace role = dds::presence_role;
+  std::vector<dds::PresenceRecord> seen{present(role::sensors, {1, 2}, 7, 42), present(role::launch, {}, 7, 42)};
+  auto r = dds::assess_readiness(seen, {1, 2, 3}, 7, 42);
+  EXPECT_FALSE(r.ready);
+  EXPECT_EQ(r.missing, (std::vector<std::string>{"sensor 3", "the channel emulator", "the estimator"}));
+  EXPECT_EQ(r.truth_readers, 2);
+
+  seen.push_back(present(role::sensors, {3}, 0, 42));  // started by hand: run 0 belongs to any run
+  seen.push_back(present(role::channel, {}, 7, 42));
+  seen.push_back(present(role::estimator, {}, 9, 42));  // another run's estimator does not count
+  seen.push_back(present(role::record, {}, 0, 0));     // a recorder without a scenario hash
+  r = dds::assess_readiness(seen, {1, 2, 3}, 7, 42);
+  EXPECT_FALSE(r.ready);
+  EXPECT_EQ(r.missing, (std::vector<std::string>{"the estimator"}));
+  EXPECT_EQ(r.truth_readers, 4);  // two sensor processes, the launch, the recorder
+  ASSERT_EQ(dds::other_runs(seen, 7).size(), 1u);
+  EXPECT_EQ(dds::other_runs(seen, 7).front().role, role::estimator);
+
+  auto gone = present(role::estimator, {}, 7, 42);
+  gone.alive = false;
+  seen.push_back(gone);
+  EXPECT_FALSE(dds::assess_readiness(seen, {1, 2, 3}, 7, 42).ready) << "an estimator that left is not present";
+  seen.push_back(present(role::estimator, {}, 7, 42));
+  r = dds::assess_readiness(seen, {1, 2, 3}, 7, 42);
+  EXPECT_TRUE(r.ready);
+  EXPECT_TRUE(r.missing.empty());
+
+  seen.push_back(present(role::channel, {}, 7, 43));  // same run, another scenario
+  r = dds::assess_readiness(seen, {1, 2, 3}, 7, 42);
+  EXPECT_FALSE(r.ready);
+  ASSERT_TRUE(r.conflict.has_value());
+  EXPECT_NE(r.conflict->find("channel (pid 107 on host-x) loaded another scenario"), std::string::npos) << *r.conflict;
+}
+
+TEST(DdsDiscoveryServer, AddressesAreCheckedAndTheRouteGivesTheOwnAddress) {
+  const auto s = dds::parse_discovery_server("10.1.2.3:12000");
+  EXPECT_EQ(s.address, "10.1.2.3");
+  EXPECT_EQ(s.port, 12000);
+  EXPECT_EQ(dds::parse_discovery_server("10.1.2.3").port, 11811);
+  for (const char* bad : {"server:11811", "10.1.2.3:0", "10.1.2.3:70000", "10.1.2.3:x", "0.0.0.0:11811", ""})
+    EXPECT_THROW(dds::parse_discovery_server(bad), dds::DdsError) << bad;
+  EXPECT_EQ(dds::local_address_towards(dds::parse_discovery_server("127.0.0.5:11811")), "127.0.0.1");
+}
+
+// Clients have no multicast and no initial peers: they find each other only through the server.
+// Without it (a port where nothing serves) nothing matches; with it, a sample arrives.
+TEST(DdsDiscoveryServer, ClientsFindEachOtherOnlyThroughTheServer) {
+  const auto port = static_cast<std::uint16_t>(20000 + ::getpid() % 20000);
+  auto client = [&](const std::string& name, std::uint16_t server_port) {
+    auto o = options(name);
+    o.discovery_server = dds::DiscoveryServerAddress{"127.0.0.1", server_port};
+    return o;
+  };
+  {
+    dds::Participant a(client("lonely-writer", static_cast<std::uint16_t>(port + 1)));
+    dds::Participant b(client("lonely-reader", static_cast<std::uint16_t>(port + 1)));
+    dds::Writer<wire::Measurement> w(a, dds::topics::raw_measurement);
+    dds::Reader<wire::Measurement> r(b, dds::topics::raw_measurement, {});
+    EXPECT_FALSE(w.wait_for_matched(1, 3s)) << "clients matched without a discovery server";
+  }
+  auto server_options = options("discovery-server");
+  server_options.discovery_server = dds::DiscoveryServerAddress{"127.0.0.1", port};
+  server_options.serve_discovery = true;
+  dds::Participant server(server_options);
+  dds::Participant a(client("client-writer", port));
+  dds::Participant b(client("client-reader", port));
+  Inbox<wire::Measurement> in;
+  dds::Writer<wire::Measurement> w(a, dds::topics::raw_measurement);
+  dds::Reader<wire::Measurement> r(b, dds::topics::raw_measurement, in.callback());
+  ASSERT_TRUE(w.wait_for_matched(1, 15s)) << "clients of the server did not match";
+  ASSERT_TRUE(w.write(dds::make_measurement(4, 12, 0, netkf::Vector{{1.5}})));
+  ASSERT_TRUE(in.wait_for(1, 10s));
+  EXPECT_EQ(in.take().front().k(), 12u);
 }
 
 }  // namespace

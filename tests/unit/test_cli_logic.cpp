@@ -58,6 +58,43 @@ TEST(LaunchPlan, SensorsAreGroupedInScenarioOrder) {
   EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1,2,3]");
 }
 
+TEST(LaunchPlan, OnlyParsesRolesAndSensorLists) {
+  const std::vector<int> ids{1, 3, 5};
+  auto all = parse_launch_roles("all", ids);
+  EXPECT_TRUE(all.all && all.plant && all.channel && all.estimator);
+  EXPECT_EQ(all.sensor_ids, ids);
+  auto a = parse_launch_roles("plant,sensors", ids);
+  EXPECT_TRUE(a.plant && !a.channel && !a.estimator && !a.all);
+  EXPECT_EQ(a.sensor_ids, ids);
+  auto some = parse_launch_roles("sensors=5,1,channel", ids);
+  EXPECT_EQ(some.sensor_ids, (std::vector<int>{1, 5}));  // in scenario order
+  EXPECT_TRUE(some.channel && !some.plant);
+  EXPECT_EQ(describe_launch_roles(some), "sensors 1,5, channel");
+  EXPECT_EQ(describe_launch_roles(parse_launch_roles("estimator", ids)), "estimator");
+  EXPECT_TRUE(parse_launch_roles("plant,sensors,channel,estimator", ids).all);
+  EXPECT_FALSE(parse_launch_roles("plant,sensors=1,3,channel,estimator", ids).all);
+  auto error_of = [&](const std::string& text) {
+    try {
+      parse_launch_roles(text, ids);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error_of("plant,sensor").find("unknown role 'sensor'"), std::string::npos);
+  EXPECT_NE(error_of("sensors=2").find("no sensor 2"), std::string::npos);
+  EXPECT_NE(error_of("plant,3").find("unknown role '3'"), std::string::npos);  // an id needs sensors= before it
+  EXPECT_NE(error_of("").find("unknown role ''"), std::string::npos);
+  EXPECT_NE(error_of("sensors=1,x").find("unknown role 'x'"), std::string::npos);
+}
+
+TEST(LaunchPlan, HostsDeriveTheSameRunIdFromScenarioAndDomain) {
+  EXPECT_EQ(derived_run_id(42, 7), derived_run_id(42, 7));
+  EXPECT_NE(derived_run_id(42, 7), derived_run_id(43, 7));
+  EXPECT_NE(derived_run_id(42, 7), derived_run_id(42, 8));
+  EXPECT_NE(derived_run_id(0, 0), 0u);
+}
+
 TEST(SensorGroups, AutoKeepsAtMostTwoSensorProcessesPerCpu) {
   // One process per sensor up to 2 x CPUs sensors.
   EXPECT_EQ(auto_sensors_per_process(0, 2), 1);

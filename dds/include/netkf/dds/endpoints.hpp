@@ -195,6 +195,7 @@ extern template class Writer<wire::LinkControl>;
 extern template class Writer<wire::LinkControlReply>;
 extern template class Writer<wire::LinkStatus>;
 extern template class Writer<wire::LinkChange>;
+extern template class Writer<wire::Presence>;
 extern template class Reader<wire::Truth>;
 extern template class Reader<wire::Tick>;
 extern template class Reader<wire::Measurement>;
@@ -204,6 +205,7 @@ extern template class Reader<wire::LinkControl>;
 extern template class Reader<wire::LinkControlReply>;
 extern template class Reader<wire::LinkStatus>;
 extern template class Reader<wire::LinkChange>;
+extern template class Reader<wire::Presence>;
 
 /// A reader callback that moves each sample into `handler` on `executor` (an Asio
 /// io_context executor or strand), so the node's logic runs on its own thread:

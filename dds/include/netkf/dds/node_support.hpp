@@ -23,12 +23,19 @@ struct CommonNodeFlags {
   std::optional<std::string> secure;     // --secure DIR (default $NETKF_SECURE, else no DDS Security)
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
   std::uint64_t run_id = 0;              // --run-id N (given by `netkf launch`; 0: accept every run)
+  std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (default $NETKF_DISCOVERY_SERVER)
 };
 
 /// " (N more like it left out)" after a throttled warning (netkf::LogThrottle); "" for none.
 inline std::string left_out_text(std::uint64_t left_out) {
   return left_out ? " (" + std::to_string(left_out) + " more like it left out)" : std::string();
 }
+
+/// Environment variable of the discovery server (as --discovery-server).
+inline constexpr const char* kDiscoveryServerEnv = "NETKF_DISCOVERY_SERVER";
+/// The discovery server: the flag when given (non-empty), else $NETKF_DISCOVERY_SERVER, else
+/// nullopt (the localhost profile). Throws DdsError when it is not ADDR:PORT.
+std::optional<DiscoveryServerAddress> resolve_discovery_server(const std::optional<std::string>& flag);
 
 /// Register the common flags on `app`.
 void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);

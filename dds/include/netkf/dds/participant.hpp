@@ -43,6 +43,21 @@ inline constexpr const char* kSecureEnv = "NETKF_SECURE";
 /// Participant profile a profile file may define; otherwise its default participant profile is used.
 inline constexpr const char* kProfileName = "netkf_participant";
 
+/// A Fast DDS Discovery Server's listening locator (IPv4 address and UDP port).
+struct DiscoveryServerAddress {
+  std::string address;  // dotted IPv4, e.g. "10.0.0.1"
+  std::uint16_t port = 11811;
+  std::string text() const { return address + ":" + std::to_string(port); }
+};
+
+/// "ADDR:PORT" (PORT optional: 11811, Fast DDS's default) -> the address; throws DdsError for
+/// anything else (a host name, a port outside 1-65535, an address that is not IPv4).
+DiscoveryServerAddress parse_discovery_server(std::string_view text);
+
+/// The address of this host's interface that reaches `server` (the kernel's route, asked with
+/// a UDP socket that sends nothing); 127.0.0.1 for a server on loopback. Throws DdsError.
+std::string local_address_towards(const DiscoveryServerAddress& server);
+
 struct ParticipantOptions {
   int domain = 0;
   /// XML profile file; empty = the built-in localhost-only configuration.
@@ -61,6 +76,12 @@ struct ParticipantOptions {
   /// cannot corrupt each other (each drop is counted and logged). Samples without a run id
   /// (0: a process started by hand) are not dropped for it.
   std::uint64_t run = 0;
+  /// Discovery through a Fast DDS Discovery Server instead of the localhost profile: this
+  /// participant is its client (or, with serve_discovery, the server itself). Its own address
+  /// (the interface that reaches the server), whitelist and locators are derived at start
+  /// (discovery_client_qos). A profile file still overrides everything.
+  std::optional<DiscoveryServerAddress> discovery_server;
+  bool serve_discovery = false;
 };
 
 /// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
@@ -79,6 +100,15 @@ void add_security_properties(eprosima::fastdds::dds::DomainParticipantQos& qos, 
 
 /// The built-in localhost-only participant QoS (exposed for tests and tools).
 eprosima::fastdds::dds::DomainParticipantQos localhost_participant_qos(const std::string& name);
+/// A client of the Discovery Server at `server`: shared memory plus UDPv4 on the one interface
+/// that reaches the server (whitelisted), no multicast, no initial peers; everything it knows of
+/// the others comes from the server. Throws DdsError when no interface reaches the server.
+eprosima::fastdds::dds::DomainParticipantQos discovery_client_qos(const std::string& name,
+                                                                  const DiscoveryServerAddress& server);
+/// The Discovery Server itself (Fast DDS's SERVER protocol, the well-known prefix of server id
+/// 0, which clients expect), listening on `server` only.
+eprosima::fastdds::dds::DomainParticipantQos discovery_server_qos(const std::string& name,
+                                                                  const DiscoveryServerAddress& server);
 
 /// One DDS participant with one publisher and one subscriber. Topics are created on
 /// first use (the type is registered then). Not copyable; destroying it deletes all

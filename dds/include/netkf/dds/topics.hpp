@@ -51,6 +51,8 @@ struct TopicQos {
   /// Keep-last history depth (per writer; a writer may ask for more, see
   /// history_depth_for_rate).
   std::int32_t depth = 64;
+  /// Instances of a keyed type (presence: one per process); 1 for the unkeyed topics.
+  std::int32_t instances = 1;
 };
 
 template <class T>
@@ -91,6 +93,7 @@ template <> struct PubSubTypeOf<wire::LinkControlReply> {
 };
 template <> struct PubSubTypeOf<wire::LinkStatus> { using type = CheckedPubSubType<wire::LinkStatusPubSubType>; };
 template <> struct PubSubTypeOf<wire::LinkChange> { using type = CheckedPubSubType<wire::LinkChangePubSubType>; };
+template <> struct PubSubTypeOf<wire::Presence> { using type = CheckedPubSubType<wire::PresencePubSubType>; };
 
 namespace topics {
 // plant -> sensors, recorders: ground truth x_k (the estimator never subscribes).
@@ -122,6 +125,10 @@ inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true,
 // channel emulator -> everyone: each link change with the period it applied from (the
 // journal `--record` turns into an events file); transient-local so a late recorder has it.
 inline constexpr Topic<wire::LinkChange> link_change{"netkf/link/change", {true, true, 1024}};
+// every process of a run -> all: who takes part (role, sensors, host, pid, scenario hash, run)
+// and whether it still runs. Keyed by host and pid, transient-local with the last sample of each
+// process, so a process that joins late sees everyone (presence.hpp).
+inline constexpr Topic<wire::Presence> presence{"netkf/presence", {true, true, 1, 1024}};
 }  // namespace topics
 
 }  // namespace netkf::dds

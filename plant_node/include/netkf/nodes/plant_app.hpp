@@ -28,7 +28,13 @@ struct PlantAppOptions {
   /// Wait at most this long for the sensors and the estimator to match before period 0.
   int startup_wait_ms = 10000;
   /// Truth readers to wait for before period 0 (< 0: one per sensor of the scenario).
+  /// Ignored with wait_for_presence (presence says how many).
   int truth_readers = -1;
+  /// Start only when presence (netkf/presence) shows every sensor of the scenario, the channel
+  /// and the estimator of this run, and the truth has matched every present process that reads
+  /// it. Past startup_wait_ms, or when a process of this run loaded another scenario, run()
+  /// throws naming what is missing (never a run without its readers). `netkf launch` sets it.
+  bool wait_for_presence = false;
   /// After the wait: matching the plant's writers does not mean the sensors already match the
   /// channel, etc., so period 0 waits this much longer.
   int settle_ms = 500;
@@ -50,7 +56,8 @@ class PlantApp {
   PlantApp(const PlantApp&) = delete;
   PlantApp& operator=(const PlantApp&) = delete;
 
-  /// Wait for the subscribers, then step until the last period or stop(). Call once.
+  /// Wait for the subscribers, then step until the last period or stop(). Call once. Throws
+  /// std::runtime_error when wait_for_presence is set and the network did not come together.
   void run();
   /// End run() soon (thread-safe; idempotent).
   void stop();

@@ -1,0 +1,249 @@
+"""Several hosts: three network namespaces that this test creates (each its own host name, a
+veth into a bridge in the test's namespace, addresses 10.231.0.1-3 that exist only here), one
+`netkf launch --only ...` per host over a Discovery Server that host A's launch serves:
+  A: plant + sensors (--serve-discovery), B: channel, C: estimator (+ dashboard) and `netkf record`.
+1. Open loop (data/groups.yaml): the samples delivered and the estimates recorded on host C equal
+   a single-host run of the same scenario and seed, period for period (as in sensor_groups: every
+   stream is seeded per sensor and link); A's --duration ends the run and B, C and the recorder
+   end with it, all with exit 0.
+2. Closed loop (the built-in default scenario): `netkf ctl` on C retunes a link of the channel on
+   B and `ctl status` on C lists the processes of all three hosts (presence); a launch with
+   another scenario file is refused naming the host it differs from; Ctrl-C on A's launch ends
+   B and C cleanly; the state stays bounded.
+A capture on the bridge shows DDS traffic between the hosts and not one multicast packet."""
+import json
+import os
+import signal
+import subprocess
+import time
+
+from e2e_common import (DATA, NETKF, Launch, all_finite, check, contiguous, finish, last_period, netkf_processes,
+                        read_periods, read_samples, require_netns, wait_for, workdir)
+
+require_netns()
+DOMAIN = int(os.environ["NETKF_DOMAIN"])
+TAG = "nk%d" % os.getpid()
+HOSTS = {"a": "10.231.0.1", "b": "10.231.0.2", "c": "10.231.0.3"}
+SERVER = HOSTS["a"] + ":11811"
+out = workdir("multihost")
+
+
+def sh(*cmd, check_rc=True):
+    r = subprocess.run(list(cmd), capture_output=True, text=True)
+    if check_rc and r.returncode != 0:
+        raise RuntimeError("%s: %s" % (" ".join(cmd), r.stderr.strip()))
+    return r
+
+
+def on(host):
+    """Run in test host `host`: its namespace, its own UTS namespace and host name, exec'd so the
+    pid is the command's own."""
+    return ["ip", "netns", "exec", TAG + host, "unshare", "--uts", "sh", "-c",
+            'hostname "$0" && exec "$@"', "host-" + host]
+
+
+def make_hosts():
+    sh("ip", "link", "add", TAG + "br", "type", "bridge")
+    sh("ip", "link", "set", TAG + "br", "up")
+    for h, addr in HOSTS.items():
+        ns = TAG + h
+        sh("ip", "netns", "add", ns)
+        sh("ip", "link", "add", TAG + h, "type", "veth", "peer", "name", "eth0", "netns", ns)
+        sh("ip", "link", "set", TAG + h, "master", TAG + "br", "up")
+        sh("ip", "netns", "exec", ns, "ip", "addr", "add", addr + "/24", "dev", "eth0")
+        sh("ip", "netns", "exec", ns, "ip", "link", "set", "eth0", "up")
+        sh("ip", "netns", "exec", ns, "ip", "link", "set", "lo", "up")
+        # No IPv6 on the test hosts: its link-local chatter (router and neighbour solicitations)
+        # is multicast from the kernel, not from DDS, and would blur the capture.
+        sh("ip", "netns", "exec", ns, "sysctl", "-qw", "net.ipv6.conf.all.disable_ipv6=1")
+
+
+def remove_hosts():
+    for h in HOSTS:
+        sh("ip", "netns", "del", TAG + h, check_rc=False)
+    sh("ip", "link", "del", TAG + "br", check_rc=False)
+
+
+class Background:
+    """A non-launch command in the background (netkf record), its output in a log."""
+
+    def __init__(self, cmd, log_path):
+        print("$", " ".join(cmd), flush=True)
+        self.log_path = log_path
+        self.log = open(log_path, "w")
+        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def wait(self, timeout):
+        try:
+            return self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+            return None
+
+    def output(self):
+        self.log.flush()
+        with open(self.log_path) as f:
+            return f.read()
+
+
+def run_multi_host(name, scenario, a_extra, body):
+    """Record on C, then the launches on A (first: the plant waits for the rest), B and C; `body`
+    runs while they do and ends the run; returns (launches, recorder)."""
+    d = os.path.join(out, name)
+    os.makedirs(d)
+    common = ["--domain", str(DOMAIN), "--dashboard", "off"]
+    scen = [scenario] if scenario else []
+    record = Background(on("c") + [NETKF, "record"] + scen + ["--out", os.path.join(d, "c-periods.csv"),
+                                                               "--samples", os.path.join(d, "c-samples.csv"),
+                                                               "--domain", str(DOMAIN), "--discovery-server", SERVER],
+                        os.path.join(d, "record.log"))
+    launches = {}
+    launches["a"] = Launch(scenario, 0, d, record=False, name="a", prefix=on("a"),
+                           extra=["--only", "plant,sensors", "--serve-discovery", SERVER] + common + a_extra)
+    time.sleep(1.0)
+    launches["b"] = Launch(scenario, 0, d, record=False, name="b", prefix=on("b"),
+                           extra=["--only", "channel", "--discovery-server", SERVER] + common)
+    launches["c"] = Launch(scenario, 0, d, record=False, name="c", prefix=on("c"),
+                           extra=["--only", "estimator", "--discovery-server", SERVER, "--domain", str(DOMAIN),
+                                  "--dashboard", "8470"])
+    try:
+        body(launches, record, d)
+        rcs = {h: launches[h].wait(40) for h in launches}
+        rcs["record"] = record.wait(20)
+    finally:
+        for launch in launches.values():
+            launch.__exit__(None, None, None)
+        if record.proc.poll() is None:
+            record.proc.kill()
+            record.proc.wait()
+        print("---- record output ----\n" + record.output(), flush=True)
+    return launches, record, rcs, d
+
+
+remove_hosts()
+make_hosts()
+capture_path = os.path.join(out, "bridge.pcap")
+capture = subprocess.Popen(["tcpdump", "-i", TAG + "br", "-n", "-U", "-w", capture_path],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+try:
+    time.sleep(1.0)  # tcpdump listening
+    # ---------------------------------------------------------------- 1. open loop
+    scenario = os.path.join(DATA, "groups.yaml")
+    ref_dir = os.path.join(out, "reference")
+    os.makedirs(ref_dir)
+    with Launch(scenario, 6, ref_dir, samples=True, extra=["--dashboard", "off"]) as ref:
+        rc = ref.wait(60)
+    check(rc == 0, "the single-host reference run exits 0 (rc=%s)" % rc)
+
+    def open_loop(launches, record, d):
+        # A's --duration ends the run; the rest must follow by themselves.
+        pass
+
+    launches, record, rcs, d = run_multi_host("open", scenario, ["--duration", "8"], open_loop)
+    check(rcs == {"a": 0, "b": 0, "c": 0, "record": 0}, "every launch and the recorder exit 0 (%s)" % rcs)
+    a_log, b_log, c_log = (launches[h].output() for h in "abc")
+    check("serving discovery on " + SERVER in a_log, "host A's launch serves discovery on " + SERVER)
+    check("this host runs channel" in b_log, "host B's launch says it runs only the channel")
+    check("the plant (plant (pid" in b_log and "on host-a) ended the run" in b_log,
+          "host B's launch ended because the plant on host-a ended the run")
+    check("on host-a) ended the run" in c_log, "host C's launch ended with the run too")
+    check("on host-a) ended the run" in record.output(), "the recorder on C ended with the run")
+
+    ref_rows = read_periods(ref.record, 2)
+    rows = read_periods(os.path.join(d, "c-periods.csv"), 2)
+    check(bool(rows) and rows[0]["k"] == 0, "the recording on host C starts at period 0 (the plant waited for it)")
+    check(contiguous(rows) and all_finite(rows), "host C recorded every period, all finite (%d)" % len(rows))
+    ref_samples = read_samples(ref.samples)
+    samples = read_samples(os.path.join(d, "c-samples.csv"))
+    last = min(max(s["k"] for s in ref_samples), max(s["k"] for s in samples)) if ref_samples and samples else -1
+    check(last >= 150, "both runs delivered samples up to period 150 or later (common range ends at %d)" % last)
+
+    def delivered(ss):
+        return sorted((s["k"], s["sensor_id"], tuple(s["y"])) for s in ss if s["k"] <= last)
+
+    check(delivered(samples) == delivered(ref_samples),
+          "three hosts delivered exactly the samples of the single-host run (%d samples)" % len(delivered(samples)))
+    by_k = {r["k"]: r for r in rows}
+    ref_by_k = {r["k"]: r for r in ref_rows}
+    compared = 0
+    for k in range(0, last + 1):
+        a, b = by_k.get(k), ref_by_k.get(k)
+        if a is None or b is None or a["late"] or b["late"] or a["fused"] != b["fused"]:
+            break
+        if a["xhat"] != b["xhat"] or a["trace_P"] != b["trace_P"] or a["x"] != b["x"]:
+            check(False, "period %d: the same truth and estimate on three hosts as on one" % k)
+            break
+        compared += 1
+    check(compared >= 100, "truth, fused sets and estimates equal the single-host run for the first %d periods" %
+          compared)
+
+    # ---------------------------------------------------------------- 2. closed loop, steered from C
+    def closed_loop(launches, record, d):
+        ok = wait_for(lambda: last_period(os.path.join(d, "c-periods.csv")) >= 100, 60)
+        check(ok, "the closed-loop run is under way on host C")
+        r = subprocess.run(on("c") + [NETKF, "ctl", "set-link", "2", "--bernoulli", "0.3", "--domain", str(DOMAIN),
+                                      "--discovery-server", SERVER, "--timeout", "15"],
+                           capture_output=True, text=True, timeout=40)
+        print(r.stdout, r.stderr, flush=True)
+        check(r.returncode == 0 and "link 2: applied" in r.stdout,
+              "`netkf ctl set-link` on host C retunes link 2 of the channel on host B (rc=%d)" % r.returncode)
+        r = subprocess.run(on("c") + [NETKF, "ctl", "status", "--json", "--domain", str(DOMAIN),
+                                      "--discovery-server", SERVER, "--timeout", "15"],
+                           capture_output=True, text=True, timeout=40)
+        try:
+            status = json.loads(r.stdout)
+        except ValueError:
+            status = {}
+        links = {link["sensor_id"]: link for link in status.get("links", [])}
+        check(links.get(2, {}).get("loss") == 0.3, "ctl status on C shows link 2 at loss 0.3")
+        hosts_roles = sorted({(p["host"], p["role"]) for p in status.get("processes", [])})
+        print("processes:", hosts_roles, flush=True)
+        for want in [("host-a", "plant"), ("host-a", "sensors"), ("host-b", "channel"), ("host-c", "estimator"),
+                     ("host-c", "record"), ("host-a", "launch"), ("host-b", "launch"), ("host-c", "launch")]:
+            check(want in hosts_roles, "ctl status lists %s on %s (presence)" % (want[1], want[0]))
+        # The dashboard on host C shows the network of all three hosts.
+        r = subprocess.run(on("c") + ["python3", "-c", "import urllib.request,sys;"
+                                      "sys.stdout.write(urllib.request.urlopen('http://127.0.0.1:8470/metrics',"
+                                      "timeout=10).read().decode())"], capture_output=True, text=True, timeout=30)
+        check(r.returncode == 0 and "netkf_estimator_period" in r.stdout, "host C's dashboard serves /metrics with estimates")
+        # Another scenario on the network's domain is refused, naming the host it differs from.
+        r = subprocess.run(on("b") + [NETKF, "launch", os.path.join(DATA, "groups.yaml"), "--only", "channel",
+                                      "--discovery-server", SERVER, "--domain", str(DOMAIN), "--dashboard", "off",
+                                      "--status-interval", "0"], capture_output=True, text=True, timeout=60)
+        print(r.stderr[-2000:], flush=True)
+        check(r.returncode == 2 and "loaded another scenario" in r.stderr and "on host-" in r.stderr,
+              "a launch with another scenario file exits 2 naming the host that runs the other (rc=%d)" %
+              r.returncode)
+        time.sleep(1.0)
+        # Ctrl-C on host A ends the run everywhere.
+        launches["a"].proc.send_signal(signal.SIGINT)
+
+    launches, record, rcs, d = run_multi_host("closed", None, [], closed_loop)
+    check(rcs == {"a": 0, "b": 0, "c": 0, "record": 0},
+          "after Ctrl-C on host A, every launch and the recorder exit 0 (%s)" % rcs)
+    check("ended the run" in launches["b"].output() and "ended the run" in launches["c"].output(),
+          "hosts B and C ended because the plant on A ended the run")
+    rows = read_periods(os.path.join(d, "c-periods.csv"), 2)
+    check(len(rows) >= 50 and all_finite(rows), "the closed loop ran %d periods, all finite" % len(rows))
+    check(max((abs(v) for r in rows for v in r["x"]), default=1e9) < 100, "the closed-loop state stays bounded")
+    check(wait_for(lambda: not netkf_processes(DOMAIN), 10), "no netkf process is left on domain %d" % DOMAIN)
+finally:
+    capture.send_signal(signal.SIGINT)
+    try:
+        capture.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        capture.kill()
+    remove_hosts()
+
+
+def count(expression):
+    r = subprocess.run(["tcpdump", "-n", "-r", capture_path, expression], capture_output=True, text=True)
+    return len([line for line in r.stdout.splitlines() if line.strip()])
+
+
+between_hosts = count("udp and src net 10.231.0.0/24 and dst net 10.231.0.0/24")
+check(between_hosts > 1000, "DDS traffic crossed the bridge between the hosts (%d UDP packets)" % between_hosts)
+multicast = count("dst net 224.0.0.0/4 or dst host 255.255.255.255 or dst host 10.231.0.255")
+check(multicast == 0, "not one IPv4 multicast or broadcast packet on the bridge (%d)" % multicast)
+finish()
