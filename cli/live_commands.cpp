@@ -34,6 +34,7 @@
 #include "live_status.hpp"
 #include "live_views.hpp"
 #include "netkf/nodes/estimator_core.hpp"
+#include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/scenario.hpp"
@@ -64,7 +65,12 @@ struct NetworkOptions {
                     "(default: $NETKF_DISCOVERY_SERVER, else the localhost-only profile; deploy/README.md)");
   }
   BusOptions bus(const std::string& name, dds::Role role) const {
-    BusOptions b{domain, profile, name, secure, role};
+    BusOptions b;
+    b.domain = domain;
+    b.profile = profile;
+    b.name = name;
+    b.secure = secure;
+    b.role = role;
     b.discovery_server = discovery_server;
     return b;
   }
@@ -548,7 +554,7 @@ int run_launch(const LaunchOptions& o) {
     }
     if (!others.empty()) {
       const bool other_scenario = others.front().scenario_hash != scenario_hash;
-      fail(2, "DDS domain " + std::to_string(domain) + " already carries another netkf run: " +
+      fail(2, "DDS domain " + std::to_string(domain) + " already carries a netkf network of another run: " +
                   describe_other_run(others.front(), scenario_hash) +
                   (other_scenario ? "; every host of a network must run the same scenario file"
                                   : "; give this run its own domain with --domain N (or NETKF_DOMAIN), or stop the "
@@ -821,9 +827,10 @@ int run_record(const RecordOptions& o) {
   std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
-    // Present as a recorder: a plant waits for it, so the recording starts at period 0.
+    // Present as a recorder: a plant waits for it, so the recording starts at period 0. Its
+    // scenario only sizes the recording (hash 0: it conflicts with no network's scenario).
     BusOptions bus_options = o.network.bus("netkf-record", dds::Role::observer);
-    bus_options.presence = BusOptions::Presence{dds::presence_role::record, dds::scenario_hash(scenario), {}};
+    bus_options.presence = BusOptions::Presence{dds::presence_role::record, 0, {}};
     bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, invalid_samples),
                                     false);
   } catch (const std::exception& e) {

@@ -8,6 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <fastdds/dds/core/LoanableSequence.hpp>
 #include <fastdds/dds/subscriber/SampleInfo.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 
@@ -64,34 +65,25 @@ void PresenceAnnouncer::end(const std::string& why) {
 
 PresenceWatcher::PresenceWatcher(Participant& participant) : participant_(participant) {
   reader_ = participant_.subscriber()->create_datareader(participant_.topic(topics::presence),
-                                                        reader_qos(topics::presence.qos), this,
-                                                        fdds::StatusMask::data_available());
+                                                        reader_qos(topics::presence.qos), nullptr,
+                                                        fdds::StatusMask::none());
   if (reader_ == nullptr)
     throw DdsError("cannot create a DDS reader for topic " + std::string(topics::presence.name) + refused_hint(participant));
 }
 
-PresenceWatcher::~PresenceWatcher() {
-  reader_->set_listener(nullptr);
-  participant_.subscriber()->delete_datareader(reader_);
-}
+PresenceWatcher::~PresenceWatcher() { participant_.subscriber()->delete_datareader(reader_); }
 
 std::vector<PresenceRecord> PresenceWatcher::processes() const {
   const std::lock_guard lock(mutex_);
-  return records_;
-}
-
-void PresenceWatcher::on_data_available(fdds::DataReader* reader) {
-  wire::Presence sample;
-  fdds::SampleInfo info;
-  while (reader->take_next_sample(&sample, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) {
-    const std::lock_guard lock(mutex_);
-    const auto known = by_instance_.find(info.instance_handle);
-    if (!info.valid_data) {
-      // The writer left (NOT_ALIVE_NO_WRITERS) or disposed the instance: the process is gone.
-      if (known != by_instance_.end() && info.instance_state != fdds::ALIVE_INSTANCE_STATE)
-        records_[known->second].alive = false;
-      continue;
-    }
+  fdds::LoanableSequence<wire::Presence> samples;
+  fdds::SampleInfoSeq infos;
+  std::vector<PresenceRecord> records;
+  if (reader_->read(samples, infos, fdds::LENGTH_UNLIMITED, fdds::ANY_SAMPLE_STATE, fdds::ANY_VIEW_STATE,
+                    fdds::ANY_INSTANCE_STATE) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK)
+    return records;
+  for (fdds::LoanableCollection::size_type i = 0; i < samples.length(); ++i) {
+    if (!infos[i].valid_data) continue;
+    const wire::Presence& sample = samples[i];
     PresenceRecord r;
     r.host = sample.host();
     r.pid = sample.pid();
@@ -100,15 +92,12 @@ void PresenceWatcher::on_data_available(fdds::DataReader* reader) {
     r.scenario_hash = sample.scenario_hash();
     r.run = sample.run_id();
     r.ended = sample.state() == "ended";
-    r.alive = true;
+    r.alive = infos[i].instance_state == fdds::ALIVE_INSTANCE_STATE;
     r.detail = sample.detail();
-    if (known != by_instance_.end()) {
-      records_[known->second] = std::move(r);
-    } else if (records_.size() < 4096) {  // a rogue cannot make the table grow without bound
-      by_instance_.emplace(info.instance_handle, records_.size());
-      records_.push_back(std::move(r));
-    }
+    records.push_back(std::move(r));
   }
+  reader_->return_loan(samples, infos);
+  return records;
 }
 
 namespace {

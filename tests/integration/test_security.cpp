@@ -61,17 +61,20 @@ int sh(const std::string& cmd) { return std::system((cmd + " >/dev/null 2>&1").c
 
 // The intended table, written out here on purpose: the generated permissions must match it.
 TEST(SecurityPolicy, PermissionsAllowExactlyTheIntendedTopics) {
+  // Presence: every role announces itself and reads who else takes part.
+  const std::string presence = "netkf/presence";
   const std::set<std::string> observed{"netkf/truth",       "netkf/estimate",    "netkf/measurement/delivered",
-                                       "netkf/link/status", "netkf/link/change", "netkf/link/reply"};
+                                       "netkf/link/status", "netkf/link/change", "netkf/link/reply", presence};
   const std::map<Role, std::pair<std::set<std::string>, std::set<std::string>>> intended{
-      {Role::plant, {{"netkf/truth", "netkf/tick"}, {"netkf/control"}}},
-      {Role::sensor, {{"netkf/measurement/raw"}, {"netkf/truth"}}},
+      {Role::plant, {{"netkf/truth", "netkf/tick", presence}, {"netkf/control", presence}}},
+      {Role::sensor, {{"netkf/measurement/raw", presence}, {"netkf/truth", presence}}},
       {Role::channel,
-       {{"netkf/measurement/delivered", "netkf/link/status", "netkf/link/reply", "netkf/link/change"},
-        {"netkf/measurement/raw", "netkf/link/control"}}},
-      {Role::estimator, {{"netkf/estimate", "netkf/control"}, {"netkf/tick", "netkf/measurement/delivered"}}},
-      {Role::ctl, {{"netkf/link/control"}, observed}},
-      {Role::observer, {{}, observed}},
+       {{"netkf/measurement/delivered", "netkf/link/status", "netkf/link/reply", "netkf/link/change", presence},
+        {"netkf/measurement/raw", "netkf/link/control", presence}}},
+      {Role::estimator,
+       {{"netkf/estimate", "netkf/control", presence}, {"netkf/tick", "netkf/measurement/delivered", presence}}},
+      {Role::ctl, {{"netkf/link/control", presence}, observed}},
+      {Role::observer, {{presence}, observed}},
   };
   ASSERT_EQ(nd::all_roles().size(), intended.size());
   for (const auto& [role, topics] : intended) {

@@ -6,14 +6,12 @@
 // process with another scenario is named, and a launch that does not run the plant ends when
 // the plant's presence says the run has ended (docs/architecture.md, "Several hosts").
 #include <cstdint>
-#include <map>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <fastdds/dds/subscriber/DataReader.hpp>
-#include <fastdds/dds/subscriber/DataReaderListener.hpp>
 
 #include "netkf/dds/endpoints.hpp"
 #include "netkf/dds/participant.hpp"
@@ -70,25 +68,24 @@ class PresenceAnnouncer {
   wire::Presence sample_;
 };
 
-/// Keeps the presence of every process seen on the domain (any run). Thread-safe.
-class PresenceWatcher : private eprosima::fastdds::dds::DataReaderListener {
+/// The presence of every process seen on the domain (any run). Thread-safe.
+class PresenceWatcher {
  public:
   explicit PresenceWatcher(Participant& participant);
-  ~PresenceWatcher() override;
+  ~PresenceWatcher();
   PresenceWatcher(const PresenceWatcher&) = delete;
   PresenceWatcher& operator=(const PresenceWatcher&) = delete;
 
-  /// Every process seen so far, in the order first seen (gone ones stay, with alive false).
+  /// Every process seen so far (gone ones stay, with alive false). Read from the reader's
+  /// history each time (one sample per process is kept), so the instance state is current: a
+  /// process whose writer left — it ended, was killed, or its host was lost (after the DDS lease)
+  /// — reads as not alive.
   std::vector<PresenceRecord> processes() const;
 
  private:
-  void on_data_available(eprosima::fastdds::dds::DataReader* reader) override;
-
   Participant& participant_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
-  mutable std::mutex mutex_;
-  std::vector<PresenceRecord> records_;
-  std::map<eprosima::fastrtps::rtps::InstanceHandle_t, std::size_t> by_instance_;
+  mutable std::mutex mutex_;  // DataReader::read is thread-safe; this keeps the loans simple
 };
 
 /// Whether the processes a run needs are present (DDS-free; the plant polls it before period 0).
