@@ -5,7 +5,7 @@
    looks for them (cli/launch_supervisor.cpp: the directory above the CLI's, then <node>);
    scenarios, DDS profiles, example environment files, the unit and its sysusers entry.
 2. The installed netkf@.service runs that prefix's netkf.
-3. `systemd-analyze verify` on the template instantiated as netkf@test.service (a copy whose
+3. `systemd-analyze verify` (and `security --offline`, exposure below 4) on the template instantiated as netkf@test.service (a copy whose
    environment file is a test one): exit 0 and not one message about our unit. The same check
    on a copy with a mistake (a missing ExecStart binary, an unknown key) does report it, so
    the check can fail.
@@ -90,6 +90,18 @@ rc, ours, out = verify(test_unit)
 print("systemd-analyze verify netkf@test.service:\n    " + "\n    ".join(out or ["(no output)"]), flush=True)
 check(rc == 0 and not ours, "systemd-analyze verify: exit 0 and no message about netkf@ (rc=%d, %d messages)"
       % (rc, len(ours)))
+
+# The hardening, as systemd rates it (0 = fully locked down .. 10 = unprotected; 3.4 when
+# written): keep it below 4 ("OK") so a lost directive shows.
+r = subprocess.run([analyze, "security", "--offline=true", os.path.join(units, "netkf@test.service")],
+                   capture_output=True, text=True, env=dict(os.environ, SYSTEMD_LOG_COLOR="0", SYSTEMD_COLORS="0"))
+level = [l for l in r.stdout.splitlines() if "Overall exposure level" in l]
+print("\n".join(level) or r.stdout[-2000:] + r.stderr[-2000:], flush=True)
+try:
+    exposure = float(level[0].split(":")[1].split()[0])
+except (IndexError, ValueError):
+    exposure = None
+check(exposure is not None and exposure < 4.0, "systemd-analyze security rates the unit's exposure below 4 (%s)" % exposure)
 
 broken = test_unit.replace(cli_link, os.path.join(prefix, "bin", "no-such-netkf")).replace(
     "KillMode=mixed", "KillMode=mixed\nNoSuchKey=1")
