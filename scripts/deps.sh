@@ -13,6 +13,7 @@ packages=(
   libsdp-dev gnuplot-nox python3-numpy python3-yaml
   iproute2 util-linux tcpdump procps openssl
   prometheus-cpp-dev prometheus chromium
+  cyclonedds-dev cyclonedds-tools systemd
 )
 missing=()
 for p in "${packages[@]}"; do
