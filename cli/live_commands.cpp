@@ -309,8 +309,9 @@ struct LaunchOptions {
 std::optional<std::string> plant_ended(const std::vector<dds::PresenceRecord>& processes, std::uint64_t run) {
   for (const auto& p : processes) {
     if (p.role != dds::presence_role::plant || (run != 0 && p.run != run)) continue;
-    if (p.ended) return "the plant (" + p.who() + ") ended the run" + (p.detail.empty() ? "" : ": " + p.detail);
-    if (!p.alive) return "the plant (" + p.who() + ") left the network";
+    const std::string plant = "the plant (pid " + std::to_string(p.pid) + " on " + p.host + ")";
+    if (p.ended) return plant + " ended the run" + (p.detail.empty() ? "" : ": " + p.detail);
+    if (!p.alive) return plant + " left the network";
   }
   return std::nullopt;
 }
