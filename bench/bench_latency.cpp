@@ -206,7 +206,9 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
   std::map<std::uint64_t, std::size_t> fused_count;
   std::mutex m;
   {
-    dds::ParticipantOptions po{domain, std::nullopt, "bench", std::nullopt};
+    dds::ParticipantOptions po;
+    po.domain = domain;
+    po.name = "bench";
     if (secure) po.security = dds::ParticipantOptions::Security{*secure, dds::Role::observer};
     dds::Participant p(po);
     dds::Reader<netkf::wire::Estimate> est(p, dds::topics::estimate, [&](netkf::wire::Estimate&& e) {
