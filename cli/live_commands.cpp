@@ -666,6 +666,10 @@ int run_launch(const LaunchOptions& o) {
   if (roles.plant) {
     auto plant_args = common_args();
     plant_args.push_back("--wait-for-presence");
+    // This host's sensor processes and this launch read the truth: counted before their
+    // presence arrives (presence adds other hosts' launches and recorders).
+    plant_args.push_back("--truth-readers");
+    plant_args.push_back(std::to_string(sensor_groups.size() + 1));
     plant_args.push_back("--startup-wait-ms");
     plant_args.push_back(std::to_string(static_cast<long long>(o.ready_timeout * 1000.0)));
     started.push_back(supervisor.start({"plant_node", node_executable("plant_node"), plant_args, true}));

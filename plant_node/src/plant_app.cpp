@@ -3,6 +3,7 @@
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <algorithm>
 #include <chrono>
 #include <mutex>
 #include <optional>
@@ -95,7 +96,9 @@ class PlantApp::Impl {
         end();
         return;
       }
-      truth_readers_wanted_ = readiness.truth_readers;
+      // The presences arrive in any order: the readers this plant was told of (its own launch's)
+      // count even before theirs has arrived.
+      truth_readers_wanted_ = std::max(readiness.truth_readers, std::max(options_.truth_readers, 0));
       if (!readiness.ready) {
         if (std::chrono::steady_clock::now() >= startup_deadline_) {
           std::string missing;
@@ -139,7 +142,16 @@ class PlantApp::Impl {
     // Matching the plant's writers does not mean sensors already match the channel, etc.
     startup_timer_.expires_after(std::chrono::milliseconds(options_.settle_ms));
     startup_timer_.async_wait([this](const boost::system::error_code& ec) {
-      if (!ec && !stopped_) start();
+      if (ec || stopped_) return;
+      // A reader (a recorder, another host's launch) whose presence arrived during the settle
+      // delay is waited for too, so that it also sees period 0.
+      if (presence_watch_ && std::chrono::steady_clock::now() < startup_deadline_ &&
+          dds::assess_readiness(presence_watch_->processes(), sensor_ids_, run_, scenario_hash_).truth_readers >
+              truth_.matched()) {
+        poll_subscribers();
+        return;
+      }
+      start();
     });
   }
 

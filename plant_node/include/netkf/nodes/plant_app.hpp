@@ -27,8 +27,8 @@ struct PlantAppOptions {
   std::uint64_t max_periods = 0;
   /// Wait at most this long for the sensors and the estimator to match before period 0.
   int startup_wait_ms = 10000;
-  /// Truth readers to wait for before period 0 (< 0: one per sensor of the scenario).
-  /// Ignored with wait_for_presence (presence says how many).
+  /// Truth readers to wait for before period 0 (< 0: one per sensor of the scenario). With
+  /// wait_for_presence, at least this many (those its launch knows of) and every present one.
   int truth_readers = -1;
   /// Start only when presence (netkf/presence) shows every sensor of the scenario, the channel
   /// and the estimator of this run, and the truth has matched every present process that reads
