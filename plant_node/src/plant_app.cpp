@@ -90,7 +90,8 @@ class PlantApp::Impl {
     if (stopped_) return;
     if (presence_watch_) {
       // Across hosts nobody counts the readers by hand: presence says who takes part.
-      const auto readiness = dds::assess_readiness(presence_watch_->processes(), sensor_ids_, run_, scenario_hash_);
+      const auto processes = presence_watch_->processes();
+      const auto readiness = dds::assess_readiness(processes, sensor_ids_, run_, scenario_hash_);
       if (readiness.conflict) {
         not_ready_ = "refusing to start: " + *readiness.conflict;
         end();
@@ -103,9 +104,13 @@ class PlantApp::Impl {
         if (std::chrono::steady_clock::now() >= startup_deadline_) {
           std::string missing;
           for (const auto& m : readiness.missing) missing += (missing.empty() ? "" : ", ") + m;
+          std::string others;
+          for (const auto& p : dds::other_runs(processes, run_)) others += (others.empty() ? "" : ", ") + p.who();
           not_ready_ = "not started: after " + std::to_string(options_.startup_wait_ms) + " ms still missing " +
                        missing + " (no presence on netkf/presence of this run; are their hosts launched with the "
-                       "same scenario, --domain and discovery server?)";
+                       "same scenario, --domain and discovery server?)" +
+                       (others.empty() ? std::string() : "; present, but of another run (another scenario file or "
+                                                         "--run-id): " + others);
           end();
           return;
         }

@@ -300,15 +300,16 @@ TEST(DdsQos, HeartbeatPeriodAndHistoryDepthFollowTheWriterRate) {
 
 namespace {
 
+dds::ParticipantOptions with_run(const std::string& name, std::uint64_t run) {
+  auto o = options(name);
+  o.run = run;
+  return o;
+}
+
 // Two launches on one domain by mistake: each stamps its run id and drops the other's samples
 // (counted); a process without a run id (0) neither stamps nor drops. The samples written
 // last by run 7's writer prove delivery still works, so the drop is not a lost match.
 TEST(DdsRunId, SamplesOfAnotherRunAreDroppedAndCounted) {
-  auto with_run = [](const std::string& name, std::uint64_t run) {
-    auto o = options(name);
-    o.run = run;
-    return o;
-  };
   dds::Participant ours(with_run("run-7-reader", 7)), theirs(with_run("run-9-writer", 9)),
       same(with_run("run-7-writer", 7)), any(with_run("run-0-reader", 0));
   Inbox<wire::Measurement> ours_in, any_in;
@@ -340,11 +341,6 @@ namespace {
 // Presence: what a process announces reaches a watcher that joins later (transient-local), its
 // end is seen, and so is its leaving (the writer's instance becomes not-alive).
 TEST(DdsPresence, AnnouncedEndedAndGoneAsTheyHappen) {
-  auto with_run = [](const std::string& name, std::uint64_t run) {
-    auto o = options(name);
-    o.run = run;
-    return o;
-  };
   auto sensor = std::make_unique<dds::Participant>(with_run("presence-sensor", 5));
   auto announcer = std::make_unique<dds::PresenceAnnouncer>(*sensor, dds::presence_role::sensors,
                                                             std::vector<int>{1, 2}, 0xabcdefULL);
