@@ -39,7 +39,20 @@ cases = [
     (("ctl", "status", "--timeout", "1"), 3),  # no network on this test's domain
     (("ctl", "set-link", "2", "--bernoulli", "0.5", "--timeout", "1"), 3),
     (("record", "--out", "/tmp/netkf-exit-codes.csv", "--duration", "1"), 3),  # never silently empty
+    (("launch", "--only", "plant,sensor"), 2),  # an unknown role
+    (("launch", "--only", "sensors=9"), 2),  # no sensor 9 in the default scenario
+    (("launch", "--discovery-server", "server.example:11811"), 2),  # not an IPv4 address
+    (("launch", "--serve-discovery", "10.0.0.1:0"), 2),
+    (("launch", "--run-id", "0"), 2),
 ]
+# Part of a network whose other hosts never come: the plant does not run without them; after
+# --ready-timeout the launch fails naming what is missing (it used to wait 10 s, then run
+# uncontrolled and exit 0).
+r = netkf("launch", "--only", "plant,sensors", "--ready-timeout", "2", "--dashboard", "off", "--status-interval", "0",
+          timeout=60)
+check(r.returncode == 1 and "still missing the channel emulator, the estimator" in r.stderr,
+      "launch --only plant,sensors without the rest exits 1 naming the channel and the estimator (rc=%d)" %
+      r.returncode)
 # --plot to a path that cannot be written: a clear error before any work, and nothing on
 # stdout (gnuplot used to write the figure there, into the --json output).
 for command in (("analyze", good, "--json"), ("simulate", good, "--runs", "20", "--steps", "20", "--json")):
