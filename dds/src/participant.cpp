@@ -171,6 +171,11 @@ fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
       ->maxInitialPeersRange = 128;
 
   auto& builtin = qos.wire_protocol().builtin;
+  // Announce this participant every second (Fast DDS default: 3 s). A participant that joins
+  // late (a restarted estimator, a second launch checking the domain) is otherwise often seen
+  // only at the others' next announcement, up to 3 s later; the cost is one more round of
+  // announcements to the initial peers each second (BENCHMARKS.md, "Discovery announcements").
+  builtin.discovery_config.leaseDuration_announcementperiod = eprosima::fastrtps::Duration_t(1, 0);
   builtin.metatrafficUnicastLocatorList.clear();
   builtin.metatrafficUnicastLocatorList.push_back(loopback_locator());
   builtin.metatrafficMulticastLocatorList.clear();  // no multicast discovery
