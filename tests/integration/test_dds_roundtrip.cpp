@@ -213,6 +213,11 @@ TEST(DdsParticipant, ShippedLocalhostProfileDiscovers) {
   dds::Participant b(o);
   EXPECT_TRUE(b.get()->get_qos().wire_protocol().builtin.metatrafficMulticastLocatorList.empty());
   EXPECT_FALSE(b.get()->get_qos().transport().use_builtin_transports);
+  // The file announces as often as the built-in profile (participant.cpp).
+  EXPECT_EQ(b.get()->get_qos().wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod,
+            dds::localhost_participant_qos("x").wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod);
+  EXPECT_EQ(b.get()->get_qos().wire_protocol().builtin.discovery_config.leaseDuration_announcementperiod,
+            eprosima::fastrtps::Duration_t(1, 0));
   Inbox<wire::Tick> inbox;
   dds::Reader<wire::Tick> reader(b, dds::topics::tick, inbox.callback());
   dds::Writer<wire::Tick> writer(a, dds::topics::tick);
