@@ -237,8 +237,10 @@ TEST(DashboardServer, AMessageOverTheLimitClosesTheConnection) {
     c.ws.read(c.buffer, ec);
     c.buffer.consume(c.buffer.size());
   }
+  // However the close reaches the client: a close frame, EOF, a reset, or (seen under ASan) the
+  // socket already shut down when its write or read ran.
   EXPECT_TRUE(ec == websocket::error::closed || ec == net::error::eof || ec == net::error::connection_reset ||
-              ec == net::error::broken_pipe)
+              ec == net::error::broken_pipe || ec == net::error::not_connected)
       << ec.message();
   // The server is still there for others.
   Client other(f.port());
