@@ -124,8 +124,18 @@ Readiness assess_readiness(const std::vector<PresenceRecord>& processes, const s
     if (p.role == presence_role::sensors || p.role == presence_role::launch || p.role == presence_role::record)
       ++r.truth_readers;
   }
+  // Missing sensors as runs of consecutive ids ("sensor 3", "sensors 129-256"): a grouped
+  // process that never came names its whole range in a line one can read.
+  std::vector<int> absent;
   for (int id : sensor_ids)
-    if (!sensors_present.count(id)) r.missing.push_back("sensor " + std::to_string(id));
+    if (!sensors_present.count(id)) absent.push_back(id);
+  for (std::size_t i = 0; i < absent.size();) {
+    std::size_t j = i;
+    while (j + 1 < absent.size() && absent[j + 1] == absent[j] + 1) ++j;
+    r.missing.push_back(i == j ? "sensor " + std::to_string(absent[i])
+                               : "sensors " + std::to_string(absent[i]) + "-" + std::to_string(absent[j]));
+    i = j + 1;
+  }
   if (!channel) r.missing.push_back("the channel emulator");
   if (!estimator) r.missing.push_back("the estimator");
   r.ready = r.missing.empty() && !r.conflict;

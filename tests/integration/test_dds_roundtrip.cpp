@@ -394,6 +394,9 @@ TEST(DdsPresence, ReadinessNamesWhatIsMissingAndRefusesAnotherScenario) {
   EXPECT_FALSE(r.ready);
   EXPECT_EQ(r.missing, (std::vector<std::string>{"sensor 3", "the channel emulator", "the estimator"}));
   EXPECT_EQ(r.truth_readers, 2);
+  EXPECT_EQ(dds::assess_readiness(seen, {1, 2, 3, 4, 5, 7, 9, 10}, 7, 42).missing,
+            (std::vector<std::string>{"sensors 3-5", "sensor 7", "sensors 9-10", "the channel emulator",
+                                      "the estimator"}));
 
   seen.push_back(present(role::sensors, {3}, 0, 42));  // started by hand: run 0 belongs to any run
   seen.push_back(present(role::channel, {}, 7, 42));
