@@ -305,16 +305,41 @@ struct LaunchOptions {
   double ready_timeout = 30.0;  // the plant's wait for the whole network (presence)
 };
 
-/// The plant of `run` ended the run (its presence says so, or it left): why, else nothing.
-std::optional<std::string> plant_ended(const std::vector<dds::PresenceRecord>& processes, std::uint64_t run) {
-  for (const auto& p : processes) {
-    if (p.role != dds::presence_role::plant || (run != 0 && p.run != run)) continue;
-    const std::string plant = "the plant (pid " + std::to_string(p.pid) + " on " + p.host + ")";
-    if (p.ended) return plant + " ended the run" + (p.detail.empty() ? "" : ": " + p.detail);
-    if (!p.alive) return plant + " left the network";
+/// The end of the run for a process that does not run the plant (a launch of part of the
+/// network, a recorder): once the plant of `run` (0: any) was seen running, its presence saying
+/// it ended — or its leaving — ends this process `linger` later, when the last periods' samples
+/// and estimates have arrived.
+class RunEndWatch {
+ public:
+  RunEndWatch(std::uint64_t run, Clock::duration linger) : run_(run), linger_(linger) {}
+
+  void look(const std::vector<dds::PresenceRecord>& processes, Clock::time_point now) {
+    if (why_) return;
+    bool running = false;
+    const dds::PresenceRecord* gone = nullptr;  // a plant of the run that ended or left
+    for (const auto& p : processes) {
+      if (p.role != dds::presence_role::plant || (run_ != 0 && p.run != run_)) continue;
+      if (p.running()) running = true;
+      else gone = &p;
+    }
+    plant_seen_ = plant_seen_ || running;
+    if (!plant_seen_ || running || gone == nullptr) return;
+    const std::string plant = "the plant (pid " + std::to_string(gone->pid) + " on " + gone->host + ")";
+    why_ = gone->ended ? plant + " ended the run" + (gone->detail.empty() ? "" : ": " + gone->detail)
+                       : plant + " left the network";
+    end_at_ = now + linger_;
   }
-  return std::nullopt;
-}
+  bool over(Clock::time_point now) const { return now >= end_at_; }
+  /// Why the run ended (nullopt while it runs).
+  const std::optional<std::string>& why() const { return why_; }
+
+ private:
+  std::uint64_t run_;
+  Clock::duration linger_;
+  bool plant_seen_ = false;
+  std::optional<std::string> why_;
+  Clock::time_point end_at_ = Clock::time_point::max();
+};
 
 /// "sensors 1,3 (pid 12 on host-a) scenario 1a2b..." for messages about another run.
 std::string describe_other_run(const dds::PresenceRecord& p, std::uint64_t our_hash) {
@@ -598,19 +623,21 @@ int run_launch(const LaunchOptions& o) {
   // The processes of the run: this launch's children, then what the other hosts run (presence).
   const std::string here = dds::this_host();
   auto refresh_processes = [&] {
+    auto presences = bus->processes();
     std::vector<ProcessView> processes;
     std::set<int> children;
     for (const auto& c : supervisor.children()) {
       processes.push_back({c.name, c.pid, c.running, c.restarts, here});
       children.insert(c.pid);
     }
-    for (const auto& p : bus->processes()) {
+    for (const auto& p : presences) {
       if (p.run != run_id || (p.host == here && (children.count(p.pid) || p.pid == getpid()))) continue;
       std::string name = p.role;
       if (!p.sensor_ids.empty()) name = sensor_process_name(p.sensor_ids);
       processes.push_back({name, p.pid, p.running(), 0, p.host});
     }
     views->set_processes(std::move(processes));
+    return presences;
   };
   auto report = [&](const std::vector<SupervisorEvent>& events, bool stopping = false) {
     for (const auto& e : events) {
@@ -714,8 +741,7 @@ int run_launch(const LaunchOptions& o) {
   });
   const auto start = Clock::now();
   boost::asio::steady_timer timer(io);
-  std::optional<std::string> ended_elsewhere;  // a launch without the plant: why the run ended
-  Clock::time_point end_after = Clock::time_point::max();
+  RunEndWatch run_end(run_id, std::chrono::seconds(1));  // without the plant: its end is ours
   auto last_presence_look = start;
   std::function<void()> tick = [&] {
     report(supervisor.poll());
@@ -723,16 +749,12 @@ int run_launch(const LaunchOptions& o) {
     const auto now = Clock::now();
     if (now - last_presence_look >= std::chrono::milliseconds(500)) {
       last_presence_look = now;
-      refresh_processes();
-      if (!roles.plant && !ended_elsewhere) {
-        ended_elsewhere = plant_ended(bus->processes(), run_id);
-        // The last periods' samples and estimates are still on their way: let them arrive.
-        if (ended_elsewhere) end_after = now + std::chrono::seconds(1);
-      }
+      const auto processes = refresh_processes();
+      if (!roles.plant) run_end.look(processes, now);
     }
     if (end == End::running) {
       if (supervisor.failed()) end = End::failed;
-      else if (supervisor.finished() || now >= end_after) end = End::finished;
+      else if (supervisor.finished() || run_end.over(now)) end = End::finished;
       else if (o.duration > 0 && now - start >= std::chrono::duration<double>(o.duration)) end = End::duration;
     }
     views->tick(now);
@@ -762,7 +784,7 @@ int run_launch(const LaunchOptions& o) {
   signals.cancel();
   const std::string end_text = end == End::duration   ? "duration reached"
                                : end == End::signal   ? "signal"
-                               : end == End::finished ? ended_elsewhere.value_or(supervisor.finished_reason())
+                               : end == End::finished ? run_end.why().value_or(supervisor.finished_reason())
                                                       : "failure";
   const std::uint64_t foreign_samples = bus->foreign_samples();
   bus->end_presence(end_text);
@@ -846,22 +868,17 @@ int run_record(const RecordOptions& o) {
   signals.async_wait([&](const boost::system::error_code& ec, int) { stop = !ec; });
   const auto start = Clock::now();
   boost::asio::steady_timer timer(io);
-  // The recording ends with the run: once a plant was seen running, its end (presence) stops it.
-  bool plant_seen = false;
-  std::optional<std::string> run_ended;
-  Clock::time_point stop_after = Clock::time_point::max();
+  // The recording ends with the run (any run's plant: a recorder has no run id), a little after
+  // the launches without the plant, so that it also takes their last estimates.
+  RunEndWatch run_end(0, std::chrono::milliseconds(1500));
   auto last_presence_look = start;
   std::function<void()> tick = [&] {
     recording.flush();
-    if (!run_ended && Clock::now() - last_presence_look >= std::chrono::milliseconds(500)) {
+    if (Clock::now() - last_presence_look >= std::chrono::milliseconds(500)) {
       last_presence_look = Clock::now();
-      const auto processes = bus->processes();
-      for (const auto& p : processes) plant_seen = plant_seen || (p.role == dds::presence_role::plant && p.running());
-      if (plant_seen) run_ended = plant_ended(processes, 0);
-      // The estimates of the last periods are still on their way: take them first.
-      if (run_ended) stop_after = Clock::now() + std::chrono::milliseconds(1500);
+      run_end.look(bus->processes(), last_presence_look);
     }
-    if (stop || Clock::now() >= stop_after ||
+    if (stop || run_end.over(Clock::now()) ||
         (o.duration > 0 && Clock::now() - start >= std::chrono::duration<double>(o.duration))) {
       io.stop();
       return;
@@ -877,9 +894,9 @@ int run_record(const RecordOptions& o) {
   recording.finish();
   signals.cancel();
   const int domain = bus->domain();
-  bus->end_presence(run_ended ? *run_ended : "stopped");
+  bus->end_presence(run_end.why().value_or("stopped"));
   bus.reset();
-  if (run_ended) std::cerr << "netkf record: " << *run_ended << "\n";
+  if (run_end.why()) std::cerr << "netkf record: " << *run_end.why() << "\n";
   std::cerr << "netkf record: " << recording.rows() << (is_mcap_path(o.out) ? " periods" : " rows")
             << " written to " << o.out << "\n";
   if (recording.rows() == 0)

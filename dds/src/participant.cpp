@@ -53,14 +53,15 @@ eprosima::fastrtps::rtps::Locator_t udp_locator(const std::string& address, std:
 eprosima::fastrtps::rtps::Locator_t loopback_locator() { return udp_locator("127.0.0.1"); }
 
 /// Shared memory plus UDPv4 on `address` only (builtin transports off: they would add every
-/// interface and multicast).
-void use_transports_on(fdds::DomainParticipantQos& qos, const std::string& address) {
+/// interface and multicast). Returns the UDP transport for further settings.
+std::shared_ptr<eprosima::fastdds::rtps::UDPv4TransportDescriptor> use_transports_on(fdds::DomainParticipantQos& qos,
+                                                                                     const std::string& address) {
   qos.transport().use_builtin_transports = false;
-  auto shm = std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>();
   auto udp = std::make_shared<eprosima::fastdds::rtps::UDPv4TransportDescriptor>();
   udp->interfaceWhiteList.emplace_back(address);
-  qos.transport().user_transports.push_back(shm);
+  qos.transport().user_transports.push_back(std::make_shared<eprosima::fastdds::rtps::SharedMemTransportDescriptor>());
   qos.transport().user_transports.push_back(udp);
+  return udp;
 }
 }  // namespace
 
@@ -164,11 +165,9 @@ void add_security_properties(fdds::DomainParticipantQos& qos, const SecurityFile
 fdds::DomainParticipantQos localhost_participant_qos(const std::string& name) {
   fdds::DomainParticipantQos qos = fdds::PARTICIPANT_QOS_DEFAULT;
   qos.name(name);
-  use_transports_on(qos, "127.0.0.1");
   // How many participants per host find each other through the initial peers
   // (docs/dds-notes.md: >= 32; a launch with 64 sensors has ~70 participants).
-  std::static_pointer_cast<eprosima::fastdds::rtps::UDPv4TransportDescriptor>(qos.transport().user_transports.back())
-      ->maxInitialPeersRange = 128;
+  use_transports_on(qos, "127.0.0.1")->maxInitialPeersRange = 128;
 
   auto& builtin = qos.wire_protocol().builtin;
   // Announce this participant every second (Fast DDS default: 3 s). A participant that joins
