@@ -36,6 +36,7 @@
 #include "netkf/nodes/estimator_core.hpp"
 #include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant.hpp"
+#include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/scenario.hpp"
 #include "record_csv.hpp"
@@ -47,6 +48,19 @@ namespace netkf::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// Fast DDS's shared-memory files no live process holds (`fastdds shm clean`) and the
+/// participant markers of `domain` that killed processes left (participant_slot.hpp). Only at
+/// the start and the end of a launch: then no writer of this launch can still hold a killed
+/// process's port open.
+void remove_stale_shared_memory(int domain, const char* what) {
+  const auto shm = clean_stale_shared_memory();
+  const int slots = dds::remove_stale_participant_slots(domain);
+  if (shm.zombie_segments + shm.zombie_ports + slots > 0)
+    std::cerr << "netkf launch: removed what " << what << " left: " << shm.zombie_segments
+              << " Fast DDS shared-memory segments, " << shm.zombie_ports << " ports (fastdds shm clean), "
+              << slots << " participant markers\n";
+}
 
 /// The options every live command shares.
 struct NetworkOptions {
@@ -474,9 +488,7 @@ int run_launch(const LaunchOptions& o) {
   }
   for (const auto& stale : files->removed_stale())
     std::cerr << "netkf launch: removed the files of a launch that is no longer running (" << stale.string() << ")\n";
-  if (const auto shm = clean_stale_shared_memory(); shm.zombie_segments + shm.zombie_ports > 0)
-    std::cerr << "netkf launch: removed " << shm.zombie_segments << " stale Fast DDS shared-memory segments and "
-              << shm.zombie_ports << " ports (fastdds shm clean)\n";
+  remove_stale_shared_memory(domain, "killed processes of earlier runs");
   const auto scenario_path = files->file("scenario.yaml");
   {
     std::ofstream out(scenario_path);
@@ -792,9 +804,7 @@ int run_launch(const LaunchOptions& o) {
   discovery_server.reset();
   // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
   // DDS shared-memory files: every process of the run has ended, so remove them now.
-  if (const auto shm = clean_stale_shared_memory(); shm.zombie_segments + shm.zombie_ports > 0)
-    std::cerr << "netkf launch: removed " << shm.zombie_segments << " Fast DDS shared-memory segments and "
-              << shm.zombie_ports << " ports left by killed processes (fastdds shm clean)\n";
+  remove_stale_shared_memory(domain, "killed processes of this run");
 
   std::cerr << "netkf launch: stopped (" << end_text << "); " << views->model().snapshot().estimates
             << " estimates seen";

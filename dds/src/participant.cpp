@@ -244,6 +244,12 @@ Participant::Participant(const ParticipantOptions& options)
       qos = localhost_participant_qos(name_);
     }
   }
+  // The built-in configurations use shared memory: take an id no killed process left its
+  // port on (participant_slot.hpp). A profile file's own id, if any, is the user's choice.
+  if (!options.profile_file && qos.wire_protocol().participant_id < 0) {
+    slot_ = ParticipantSlot::claim(domain_);
+    if (slot_) qos.wire_protocol().participant_id = slot_->id();
+  }
   std::optional<SecurityFiles> security;
   if (options.security) {
     security = security_files(options.security->dir, options.security->role);

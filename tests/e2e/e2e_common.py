@@ -291,6 +291,31 @@ def launch_files_dirs(launch_pid):
         return []
 
 
+def stale_participant_markers(domain):
+    """netkf's participant-id markers of `domain` (/dev/shm/netkf_participant_d<domain>_id<N>,
+    dds/include/netkf/dds/participant_slot.hpp) that no live process holds: left by a killed
+    process until a launch removes them."""
+    import fcntl
+    stale = []
+    prefix = "netkf_participant_d%d_id" % domain
+    try:
+        names = [n for n in os.listdir("/dev/shm") if n.startswith(prefix)]
+    except OSError:
+        return stale
+    for name in names:
+        try:
+            with open(os.path.join("/dev/shm", name), "ab") as f:
+                try:
+                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    fcntl.flock(f, fcntl.LOCK_UN)
+                    stale.append(name)
+                except OSError:
+                    pass  # held by a live participant
+        except OSError:
+            pass
+    return stale
+
+
 def zombie_shm_segments():
     """Fast DDS shared-memory segments no live process holds (what `fastdds shm clean` would
     remove), found the way the tool finds them: a segment's lock file that nobody has locked."""

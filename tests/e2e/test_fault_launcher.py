@@ -6,7 +6,7 @@ import os
 import signal
 
 from e2e_common import (DATA, Launch, check, finish, last_period, launch_files_dirs, netkf_processes,
-                        require_netns, wait_for, workdir, zombie_shm_segments)
+                        require_netns, stale_participant_markers, wait_for, workdir, zombie_shm_segments)
 
 require_netns()
 domain = int(os.environ["NETKF_DOMAIN"])
@@ -29,6 +29,8 @@ with Launch(scenario, 60, out, extra=["--sensors-per-process", "1"]) as run:
           "every child ends when the launch is killed (left: %s)" % netkf_processes(domain))
 check(all(os.path.isdir(d) for d in own_dirs), "a launch killed with SIGKILL could not remove its files")
 check(len(zombie_shm_segments()) >= 1, "the killed sensor and launch left stale shared-memory segments")
+check(len(stale_participant_markers(domain)) >= 2,
+      "the killed sensor and launch left their participant markers (%s)" % stale_participant_markers(domain))
 
 out2 = workdir("fault-launcher-next")
 with Launch(scenario, 3, out2) as nxt:
@@ -37,7 +39,9 @@ with Launch(scenario, 3, out2) as nxt:
 check(rc == 0, "the next launch runs normally (rc=%s)" % rc)
 check("removed the files of a launch that is no longer running" in log, "the next launch says it removed the stale files")
 check(not any(os.path.exists(d) for d in own_dirs), "the killed launch's directory is gone")
-check("stale Fast DDS shared-memory segments" in log, "the next launch removed the stale shared memory (fastdds shm clean)")
+check("removed what killed processes of earlier runs left" in log,
+      "the next launch removed the stale shared memory (fastdds shm clean) and participant markers")
 check(not zombie_shm_segments(), "no stale shared-memory segment left")
+check(not stale_participant_markers(domain), "no stale participant marker left")
 check(wait_for(lambda: not netkf_processes(domain), 10), "no netkf process left running")
 finish()

@@ -25,6 +25,7 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/security.hpp"
 #include "netkf/dds/topics.hpp"
 
@@ -130,6 +131,9 @@ class Participant {
   std::uint64_t foreign_samples() const { return foreign_samples_.load(); }
   /// True when DDS Security is on (endpoint errors then mention the permissions).
   bool secure() const { return secure_; }
+  /// The Fast DDS participant id netkf chose (participant_slot.hpp); -1 = Fast DDS chose (a
+  /// profile file, or no free slot).
+  int participant_id() const { return slot_ ? slot_->id() : -1; }
   eprosima::fastdds::dds::DomainParticipant* get() const { return participant_; }
   eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
@@ -148,6 +152,7 @@ class Participant {
   std::uint64_t run_ = 0;
   std::atomic<std::uint64_t> foreign_samples_{0};
   bool secure_ = false;
+  std::optional<ParticipantSlot> slot_;  // released after the participant is deleted
   eprosima::fastdds::dds::DomainParticipant* participant_ = nullptr;
   eprosima::fastdds::dds::Publisher* publisher_ = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber_ = nullptr;
