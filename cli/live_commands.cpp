@@ -291,7 +291,7 @@ Scenario load_or_default(const std::optional<std::string>& file) {
 // ---------------------------------------------------------------- launch
 
 /// Sensors a live network runs at most (see run_launch).
-constexpr std::size_t kMaxLiveSensors = 128;
+constexpr std::size_t kMaxLiveSensors = 512;
 
 struct LaunchOptions {
   std::optional<std::string> scenario;

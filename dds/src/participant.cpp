@@ -41,6 +41,14 @@ std::mutex& factory_mutex() {
   return m;
 }
 
+/// The name Fast DDS gets: it keeps at most 255 characters of a participant's name, and a
+/// participant whose name it cut there was never discovered by its peers (integration test
+/// AParticipantWithAVeryLongNameIsDiscovered). Long names are cut well below that.
+std::string name_for_fast_dds(const std::string& name) {
+  constexpr std::size_t kMaxName = 200;
+  return name.size() <= kMaxName ? name : name.substr(0, kMaxName - 3) + "...";
+}
+
 /// A UDPv4 locator; port 0 = automatic (expands to the well-known participant ports).
 eprosima::fastrtps::rtps::Locator_t udp_locator(const std::string& address, std::uint16_t port = 0) {
   eprosima::fastrtps::rtps::Locator_t loc;
@@ -235,7 +243,6 @@ Participant::Participant(const ParticipantOptions& options)
       if (factory->get_participant_qos_from_profile(kProfileName, qos) != ReturnCode_t::RETCODE_OK) {
         qos = factory->get_default_participant_qos();
       }
-      qos.name(name_);
     } else if (options.discovery_server && options.serve_discovery) {
       qos = discovery_server_qos(name_, *options.discovery_server);
     } else if (options.discovery_server) {
@@ -250,6 +257,7 @@ Participant::Participant(const ParticipantOptions& options)
     slot_ = ParticipantSlot::claim(domain_);
     if (slot_) qos.wire_protocol().participant_id = slot_->id();
   }
+  qos.name(name_for_fast_dds(name_));
   std::optional<SecurityFiles> security;
   if (options.security) {
     security = security_files(options.security->dir, options.security->role);

@@ -19,7 +19,13 @@ namespace wire = netkf::wire;
 
 std::string describe_sensor_ids(const std::vector<int>& ids) {
   std::string text;
-  for (int id : ids) text += (text.empty() ? "" : ",") + std::to_string(id);
+  for (std::size_t i = 0; i < ids.size();) {
+    std::size_t last = i;
+    while (last + 1 < ids.size() && ids[last + 1] == ids[last] + 1) ++last;
+    text += (text.empty() ? "" : ",") + std::to_string(ids[i]);
+    if (last > i) text += (last == i + 1 ? "," : "-") + std::to_string(ids[last]);
+    i = last + 1;
+  }
   return text;
 }
 

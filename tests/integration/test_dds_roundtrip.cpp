@@ -205,6 +205,24 @@ TEST(DdsParticipant, DefaultQosIsLocalhostOnly) {
   EXPECT_TRUE(attrs.wire_protocol().builtin.metatrafficMulticastLocatorList.empty());
 }
 
+// A grouped sensor process was named after all its sensors ("netkf-sensor-129,130,...,192",
+// 268 characters): Fast DDS keeps 255 of a participant's name, and a peer then drops that
+// participant's announcement, so nothing of it was ever discovered (256 sensors in four
+// processes: the plant waited for sensors 129-256 in vain).
+TEST(DdsParticipant, AParticipantWithAVeryLongNameIsDiscovered) {
+  std::string name = "netkf-sensor-";
+  for (int id = 129; id <= 192; ++id) name += std::to_string(id) + (id < 192 ? "," : "");
+  ASSERT_GT(name.size(), 255u);
+  dds::Participant a(options(name)), b(options("short"));
+  dds::Writer<wire::Measurement> writer(a, dds::topics::raw_measurement);
+  Inbox<wire::Measurement> inbox;
+  dds::Reader<wire::Measurement> reader(b, dds::topics::raw_measurement, inbox.callback());
+  ASSERT_TRUE(writer.wait_for_matched(1, 10s)) << "the long-named participant was never discovered";
+  ASSERT_TRUE(writer.write(dds::make_measurement(129, 1, 0, netkf::Vector{{1.0}})));
+  EXPECT_TRUE(inbox.wait_for(1, 10s));
+  EXPECT_LE(std::string(a.get()->get_qos().name().c_str()).size(), 255u);
+}
+
 TEST(DdsParticipant, ShippedLocalhostProfileDiscovers) {
   auto o = options("profile-a");
   o.profile_file = netkf::test::source_dir() / "deploy/dds/localhost.xml";

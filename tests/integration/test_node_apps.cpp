@@ -329,3 +329,15 @@ TEST(NodeApps, ChannelAppAppliesALinkControlRequest) {
 }
 
 }  // namespace
+
+TEST(NodeApps, SensorIdsAreShownAsRunsOfConsecutiveIds) {
+  using netkf::nodes::describe_sensor_ids;
+  EXPECT_EQ(describe_sensor_ids({3}), "3");
+  EXPECT_EQ(describe_sensor_ids({1, 2}), "1,2");
+  EXPECT_EQ(describe_sensor_ids({1, 3, 5, 6, 7}), "1,3,5-7");
+  EXPECT_EQ(describe_sensor_ids({3, 3}), "3,3");  // a repeated id stays visible (the error names it)
+  EXPECT_EQ(describe_sensor_ids({7, 6, 5}), "7,6,5");
+  std::vector<int> group;
+  for (int id = 129; id <= 192; ++id) group.push_back(id);
+  EXPECT_EQ(describe_sensor_ids(group), "129-192");
+}

@@ -40,7 +40,9 @@ struct SensorAppStats {
   int raw_readers = 0;          // readers matched by the raw measurement writer (the channel)
 };
 
-/// "1,2,3": the ids as the flags, the logger's and the participant's names show them.
+/// "1-64", "1,3,5-7", "3,3": the ids in their order, runs of consecutive ids shortened, as the
+/// logger's and the participant's names show them (a group of 64 sensors listed one by one
+/// made a participant name too long for Fast DDS: see participant.cpp).
 std::string describe_sensor_ids(const std::vector<int>& ids);
 
 class SensorApp {
