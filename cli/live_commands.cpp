@@ -357,12 +357,9 @@ class RunEndWatch {
 
 /// "sensors 1,3 (pid 12 on host-a) scenario 1a2b..." for messages about another run.
 std::string describe_other_run(const dds::PresenceRecord& p, std::uint64_t our_hash) {
-  char text[96];
-  if (p.scenario_hash != our_hash)
-    std::snprintf(text, sizeof text, " loaded another scenario (hash %016llx; this launch's %016llx)",
-                  static_cast<unsigned long long>(p.scenario_hash), static_cast<unsigned long long>(our_hash));
-  else
-    std::snprintf(text, sizeof text, " belongs to run %016llx", static_cast<unsigned long long>(p.run));
+  if (p.scenario_hash != our_hash) return p.who() + " " + p.other_scenario_text(our_hash, "this launch");
+  char text[48];
+  std::snprintf(text, sizeof text, " belongs to run %016llx", static_cast<unsigned long long>(p.run));
   return p.who() + text;
 }
 

@@ -100,6 +100,13 @@ std::vector<PresenceRecord> PresenceWatcher::processes() const {
   return records;
 }
 
+std::string PresenceRecord::other_scenario_text(std::uint64_t our_hash, const std::string& ours) const {
+  char text[160];
+  std::snprintf(text, sizeof text, "loaded another scenario (hash %016llx; %s's %016llx)",
+                static_cast<unsigned long long>(scenario_hash), ours.c_str(), static_cast<unsigned long long>(our_hash));
+  return text;
+}
+
 namespace {
 bool same_run(const PresenceRecord& p, std::uint64_t run) { return p.run == run || p.run == 0 || run == 0; }
 }  // namespace
@@ -112,10 +119,8 @@ Readiness assess_readiness(const std::vector<PresenceRecord>& processes, const s
   for (const auto& p : processes) {
     if (!p.running() || !same_run(p, run)) continue;
     if (p.scenario_hash != 0 && hash != 0 && p.scenario_hash != hash && !r.conflict) {
-      char text[160];
-      std::snprintf(text, sizeof text, "loaded another scenario (hash %016llx; this process's %016llx)",
-                    static_cast<unsigned long long>(p.scenario_hash), static_cast<unsigned long long>(hash));
-      r.conflict = p.who() + " " + text + ": every host must run the same scenario file";
+      r.conflict = p.who() + " " + p.other_scenario_text(hash, "this process") +
+                   ": every host must run the same scenario file";
       continue;
     }
     if (p.role == presence_role::sensors) sensors_present.insert(p.sensor_ids.begin(), p.sensor_ids.end());

@@ -44,6 +44,9 @@ struct PresenceRecord {
   std::string who() const;
   /// Taking part in the run now: alive and not ended.
   bool running() const { return alive && !ended; }
+  /// "loaded another scenario (hash 1a2b…; this launch's 3c4d…)": `ours` names whose hash
+  /// `our_hash` is ("this launch", "this process").
+  std::string other_scenario_text(std::uint64_t our_hash, const std::string& ours) const;
 };
 
 /// FNV-1a (64 bit) of the scenario as loaded, written out canonically (scenario_to_yaml): the

@@ -126,8 +126,8 @@ inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true,
 // journal `--record` turns into an events file); transient-local so a late recorder has it.
 inline constexpr Topic<wire::LinkChange> link_change{"netkf/link/change", {true, true, 1024}};
 // every process of a run -> all: who takes part (role, sensors, host, pid, scenario hash, run)
-// and whether it still runs. Keyed by host and pid, transient-local with the last sample of each
-// process, so a process that joins late sees everyone (presence.hpp).
+// and whether it still runs. Keyed by host, pid and role, transient-local with the last sample
+// of each process, so a process that joins late sees everyone (presence.hpp).
 inline constexpr Topic<wire::Presence> presence{"netkf/presence", {true, true, 1, 1024}};
 }  // namespace topics
 
