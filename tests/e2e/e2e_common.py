@@ -291,56 +291,46 @@ def launch_files_dirs(launch_pid):
         return []
 
 
-def stale_participant_markers(domain):
-    """netkf's participant-id markers of `domain` (/dev/shm/netkf_participant_d<domain>_id<N>,
-    dds/include/netkf/dds/participant_slot.hpp) that no live process holds: left by a killed
-    process until a launch removes them."""
+def _unlocked(names):
+    """Those files of /dev/shm that no live process holds a lock on (the kernel drops the locks
+    of a process that dies, so such a file was left by a killed process)."""
     import fcntl
-    stale = []
-    prefix = "netkf_participant_d%d_id" % domain
-    try:
-        names = [n for n in os.listdir("/dev/shm") if n.startswith(prefix)]
-    except OSError:
-        return stale
+    free = []
     for name in names:
         try:
             with open(os.path.join("/dev/shm", name), "ab") as f:
                 try:
                     fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
                     fcntl.flock(f, fcntl.LOCK_UN)
-                    stale.append(name)
+                    free.append(name)
                 except OSError:
-                    pass  # held by a live participant
+                    pass  # held by a live process
         except OSError:
             pass
-    return stale
+    return free
+
+
+def _shm_names():
+    try:
+        return os.listdir("/dev/shm")
+    except OSError:
+        return []
+
+
+def stale_participant_markers(domain):
+    """netkf's participant-id markers of `domain` (/dev/shm/netkf_participant_d<domain>_id<N>,
+    dds/include/netkf/dds/participant_slot.hpp) that no live process holds: left by a killed
+    process until a launch removes them."""
+    prefix = "netkf_participant_d%d_id" % domain
+    return _unlocked([n for n in _shm_names() if n.startswith(prefix)])
 
 
 def zombie_shm_segments():
     """Fast DDS shared-memory segments no live process holds (what `fastdds shm clean` would
     remove), found the way the tool finds them: a segment's lock file that nobody has locked."""
-    import fcntl
-    zombies = []
-    try:
-        names = os.listdir("/dev/shm")
-    except OSError:
-        return zombies
     import re
     segment_lock = re.compile(r"^fastrtps_[0-9a-z]{16}_el$")
-    for name in names:
-        if not segment_lock.match(name):
-            continue
-        try:
-            with open(os.path.join("/dev/shm", name), "ab") as f:
-                try:
-                    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                    fcntl.flock(f, fcntl.LOCK_UN)
-                    zombies.append(name)
-                except OSError:
-                    pass  # held by a live process
-        except OSError:
-            pass
-    return zombies
+    return _unlocked([n for n in _shm_names() if segment_lock.match(n)])
 
 
 def numpy_filter_worst(rows, samples):
