@@ -1,6 +1,7 @@
 #include "live_model.hpp"
 
 #include <cmath>
+#include <cstdio>
 
 namespace netkf::cli {
 
@@ -60,6 +61,9 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   s.mean_trace_P = sum_trace_ / static_cast<double>(s.estimates);
   s.mean_trace_P_pred = sum_trace_pred_ / static_cast<double>(s.estimates);
   s.late_total = std::max(s.late_total, e.late_total);
+  window_fused_ += e.fused.size();
+  window_late_ += e.late;
+  if (++window_estimates_ == kLateWindow) check_late_share();
   for (int id : e.late_sensors)
     if (LinkView* l = link(id)) ++l->late_total;
   s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected);
@@ -95,6 +99,30 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   }
   xhat_[e.k] = e.xhat;
   score(e.k);
+}
+
+void LiveModel::check_late_share() {
+  const auto late = window_late_, arrived = window_fused_ + window_late_;
+  window_estimates_ = window_fused_ = window_late_ = 0;
+  if (arrived == 0 || snapshot_.links.empty()) return;
+  // What the links themselves make late: a sample delayed beyond the deadline (mean over links).
+  double explained = 0.0;
+  for (const auto& l : snapshot_.links) explained += 1.0 - l.in_time;
+  explained /= static_cast<double>(snapshot_.links.size());
+  const double share = static_cast<double>(late) / static_cast<double>(arrived);
+  const bool too_many = late >= 10 && share > explained + kLateExcess;
+  if (too_many && !late_warned_) {
+    char text[320];
+    std::snprintf(text, sizeof text,
+                  "%llu of %llu samples of the last %llu periods arrived after their period was fused (%.0f %%; the "
+                  "links' delays explain %.0f %%): the channel or the estimator cannot keep up with %zu sensors at "
+                  "%d ms, or deadline_ms (%d) is too short",
+                  static_cast<unsigned long long>(late), static_cast<unsigned long long>(arrived),
+                  static_cast<unsigned long long>(kLateWindow), 100.0 * share, 100.0 * explained,
+                  scenario_.sensors.size(), scenario_.period_ms, scenario_.deadline_ms());
+    raise(LiveEvent::Level::warning, text);
+  }
+  late_warned_ = too_many;
 }
 
 void LiveModel::score(std::int64_t k) {

@@ -19,6 +19,12 @@ class LiveModel {
  public:
   /// After this many estimates, a sensor the channel never heard from is reported.
   static constexpr std::uint64_t kSilentSensorCheck = 200;
+  /// Every this many estimates, the share of samples that arrived after their period was fused
+  /// is compared with the share the links' delays explain; more than kLateExcess above it (and
+  /// at least 10 samples) raises a warning: the network cannot keep up (e.g. 768 sensors at
+  /// 100 ms on two cores, BENCHMARKS.md "Sensor count limit"), or the deadline is too short.
+  static constexpr std::uint64_t kLateWindow = 100;
+  static constexpr double kLateExcess = 0.1;
 
   explicit LiveModel(Scenario scenario);
 
@@ -52,6 +58,7 @@ class LiveModel {
 
  private:
   void score(std::int64_t k);
+  void check_late_share();
   LinkView* link(int sensor_id);
 
   Scenario scenario_;
@@ -64,6 +71,9 @@ class LiveModel {
   std::uint64_t scored_ = 0;
   bool saw_non_finite_ = false;
   std::optional<std::int64_t> restart_gap_from_;  // first period after a restart, until fusion resumes
+  // The current late-share window (kLateWindow estimates) and whether the last one warned.
+  std::uint64_t window_estimates_ = 0, window_fused_ = 0, window_late_ = 0;
+  bool late_warned_ = false;
   std::map<std::uint64_t, std::string> own_requests_;  // request id -> source ("dashboard")
   std::vector<LiveEvent> events_;
 };

@@ -84,6 +84,47 @@ TEST(LiveModel, NamesSensorsThatNeverSentAnything) {
   EXPECT_EQ(events[0].text.rfind("sensors " + std::to_string(silent_id) + " have sent nothing", 0), 0u) << events[0].text;
 }
 
+// 768 sensors at 100 ms ran "ok" while most samples reached the estimator after their period
+// was fused: a late share beyond what the links' delays explain is a warning, raised once per
+// stretch of late windows and again only after a window back to normal.
+TEST(LiveModel, WarnsWhenMoreSamplesArriveLateThanTheLinksExplain) {
+  const Scenario scenario = default_scenario();  // links without delay: none explained late
+  LiveModel model(scenario);
+  model.take_events();
+  const auto run_window = [&](std::int64_t first_k, std::uint32_t late_per_period) {
+    for (std::int64_t k = first_k; k < first_k + static_cast<std::int64_t>(LiveModel::kLateWindow); ++k) {
+      auto e = estimate(k, {0.0, 0.0}, 1.0, 1.0);  // 2 fused per period
+      e.late = late_per_period;
+      model.add_estimate(e);
+    }
+    std::vector<LiveEvent> late_warnings;  // (no link status is fed: the silent-sensor error is not this test's)
+    for (auto& ev : model.take_events())
+      if (ev.text.find("arrived after their period was fused") != std::string::npos) late_warnings.push_back(ev);
+    return late_warnings;
+  };
+  EXPECT_TRUE(run_window(0, 0).empty());
+  // 20 late of 220 per window: 9 %, below 0 % + 10 %.
+  {
+    LiveModel quiet(scenario);
+    quiet.take_events();
+    for (std::int64_t k = 0; k < 100; ++k) {
+      auto e = estimate(k, {0.0, 0.0}, 1.0, 1.0);
+      e.late = k % 5 == 0 ? 1 : 0;
+      quiet.add_estimate(e);
+    }
+    EXPECT_TRUE(quiet.take_events().empty());
+  }
+  const auto events = run_window(100, 1);  // 100 late of 300: 33 %
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].level, LiveEvent::Level::warning);
+  EXPECT_EQ(events[0].text.rfind("100 of 300 samples of the last 100 periods arrived after their period was fused (33 %", 0),
+            0u)
+      << events[0].text;
+  EXPECT_TRUE(run_window(200, 3).empty()) << "still late: not repeated";
+  EXPECT_TRUE(run_window(300, 0).empty());
+  EXPECT_EQ(run_window(400, 2).size(), 1u) << "late again after a normal window: warned again";
+}
+
 TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
   LiveModel model(default_scenario());
   model.add_truth({3, 0.03, {1.0, 2.0}});
