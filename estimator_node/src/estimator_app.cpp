@@ -27,6 +27,7 @@ class EstimatorApp::Impl {
         estimate_(participant, dds::topics::estimate),
         control_(participant, dds::topics::control_input) {
     if (options.resume) {
+      resumed_ = true;
       core_.resume(*options.resume);
       spdlog::info("restart {}: resuming after period {} (Tr P = {:.4g}); the periods missed since are fused "
                    "with nothing, predicted with the inputs the plant acknowledged",
@@ -42,6 +43,18 @@ class EstimatorApp::Impl {
     schedule_status();
   }
 
+  // A restarted estimator publishes the periods it missed at once, as soon as the transient-local
+  // ticks arrive. The estimate topic is volatile: a reader that has not matched the new writer
+  // by then loses them (e2e fault_estimator once recorded 15 periods too few). So, before the
+  // first tick is handled, wait (bounded) until some reader has matched. Ticks and samples that
+  // arrive meanwhile wait in the queue and the core; nothing is lost.
+  void wait_for_estimate_readers() {
+    constexpr auto kWait = std::chrono::seconds(5);
+    if (!estimate_.wait_for_matched(1, kWait))
+      spdlog::warn("restart: no reader of {} matched within {} s; publishing anyway", estimate_.topic_name(),
+                   kWait.count());
+  }
+
   ~Impl() {
     // The readers first: no callback may run into a half-destroyed object.
     delivered_.reset();
@@ -49,6 +62,7 @@ class EstimatorApp::Impl {
   }
 
   void run() {
+    if (resumed_) wait_for_estimate_readers();
     work_.emplace(io_.get_executor());
     io_.run();
   }
@@ -210,6 +224,7 @@ class EstimatorApp::Impl {
   std::optional<std::int64_t> armed_for_;
   std::uint64_t published_ = 0;
   FilterState last_state_ = FilterState::ok;
+  bool resumed_ = false;  // restarted from a checkpoint
   dds::Writer<wire::Estimate> estimate_;
   dds::Writer<wire::ControlInput> control_;
   std::optional<dds::Reader<wire::Tick>> tick_;
