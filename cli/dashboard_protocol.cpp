@@ -140,6 +140,19 @@ std::vector<Channel> make_recording_channels() {
   change_props["request_id"] = {{"type", "integer"}};
   c.push_back({ChannelId::link_change, "netkf/link/change", "netkf.wire.LinkChange",
                schema_object(change_props, {"sensor_id", "at_period", "origin", "model"})});
+  // foxglove.Log (docs.foxglove.dev, "Log" message schema): the name Foxglove recognises.
+  json level = {{"type", "integer"}, {"enum", {0, 1, 2, 3, 4, 5}}};
+  c.push_back({ChannelId::events, "netkf/events", "foxglove.Log",
+               schema_object({{"timestamp", schema_object({{"sec", {{"type", "integer"}, {"minimum", 0}}},
+                                                           {"nsec", {{"type", "integer"}, {"minimum", 0},
+                                                                     {"maximum", 999999999}}}},
+                                                          {"sec", "nsec"})},
+                              {"level", level},
+                              {"message", {{"type", "string"}}},
+                              {"name", {{"type", "string"}}},
+                              {"file", {{"type", "string"}}},
+                              {"line", {{"type", "integer"}, {"minimum", 0}}}},
+                             {"timestamp", "level", "message", "name", "file", "line"})});
   return c;
 }
 
@@ -334,6 +347,18 @@ json link_change_message(const LinkChangeRecord& c) {
   j["origin"] = c.origin;
   j["request_id"] = c.request_id;
   return j;
+}
+
+json log_message(const LiveEvent& event, std::uint64_t time_ns) {
+  int level = 2;  // foxglove.LogLevel: INFO 2, WARNING 3, ERROR 4
+  if (event.level == LiveEvent::Level::warning) level = 3;
+  if (event.level == LiveEvent::Level::error) level = 4;
+  return json{{"timestamp", {{"sec", time_ns / 1000000000ULL}, {"nsec", time_ns % 1000000000ULL}}},
+              {"level", level},
+              {"message", event.text},
+              {"name", "netkf"},
+              {"file", ""},
+              {"line", 0}};
 }
 
 json theory_message(const TheoryView& t) {

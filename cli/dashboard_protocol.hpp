@@ -25,7 +25,7 @@ inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
 /// The channels every connection is offered (ids are fixed: a reconnecting client may cache them).
 enum class ChannelId : std::uint32_t { scenario = 1, estimate = 2, truth = 3, link_status = 4, theory = 5, network = 6,
   // Recordings only (netkf launch --record FILE.mcap), not offered by the dashboard:
-  delivered = 7, link_change = 8 };
+  delivered = 7, link_change = 8, events = 9 };
 
 struct Channel {
   ChannelId id;
@@ -58,6 +58,9 @@ nlohmann::json link_status_message(const LinkView& link);
 /// link after the change, keys as in link_status_message).
 nlohmann::json delivered_message(const DeliveredRecord& sample);
 nlohmann::json link_change_message(const LinkChangeRecord& change);
+/// Recordings: an event of the live model (the dashboard's event log) as Foxglove's
+/// well-known foxglove.Log, so Foxglove's Log panel lists it; `time_ns` on the run's clock.
+nlohmann::json log_message(const LiveEvent& event, std::uint64_t time_ns);
 nlohmann::json theory_message(const TheoryView& theory);
 nlohmann::json network_message(const LiveSnapshot& snapshot);
 

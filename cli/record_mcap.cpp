@@ -38,6 +38,7 @@ McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool wit
   if (with_delivered_) delivered_ = add_channel(writer_, ChannelId::delivered);
   link_status_ = add_channel(writer_, ChannelId::link_status);
   link_change_ = add_channel(writer_, ChannelId::link_change);
+  events_ = add_channel(writer_, ChannelId::events);
 }
 
 std::uint64_t McapRecorder::period_time_ns(std::int64_t k) const {
@@ -50,6 +51,13 @@ void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std
   writer_.add_message(channel, time_ns, time_ns, json);
 }
 
+void McapRecorder::write_events() {
+  for (const auto& event : model_.take_events()) {
+    write(events_, latest_ns_, dashboard::log_message(event, latest_ns_).dump());
+    ++events_written_;
+  }
+}
+
 void McapRecorder::truth(const TruthRecord& t) {
   if (finished()) return;
   model_.add_truth(t);
@@ -60,10 +68,10 @@ void McapRecorder::truth(const TruthRecord& t) {
 void McapRecorder::estimate(const EstimateRecord& e) {
   if (finished()) return;
   model_.add_estimate(e);  // counts late samples per link for the link status messages
-  model_.take_events();
   note_time(e.t);
   write(estimate_, seconds_to_ns(e.t), dashboard::estimate_message(e).dump());
   ++estimates_;
+  write_events();
 }
 
 void McapRecorder::delivered(const DeliveredRecord& d) {
@@ -74,7 +82,7 @@ void McapRecorder::delivered(const DeliveredRecord& d) {
 void McapRecorder::link_status(const LinkStatusRecord& l) {
   if (finished()) return;
   model_.add_link_status(l);
-  model_.take_events();
+  write_events();
   for (const auto& view : model_.snapshot().links)
     if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, dashboard::link_status_message(view).dump());
 }
@@ -84,6 +92,8 @@ void McapRecorder::link_change(const LinkChangeRecord& c) {
   std::string json = dashboard::link_change_message(c).dump();
   if (!changes_seen_.insert(json).second) return;
   write(link_change_, period_time_ns(c.at_period), json);
+  model_.add_link_change(c);  // a timeline step is an event too
+  write_events();
 }
 
 }  // namespace netkf::cli

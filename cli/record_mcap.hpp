@@ -10,6 +10,9 @@
 //   netkf/measurement/delivered       k * period of the sample's period (its stamp is in the message)
 //   netkf/link/change                 at_period * period (the first period the link applied to)
 //   netkf/link/status                 t of the newest truth or estimate recorded (0 before)
+//   netkf/events                      likewise: the events the records raise in the live model
+//                                     (link changes, refusals, estimator restarts, silent
+//                                     sensors), as foxglove.Log for Foxglove's Log panel
 // Records are written as they arrive, so log times are not strictly ordered across channels.
 #include <cstdint>
 #include <ostream>
@@ -43,19 +46,22 @@ class McapRecorder {
 
   std::uint64_t estimates() const { return estimates_; }
   std::uint64_t messages() const { return writer_.messages(); }
+  std::uint64_t events() const { return events_written_; }
 
  private:
   std::uint64_t period_time_ns(std::int64_t k) const;
   void note_time(double t);
   void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json);
+  void write_events();
 
   McapWriter writer_;
   LiveModel model_;  // the link views the dashboard sends (late counts, arrival rates)
   double period_s_;
   bool with_delivered_;
-  std::uint16_t truth_ = 0, estimate_ = 0, delivered_ = 0, link_status_ = 0, link_change_ = 0;
+  std::uint16_t truth_ = 0, estimate_ = 0, delivered_ = 0, link_status_ = 0, link_change_ = 0, events_ = 0;
   std::uint64_t latest_ns_ = 0;
   std::uint64_t estimates_ = 0;
+  std::uint64_t events_written_ = 0;
   std::set<std::string> changes_seen_;  // the journal is transient-local: a late reader gets repeats
 };
 

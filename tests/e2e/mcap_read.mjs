@@ -2,7 +2,8 @@
 // library Foxglove uses) and prints one JSON object on stdout:
 //   { complete, header, channels: [{id, topic, schemaName, schemaEncoding, messageEncoding,
 //     schemaIsJson}], counts: {topic: n}, estimates: [{k, t, x_hat, trace_P, log_time}],
-//     link_status: [first few messages], link_change: [...], problems: [...] }
+//     link_status: [first few messages], link_change: [...], events: [{level, message,
+//     timestamp, log_time}], problems: [...] }
 // `complete` is true when the file ends with a valid Footer and magic (a stopped recording);
 // without it (a killed one) the reader still returns every whole record before the end.
 // Used by tests/e2e/test_mcap.py.  Usage: node mcap_read.mjs FILE.mcap
@@ -28,6 +29,7 @@ const out = {
   estimates: [],
   link_status: [],
   link_change: [],
+  events: [],
   delivered_first: [],
   records: 0,
   problems: [],
@@ -84,6 +86,7 @@ try {
           out.estimates.push({ k: m.k, t: m.t, x_hat: m.x_hat, trace_P: m.trace_P, log_time: record.logTime.toString() });
         else if (c.topic === "netkf/link/status" && out.link_status.length < 20) out.link_status.push(m);
         else if (c.topic === "netkf/link/change") out.link_change.push(m);
+        else if (c.topic === "netkf/events") out.events.push({ ...m, log_time: record.logTime.toString() });
         else if (c.topic === "netkf/measurement/delivered" && out.delivered_first.length < 5) out.delivered_first.push(m);
         break;
       }

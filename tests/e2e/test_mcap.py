@@ -8,6 +8,8 @@ and is stopped by SIGTERM; `netkf record --out same.csv` records the same networ
 - the file is complete (Footer and closing magic) after a SIGTERM stop;
 - the channels are the DDS topics, JSON messages, jsonschema schemas; link status and the
   link change made with `netkf ctl set-link` are in it, delivered samples too;
+- netkf/events holds the run's events as Foxglove's foxglove.Log: the ctl change once, at
+  INFO, no earlier on the run's clock than the period the channel applied it from;
 - every period of same.csv is in run.mcap with the same x̂ (the exact double) and Tr P;
 - the attached MCAP recorder's estimates equal the launch's for the periods both have;
 - a file cut mid-record (what kill -9 leaves) is still read up to its last whole record.
@@ -23,6 +25,7 @@ from e2e_common import DATA, Launch, NETKF, check, node, finish, netkf, read_per
 require_netns()
 scenario = os.path.join(DATA, "bernoulli3.yaml")  # three links, Bernoulli loss 0.3, period 40 ms, n = 2
 N = 2
+PERIOD_MS = 40  # bernoulli3.yaml's period
 out = workdir("mcap")
 
 
@@ -72,7 +75,7 @@ check(m.get("complete") is True, "run.mcap: complete after SIGTERM (Footer and c
 check(m.get("header") == {"profile": "", "library": "netkf"}, "run.mcap: header profile '' library 'netkf'")
 topics = [c["topic"] for c in m.get("channels", [])]
 check(topics == ["netkf/truth", "netkf/estimate", "netkf/measurement/delivered", "netkf/link/status",
-                 "netkf/link/change"], "run.mcap: channels are the DDS topics (%s)" % topics)
+                 "netkf/link/change", "netkf/events"], "run.mcap: channels are the DDS topics and the events (%s)" % topics)
 for c in m.get("channels", []):
     check(c["messageEncoding"] == "json" and c["schemaEncoding"] == "jsonschema" and c["schemaIsJson"]
           and c["schemaName"], "%s: JSON messages, a jsonschema schema (%s)" % (c["topic"], c["schemaName"]))
@@ -86,6 +89,20 @@ check({s.get("sensor_id") for s in m.get("link_status", [])} >= {1}, "link statu
 changes = [c for c in m.get("link_change", []) if c.get("origin") == "request" and c.get("sensor_id") == 1]
 check(len(changes) == 1 and abs(changes[0].get("loss", -1) - 0.2) < 1e-12,
       "run.mcap: the ctl change of link 1 is in netkf/link/change (%s)" % m.get("link_change"))
+# The events as Foxglove's well-known foxglove.Log: the change, announced when the channel's
+# status answered it, at a time on the run's clock no earlier than the period it applied from.
+event_channel = [c for c in m.get("channels", []) if c["topic"] == "netkf/events"]
+check(bool(event_channel) and event_channel[0]["schemaName"] == "foxglove.Log",
+      "run.mcap: netkf/events has Foxglove's foxglove.Log schema (%s)" % event_channel)
+link_events = [e for e in m.get("events", []) if "link 1" in e.get("message", "") and "loss=0.2" in e["message"]]
+check(len(link_events) == 1 and link_events[0].get("level") == 2,
+      "run.mcap: one INFO event announces link 1's change (%s)" % m.get("events"))
+if link_events and changes:
+    ev = link_events[0]
+    ev_ns = ev["timestamp"]["sec"] * 1000000000 + ev["timestamp"]["nsec"]
+    check(ev_ns == int(ev["log_time"]) and ev_ns >= changes[0]["at_period"] * PERIOD_MS * 1000000,
+          "the event's timestamp is its log time, not before the change's period (%d ns, period %d)"
+          % (ev_ns, changes[0]["at_period"]))
 
 est = {}
 for e in m.get("estimates", []):
@@ -103,7 +120,7 @@ check(not diff, "x̂ and Tr P are the same doubles in run.mcap and same.csv (dif
 a = mcap_read(attached_mcap)
 check(a.get("complete") is True and a.get("problems") == [], "attached.mcap (netkf record --out): complete, no problem")
 check([c["topic"] for c in a.get("channels", [])] == ["netkf/truth", "netkf/estimate", "netkf/link/status",
-                                                      "netkf/link/change"],
+                                                      "netkf/link/change", "netkf/events"],
       "attached.mcap: no delivered channel without --samples")
 a_est = {e["k"]: e for e in a.get("estimates", [])}
 check(len(a_est) >= 50, "attached.mcap: at least 50 estimates (%d)" % len(a_est))

@@ -167,6 +167,10 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
     l.sensor_id = scenario.sensors[0].id;
     l.link = scenario.sensors[0].link;
     r.link_status(l);
+    LinkStatusRecord changed = l;  // the channel answers request 9: an event, then the status
+    changed.last_request_id = 9;
+    changed.link.loss = BernoulliLink{0.5};
+    r.link_status(changed);
     LinkChangeRecord c;
     c.sensor_id = 1;
     c.at_period = 2;
@@ -175,18 +179,26 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
     c.link = scenario.sensors[0].link;
     r.link_change(c);
     r.link_change(c);  // a transient-local repeat: written once
+    LinkChangeRecord step = c;  // a timeline step: the change and its event
+    step.origin = "timeline";
+    step.at_period = 4;
+    step.request_id = 0;
+    r.link_change(step);
     r.finish();
     EXPECT_EQ(r.estimates(), 1u);
-    EXPECT_EQ(r.messages(), 5u);
+    EXPECT_EQ(r.events(), 2u);
+    EXPECT_EQ(r.messages(), 9u);
   }
   const auto recs = records(out.str());
   std::vector<std::string> topics;
+  std::vector<std::string> schema_names;
   std::vector<nlohmann::json> messages;
+  std::vector<std::uint16_t> message_channels;
   std::vector<std::uint64_t> log_times;
   for (const auto& rec : recs) {
     if (rec.opcode == McapWriter::kSchema) {
       std::size_t at = 2;
-      string_at(rec.content, at);  // name
+      schema_names.push_back(string_at(rec.content, at));
       EXPECT_EQ(string_at(rec.content, at), "jsonschema");
       EXPECT_EQ(nlohmann::json::parse(string_at(rec.content, at))["type"], "object");
     } else if (rec.opcode == McapWriter::kChannel) {
@@ -195,23 +207,39 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
       EXPECT_EQ(string_at(rec.content, at), "json");
     } else if (rec.opcode == McapWriter::kMessage) {
       messages.push_back(nlohmann::json::parse(rec.content.substr(22)));
+      message_channels.push_back(static_cast<std::uint16_t>(static_cast<unsigned char>(rec.content[0]) |
+                                                            (static_cast<unsigned char>(rec.content[1]) << 8)));
       std::uint64_t t = 0;
       for (int i = 7; i >= 0; --i) t = (t << 8) | static_cast<unsigned char>(rec.content[6 + i]);
       log_times.push_back(t);
     }
   }
   EXPECT_EQ(topics, (std::vector<std::string>{"netkf/truth", "netkf/estimate", "netkf/measurement/delivered",
-                                              "netkf/link/status", "netkf/link/change"}));
-  ASSERT_EQ(messages.size(), 5u);
+                                              "netkf/link/status", "netkf/link/change", "netkf/events"}));
+  EXPECT_EQ(schema_names.back(), "foxglove.Log");  // Foxglove's Log panel knows it by this name
+  ASSERT_EQ(messages.size(), 9u);
   EXPECT_EQ(messages[1]["k"], 3);
   EXPECT_EQ(messages[1]["trace_P"], 1.25);
   EXPECT_EQ(messages[2]["sensor_id"], 1);
   EXPECT_EQ(messages[3]["sensor_id"], scenario.sensors[0].id);
-  EXPECT_EQ(messages[4]["at_period"], 2);
-  EXPECT_EQ(messages[4]["origin"], "request");
+  // The answered request: foxglove.Log INFO (2) at the newest record's time, then the status.
+  const std::uint16_t events_channel = message_channels[4];
+  EXPECT_NE(events_channel, message_channels[3]);
+  EXPECT_EQ(messages[4]["level"], 2);
+  EXPECT_NE(messages[4]["message"].get<std::string>().find("loss=0.5"), std::string::npos) << messages[4];
+  EXPECT_EQ(messages[4]["timestamp"]["sec"], 3 * scenario.period_ms / 1000);
+  EXPECT_EQ(messages[4]["timestamp"]["nsec"], (3 * scenario.period_ms % 1000) * 1000000);
+  EXPECT_EQ(messages[5]["loss"], 0.5);
+  EXPECT_EQ(messages[6]["at_period"], 2);
+  EXPECT_EQ(messages[6]["origin"], "request");
+  EXPECT_EQ(messages[7]["origin"], "timeline");
+  EXPECT_EQ(message_channels[8], events_channel);
+  EXPECT_NE(messages[8]["message"].get<std::string>().find("timeline: link 1 from period 4"), std::string::npos)
+      << messages[8];
   const std::uint64_t period_ns = static_cast<std::uint64_t>(scenario.period_ms) * 1000000ULL;
   EXPECT_EQ(log_times, (std::vector<std::uint64_t>{3 * period_ns, 3 * period_ns, 3 * period_ns, 3 * period_ns,
-                                                   2 * period_ns}));
+                                                   3 * period_ns, 3 * period_ns, 2 * period_ns, 4 * period_ns,
+                                                   3 * period_ns}));
   EXPECT_EQ(recs.back().opcode, McapWriter::kFooter);
 }
 
