@@ -1,14 +1,21 @@
 #include "live_status.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <sstream>
+#include <vector>
 
 #include "netkf/analysis/report.hpp"
 
 namespace netkf::cli {
 
 namespace {
+
+// Up to this many links (and fused ids) the status lists every one; above, a shortlist.
+constexpr std::size_t kStatusLinksListed = 16;
+constexpr std::size_t kStatusLinksShortlist = 8;
 
 // Short numbers for the status view: 4 significant digits, or 3 decimals for rates.
 std::string fmt(double v, bool fixed3 = false) {
@@ -58,8 +65,12 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
         << "  Tr P_k|k-1=" << fmt(p.trace_P_pred) << " (mean " << fmt(s.mean_trace_P_pred) << ")";
     if (s.error_norm) out << "  |x-x̂|=" << fmt(*s.error_norm) << " (rms " << fmt(*s.rms_error) << ")";
     out << "  fused=";
-    for (std::size_t i = 0; i < p.fused.size(); ++i) out << (i ? ";" : "") << p.fused[i];
-    if (p.fused.empty()) out << "-";
+    if (p.fused.size() > kStatusLinksListed) {  // 512 ids would fill the terminal every second
+      out << p.fused.size() << "/" << s.links.size();
+    } else {
+      for (std::size_t i = 0; i < p.fused.size(); ++i) out << (i ? ";" : "") << p.fused[i];
+      if (p.fused.empty()) out << "-";
+    }
     out << "  late=" << s.late_total << " rejected=" << s.rejected_total;
     if (s.estimator_restarts)
       out << "  estimator restarts=" << s.estimator_restarts << " (" << s.restart_gap_periods << " periods open-loop)";
@@ -69,16 +80,55 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   }
   // Per link: configured (effective: (1 − loss) · P(delay <= deadline)) and observed arrival rate.
   // late: the share of the link's delivered samples that came after their period was fused.
-  out << "  link   λ cfg   λ obs    late  configured\n";
-  for (const auto& l : s.links) {
+  // A large network shows the links furthest below their configured rate (no rate yet counts
+  // as furthest) and one line over all; `netkf ctl status` and the dashboard list every link.
+  std::vector<const LinkView*> shown;
+  for (const auto& l : s.links) shown.push_back(&l);
+  const auto shortfall = [](const LinkView* l) {
+    return l->observed_arrival_rate ? l->configured_arrival_rate - *l->observed_arrival_rate
+                                    : std::numeric_limits<double>::infinity();
+  };
+  if (shown.size() > kStatusLinksListed) {
+    std::stable_sort(shown.begin(), shown.end(),
+                     [&](const LinkView* a, const LinkView* b) { return shortfall(a) > shortfall(b); });
+    shown.resize(kStatusLinksShortlist);
+  }
+  out << "  link   λ cfg   λ obs    late  configured";
+  if (shown.size() < s.links.size())
+    out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
+  out << "\n";
+  for (const LinkView* l : shown) {
     char line[256];
     const std::string late =
-        l.delivered_total > 0 ? fmt(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total), true)
-                              : std::string("-");
-    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l.sensor_id, l.configured_arrival_rate,
-                  l.observed_arrival_rate ? fmt(*l.observed_arrival_rate, true).c_str() : "-", late.c_str(),
-                  describe_link(l.link).c_str());
+        l->delivered_total > 0 ? fmt(static_cast<double>(l->late_total) / static_cast<double>(l->delivered_total), true)
+                               : std::string("-");
+    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l->sensor_id, l->configured_arrival_rate,
+                  l->observed_arrival_rate ? fmt(*l->observed_arrival_rate, true).c_str() : "-", late.c_str(),
+                  describe_link(l->link).c_str());
     out << line;
+  }
+  if (shown.size() < s.links.size()) {
+    double observed_sum = 0.0, observed_min = std::numeric_limits<double>::infinity();
+    std::size_t observed = 0, without_rate = 0;
+    std::uint64_t late_total = 0, delivered_total = 0;
+    for (const auto& l : s.links) {
+      late_total += l.late_total;
+      delivered_total += l.delivered_total;
+      if (!l.observed_arrival_rate) {
+        ++without_rate;
+        continue;
+      }
+      ++observed;
+      observed_sum += *l.observed_arrival_rate;
+      observed_min = std::min(observed_min, *l.observed_arrival_rate);
+    }
+    out << "  all " << s.links.size() << " links: λ obs mean "
+        << (observed ? fmt(observed_sum / static_cast<double>(observed), true) : std::string("-")) << ", min "
+        << (observed ? fmt(observed_min, true) : std::string("-")) << "; late "
+        << (delivered_total ? fmt(static_cast<double>(late_total) / static_cast<double>(delivered_total), true)
+                            : std::string("-"));
+    if (without_rate) out << "; " << without_rate << " without a rate yet";
+    out << "\n";
   }
   if (!s.theory.ready) {
     out << "  theory: pending (being computed)\n";

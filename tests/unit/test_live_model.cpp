@@ -287,6 +287,43 @@ TEST(LiveStatusText, ShowsBothCovariancesAndTheBoundsOnThePrediction) {
   EXPECT_NE(screen.find("an event"), std::string::npos);
 }
 
+// A large network: the status counts the fused sensors and lists the links furthest below
+// their configured rate, plus one line over all, instead of 40 ids and 40 rows a second.
+TEST(LiveStatusText, ALargeNetworkShowsTheLinksFurthestBelowTheirRate) {
+  Scenario s = default_scenario();
+  const SensorSpec first = s.sensors[0];
+  s.sensors.clear();
+  for (int id = 1; id <= 40; ++id) {
+    SensorSpec sensor = first;
+    sensor.id = id;
+    sensor.link = BernoulliLink{0.1};
+    s.sensors.push_back(sensor);
+  }
+  LiveModel model(s);
+  EstimateRecord e = estimate(3, {1.0, 5.0}, 0.5, 0.9);
+  e.fused.clear();
+  for (int id = 1; id <= 36; ++id) e.fused.push_back(id);
+  model.add_estimate(e);
+  // Observed rates 0.9 everywhere but link 17 (0.5) and link 33 (0.8); link 40 not reported.
+  for (int id = 1; id <= 39; ++id)
+    model.add_link_status(link_status(id, BernoulliLink{0.1}, 100, id == 17 ? 50 : id == 33 ? 80 : 90));
+  const std::string text = render_status(model.snapshot(), false);
+  EXPECT_NE(text.find("fused=36/40 "), std::string::npos) << text;
+  EXPECT_NE(text.find("(8 of 40 links: those furthest below their rate)"), std::string::npos) << text;
+  // Order: no rate yet (40), then 17 (0.9 - 0.5), then 33 (0.9 - 0.8), then equal ones by id.
+  const auto row = [&](int id) { return text.find("\n  " + std::to_string(id) + " "); };
+  ASSERT_NE(row(40), std::string::npos) << text;
+  ASSERT_NE(row(17), std::string::npos) << text;
+  ASSERT_NE(row(33), std::string::npos) << text;
+  EXPECT_LT(row(40), row(17));
+  EXPECT_LT(row(17), row(33));
+  EXPECT_EQ(row(25), std::string::npos) << text;  // one of the 34 on target: not listed
+  // Mean over the 39 reported: (37 * 0.9 + 0.5 + 0.8) / 39 = 0.8872 (printed 0.887).
+  EXPECT_NE(text.find("all 40 links: λ obs mean 0.887, min 0.500; late 0.000; 1 without a rate yet"),
+            std::string::npos)
+      << text;
+}
+
 /// The value of one sample line of the text exposition ("name{labels} value").
 double metric(const std::string& text, const std::string& series) {
   const auto at = text.find("\n" + series + " ");
