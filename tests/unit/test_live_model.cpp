@@ -322,6 +322,13 @@ TEST(LiveStatusText, ALargeNetworkShowsTheLinksFurthestBelowTheirRate) {
   EXPECT_NE(text.find("all 40 links: λ obs mean 0.887, min 0.500; late 0.000; 1 without a rate yet"),
             std::string::npos)
       << text;
+  // The theory has no answer for 40 sensors: the status says why, not only "unknown".
+  TheoryRequest r;
+  r.configured = model.configured_scenario();
+  model.set_theory(compute_theory(r));
+  const std::string with_theory = render_status(model.snapshot(), false);
+  EXPECT_NE(with_theory.find("stable=unknown"), std::string::npos) << with_theory;
+  EXPECT_NE(with_theory.find("(theory unavailable: "), std::string::npos) << with_theory;
 }
 
 /// The value of one sample line of the text exposition ("name{labels} value").
