@@ -18,7 +18,7 @@ with Launch(os.path.join(DATA, "kill.yaml"), 16, out, extra=["--sensors-per-proc
     check(wait_for(lambda: last_period(run.record) >= 100, 60), "the run reaches period 100")
     pid = run.child_pids().get("channel_emulator")
     check(pid is not None, "launch wrote the channel's pid")
-    stopped_at = killed_at = None
+    stopped_at = stopped_until = killed_at = None
     if pid:
         stopped_at = last_period(run.record)
         os.kill(pid, signal.SIGSTOP)
@@ -38,11 +38,16 @@ rows = read_periods(os.path.join(out, "periods.csv"), 2)
 check(len(rows) >= 400, "at least 400 periods recorded (got %d)" % len(rows))
 check(bool(rows) and rows[0]["k"] == 0 and contiguous(rows), "an estimate for every period, no gap (%d rows)" % len(rows))
 check(all_finite(rows), "no NaN/Inf")
-# Each fault leaves a run of periods fused with nothing (open-loop); fusion resumes after each.
+# Each fault leaves periods fused with nothing (open-loop); fusion resumes after each.
 # With three links of loss 0.1, three empty periods in a row happen by chance with probability
 # 1e-9, so a run of >= 3 is an outage. The record lags the estimator by a few periods: an
 # outage belongs to a fault when it starts at most 10 periods before the period recorded when
-# the fault was made.
+# the fault was made. Recovery: every outage of a fault has ended within RECOVERY periods of
+# the fault's end (SIGCONT; the kill), and none starts later. A restarted channel may stall
+# once more shortly after it first delivers (a reliable sample repaired at the next heartbeat:
+# seen once, 9 + 16 periods), which the bound allows; before netkf's participant slots a
+# restarted channel took 106-122 periods (BENCHMARKS.md), which it does not.
+RECOVERY = 100  # periods (2 s at 20 ms)
 runs, current, start = [], 0, None
 for r in rows:
     if r["fused"]:
@@ -54,11 +59,15 @@ for r in rows:
             start = r["k"]
         current += 1
 print("outages (first period, periods without samples):", runs)
-print("SIGSTOP at period ~%s, kill -9 at period ~%s" % (stopped_at, killed_at))
-stop_outage = [o for o in runs if stopped_at is not None and stopped_at - 10 <= o[0] < stopped_at + 100]
-kill_outage = [o for o in runs if killed_at is not None and killed_at - 10 <= o[0]]
-check(len(stop_outage) == 1, "one outage after SIGSTOP, then fusion again (%s)" % stop_outage)
-check(len(kill_outage) == 1, "one outage after kill -9, then fusion again once the channel is restarted (%s)" % kill_outage)
+print("SIGSTOP at period ~%s, SIGCONT at ~%s, kill -9 at period ~%s" % (stopped_at, stopped_until, killed_at))
+if stopped_at is not None and killed_at is not None:
+    stop_outages = [o for o in runs if stopped_at - 10 <= o[0] < killed_at - 10]
+    kill_outages = [o for o in runs if killed_at - 10 <= o[0]]
+    check(bool(stop_outages) and all(o[0] + o[1] <= stopped_until + RECOVERY for o in stop_outages),
+          "SIGSTOP: an outage, fusion again within %d periods of SIGCONT (%s)" % (RECOVERY, stop_outages))
+    check(bool(kill_outages) and all(o[0] + o[1] <= killed_at + RECOVERY for o in kill_outages),
+          "kill -9: an outage, fusion again within %d periods once the channel is restarted (%s)"
+          % (RECOVERY, kill_outages))
 late = sum(r["late"] for r in rows)
 check(late > 0, "the samples held while the channel was stopped arrived late and were counted (%d)" % late)
 check(rows and rows[-1]["fused"] or any(r["fused"] for r in rows[-20:]), "fusing at the end of the run")
