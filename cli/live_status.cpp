@@ -25,6 +25,11 @@ std::string fmt(double v, bool fixed3 = false) {
   return buf;
 }
 
+// The share of delivered samples that came after their period was fused ("-" before any).
+std::string late_share_text(std::uint64_t late, std::uint64_t delivered) {
+  return delivered > 0 ? fmt(static_cast<double>(late) / static_cast<double>(delivered), true) : std::string("-");
+}
+
 void render_assessment(std::ostringstream& out, const char* label, const AssessmentView& a) {
   out << "  theory (" << label << "): stable=" << analysis::to_string(a.result.stable);
   out << "  Tr S̄=" << (a.result.lower_trace ? fmt(*a.result.lower_trace) : std::string("∞"));
@@ -90,36 +95,32 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
     return l->observed_arrival_rate ? l->configured_arrival_rate - *l->observed_arrival_rate
                                     : std::numeric_limits<double>::infinity();
   };
-  if (shown.size() > kStatusLinksListed) {
+  const bool shortlisted = shown.size() > kStatusLinksListed;
+  if (shortlisted) {
     std::stable_sort(shown.begin(), shown.end(),
                      [&](const LinkView* a, const LinkView* b) { return shortfall(a) > shortfall(b); });
     shown.resize(kStatusLinksShortlist);
   }
   out << "  link   λ cfg   λ obs    late  configured";
-  if (shown.size() < s.links.size())
+  if (shortlisted)
     out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
   out << "\n";
   for (const LinkView* l : shown) {
     char line[256];
-    const std::string late =
-        l->delivered_total > 0 ? fmt(static_cast<double>(l->late_total) / static_cast<double>(l->delivered_total), true)
-                               : std::string("-");
+    const std::string late = late_share_text(l->late_total, l->delivered_total);
     std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l->sensor_id, l->configured_arrival_rate,
                   l->observed_arrival_rate ? fmt(*l->observed_arrival_rate, true).c_str() : "-", late.c_str(),
                   describe_link(l->link).c_str());
     out << line;
   }
-  if (shown.size() < s.links.size()) {
+  if (shortlisted) {
     double observed_sum = 0.0, observed_min = std::numeric_limits<double>::infinity();
-    std::size_t observed = 0, without_rate = 0;
+    std::size_t observed = 0;
     std::uint64_t late_total = 0, delivered_total = 0;
     for (const auto& l : s.links) {
       late_total += l.late_total;
       delivered_total += l.delivered_total;
-      if (!l.observed_arrival_rate) {
-        ++without_rate;
-        continue;
-      }
+      if (!l.observed_arrival_rate) continue;
       ++observed;
       observed_sum += *l.observed_arrival_rate;
       observed_min = std::min(observed_min, *l.observed_arrival_rate);
@@ -127,8 +128,8 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
     out << "  all " << s.links.size() << " links: λ obs mean "
         << (observed ? fmt(observed_sum / static_cast<double>(observed), true) : std::string("-")) << ", min "
         << (observed ? fmt(observed_min, true) : std::string("-")) << "; late "
-        << (delivered_total ? fmt(static_cast<double>(late_total) / static_cast<double>(delivered_total), true)
-                            : std::string("-"));
+        << late_share_text(late_total, delivered_total);
+    const std::size_t without_rate = s.links.size() - observed;
     if (without_rate) out << "; " << without_rate << " without a rate yet";
     out << "\n";
   }

@@ -44,9 +44,9 @@ check(all_finite(rows), "no NaN/Inf")
 # outage belongs to a fault when it starts at most 10 periods before the period recorded when
 # the fault was made. Recovery: every outage of a fault has ended within RECOVERY periods of
 # the fault's end (SIGCONT; the kill), and none starts later. A restarted channel may stall
-# once more shortly after it first delivers (a reliable sample repaired at the next heartbeat:
-# seen once, 9 + 16 periods), which the bound allows; before netkf's participant slots a
-# restarted channel took 106-122 periods (BENCHMARKS.md), which it does not.
+# once more shortly after it first delivers, which the bound allows; a restart that takes the
+# killed channel's shared-memory port (what participant slots prevent) does not
+# (BENCHMARKS.md, "A restarted process and shared memory").
 RECOVERY = 100  # periods (2 s at 20 ms)
 runs, current, start = [], 0, None
 for r in rows:
