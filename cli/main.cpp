@@ -1,9 +1,10 @@
 // netkf: launch and supervise a scenario, tune links, record, analyse, simulate.
-// Exit codes (README, "Exit codes"): 0 done, 1 failure of the run, 2 bad usage or input,
-// 3 no network answered, 4 the network refused the request.
+// Exit codes (README, "Exit codes"; cli/common/exit_code.hpp): 0 done, 1 failure of the run,
+// 2 bad usage or input, 3 no network answered, 4 the network refused the request.
 #include <iostream>
 
 #include "commands.hpp"
+#include "exit_code.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"netkf - Kalman filtering over lossy sensor networks (Fast DDS)"};
@@ -18,13 +19,16 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {
     return e.get_exit_code();  // a command's own code, its message already printed
+  } catch (const netkf::cli::CommandError& e) {
+    std::cerr << "netkf: error: " << e.what() << "\n";
+    return e.exit_status();
   } catch (const CLI::ParseError& e) {
     // --help and --version end with 0; every argument error is "bad usage", 2 (not
     // CLI11's own codes 101-127).
     return app.exit(e) == 0 ? 0 : 2;
   } catch (const std::exception& e) {
     std::cerr << "netkf: error: " << e.what() << "\n";
-    return 1;
+    return static_cast<int>(netkf::cli::ExitCode::run_failed);
   }
   return 0;
 }

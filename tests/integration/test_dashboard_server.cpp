@@ -151,16 +151,16 @@ TEST(DashboardServer, SpeaksFoxgloveAndStreamsSubscribedChannels) {
   EXPECT_EQ(c.read_json()["op"], "serverInfo");
   const json adv = c.read_json();
   EXPECT_EQ(adv["op"], "advertise");
-  EXPECT_EQ(adv["channels"].size(), dashboard::channels().size());
+  EXPECT_EQ(adv["channels"].size(), catalogue::channels().size());
   // A value published before the subscription is sent at once (latched) ...
-  f.run([&] { f.server().publish(dashboard::ChannelId::theory, json{{"k", 1}}, 5); });
+  f.run([&] { f.server().publish(catalogue::ChannelId::theory, json{{"k", 1}}, 5); });
   c.send(R"({"op":"subscribe","subscriptions":[{"id":7,"channelId":2},{"id":8,"channelId":5}]})");
   std::string frame = c.read();
   ASSERT_FALSE(c.ws.got_text());
   ASSERT_EQ(frame.substr(13), R"({"k":1})");
   EXPECT_EQ(frame[1], 8);  // subscription id 8, little-endian
   // ... and later ones in the next batch.
-  f.run([&] { f.server().publish(dashboard::ChannelId::estimate, json{{"k", 42}}, 123456789); });
+  f.run([&] { f.server().publish(catalogue::ChannelId::estimate, json{{"k", 42}}, 123456789); });
   frame = c.read();
   ASSERT_EQ(frame.size(), 13u + std::string(R"({"k":42})").size());
   EXPECT_EQ(static_cast<unsigned char>(frame[0]), 0x01);

@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "launch_files.hpp"
+#include "launch_plan.hpp"
 #include "launch_supervisor.hpp"
 #include "progress_bar.hpp"
 #include "live_status.hpp"

@@ -56,7 +56,7 @@ TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
   e.fused = {1, 3};
   e.late_total = 4;
   e.state = "ok";
-  const json j = estimate_message(e);
+  const json j = catalogue::estimate_message(e);
   for (const char* key : {"k", "t", "x_hat", "P", "fused", "late", "late_total", "rejected_total", "state", "trace_P",
                           "trace_P_pred"})
     EXPECT_TRUE(j.contains(key)) << key;
@@ -65,7 +65,7 @@ TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
   LinkView l = three_links()[0];
   l.link = BernoulliLink{1.0};
   l.mean_burst_length = std::numeric_limits<double>::infinity();
-  const json s = link_status_message(l);
+  const json s = catalogue::link_status_message(l);
   EXPECT_TRUE(s["mean_burst_length"].is_null());
   EXPECT_EQ(s["loss"], 1.0);
   EXPECT_NE(s.dump().find("\"observed_arrival_rate\":null"), std::string::npos);

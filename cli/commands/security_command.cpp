@@ -168,6 +168,65 @@ void new_key(const std::string &openssl, const fs::path &key) {
   fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
 }
 
+/// The CA (identity and permissions CA in one), the signed governance, and one identity and
+/// signed permissions document per role, in `tmp`. Returns the end of validity (UTC text).
+std::string make_pki(const std::string &openssl, const fs::path &tmp, int days_valid) {
+  const std::string days = std::to_string(days_valid);
+  // The CA: identity CA and permissions CA in one.
+  const fs::path ca = tmp / "ca";
+  new_key(openssl, ca / "key.pem");
+  run_openssl(openssl, {"req", "-new", "-x509", "-sha256", "-days", days, "-key", (ca / "key.pem").string(), "-subj",
+                        "/O=netkf/CN=netkf CA", "-set_serial", random_serial(), "-addext",
+                        "basicConstraints=critical,CA:TRUE", "-addext",
+                        "keyUsage=critical,digitalSignature,keyCertSign,cRLSign", "-out", (ca / "cert.pem").string()});
+  // digitalSignature: the CA also signs the governance and permissions (S/MIME); a CA with
+  // only keyCertSign fails their verification ("unsuitable certificate purpose").
+
+  // Governance, signed.
+  write_file(tmp / "governance.xml", dds::governance_xml());
+  sign(openssl, ca, tmp / "governance.xml", tmp / "governance.p7s");
+
+  // One identity and permissions document per role.
+  const auto now = std::chrono::system_clock::now();
+  const std::string not_before = utc_text(now - std::chrono::minutes(5));  // small clock differences
+  const std::string not_after = utc_text(now + std::chrono::hours(24) * days_valid);
+  for (const auto role : dds::all_roles()) {
+    const std::string name(dds::role_name(role));
+    const fs::path id = tmp / "identities" / name;
+    fs::create_directories(id);
+    new_key(openssl, id / "key.pem");
+    run_openssl(openssl, {"req", "-new", "-sha256", "-key", (id / "key.pem").string(), "-subj",
+                          subj_argument(dds::role_subject(role)), "-out", (id / "request.csr").string()});
+    run_openssl(openssl, {"x509", "-req", "-sha256", "-days", days, "-in", (id / "request.csr").string(), "-CA",
+                          (ca / "cert.pem").string(), "-CAkey", (ca / "key.pem").string(), "-set_serial",
+                          random_serial(), "-out", (id / "cert.pem").string()});
+    fs::remove(id / "request.csr");
+    // The subject exactly as openssl wrote it into the certificate: the
+    // permissions must name it.
+    const std::string subject = certificate_subject(openssl, id / "cert.pem");
+    const fs::path xml = tmp / "permissions" / (name + ".xml");
+    write_file(xml, dds::permissions_xml(role, subject, not_before, not_after));
+    sign(openssl, ca, xml, tmp / "permissions" / (name + ".p7s"));
+  }
+  return not_after;
+}
+
+/// What init made, and how to use it.
+void print_made(const fs::path &dir, int days, const std::string &not_after) {
+  std::cout << "netkf security: made " << dir.string() << " (valid " << days << " days, until " << not_after
+            << " UTC)\n"
+            << "  CA:          ca/cert.pem (its key ca/key.pem signs "
+               "everything; keep it private)\n"
+            << "  governance:  governance.p7s (authentication and encryption "
+               "required)\n";
+  for (const auto role : dds::all_roles()) {
+    const std::string name(dds::role_name(role));
+    std::cout << "  " << name << std::string(12 - name.size(), ' ') << " identities/" << name
+              << "/{cert,key}.pem, permissions/" << name << ".p7s\n";
+  }
+  std::cout << "Use: netkf launch --secure " << dir.string() << " (and --secure on ctl, record)\n";
+}
+
 void init(const SecurityInitOptions &o) {
   const std::string openssl = find_openssl();
   if (openssl.empty())
@@ -206,44 +265,7 @@ void init(const SecurityInitOptions &o) {
     throw InitError{1, "cannot create " + (tmp / "ca").string() + ": " + ec.message()};
   fs::create_directories(tmp / "identities");
   fs::create_directories(tmp / "permissions");
-  const std::string days = std::to_string(o.days);
-
-  // The CA: identity CA and permissions CA in one.
-  const fs::path ca = tmp / "ca";
-  new_key(openssl, ca / "key.pem");
-  run_openssl(openssl, {"req", "-new", "-x509", "-sha256", "-days", days, "-key", (ca / "key.pem").string(), "-subj",
-                        "/O=netkf/CN=netkf CA", "-set_serial", random_serial(), "-addext",
-                        "basicConstraints=critical,CA:TRUE", "-addext",
-                        "keyUsage=critical,digitalSignature,keyCertSign,cRLSign", "-out", (ca / "cert.pem").string()});
-  // digitalSignature: the CA also signs the governance and permissions (S/MIME); a CA with
-  // only keyCertSign fails their verification ("unsuitable certificate purpose").
-
-  // Governance, signed.
-  write_file(tmp / "governance.xml", dds::governance_xml());
-  sign(openssl, ca, tmp / "governance.xml", tmp / "governance.p7s");
-
-  // One identity and permissions document per role.
-  const auto now = std::chrono::system_clock::now();
-  const std::string not_before = utc_text(now - std::chrono::minutes(5));  // small clock differences
-  const std::string not_after = utc_text(now + std::chrono::hours(24) * o.days);
-  for (const auto role : dds::all_roles()) {
-    const std::string name(dds::role_name(role));
-    const fs::path id = tmp / "identities" / name;
-    fs::create_directories(id);
-    new_key(openssl, id / "key.pem");
-    run_openssl(openssl, {"req", "-new", "-sha256", "-key", (id / "key.pem").string(), "-subj",
-                          subj_argument(dds::role_subject(role)), "-out", (id / "request.csr").string()});
-    run_openssl(openssl, {"x509", "-req", "-sha256", "-days", days, "-in", (id / "request.csr").string(), "-CA",
-                          (ca / "cert.pem").string(), "-CAkey", (ca / "key.pem").string(), "-set_serial",
-                          random_serial(), "-out", (id / "cert.pem").string()});
-    fs::remove(id / "request.csr");
-    // The subject exactly as openssl wrote it into the certificate: the
-    // permissions must name it.
-    const std::string subject = certificate_subject(openssl, id / "cert.pem");
-    const fs::path xml = tmp / "permissions" / (name + ".xml");
-    write_file(xml, dds::permissions_xml(role, subject, not_before, not_after));
-    sign(openssl, ca, xml, tmp / "permissions" / (name + ".p7s"));
-  }
+  const std::string not_after = make_pki(openssl, tmp, o.days);
   // Public files readable by the group/others as usual; keys and the directory
   // stay owner-only.
   for (const auto &entry : fs::recursive_directory_iterator(tmp)) {
@@ -257,18 +279,7 @@ void init(const SecurityInitOptions &o) {
   fs::rename(tmp, dir);
   cleanup.p.clear();
 
-  std::cout << "netkf security: made " << dir.string() << " (valid " << o.days << " days, until " << not_after
-            << " UTC)\n"
-            << "  CA:          ca/cert.pem (its key ca/key.pem signs "
-               "everything; keep it private)\n"
-            << "  governance:  governance.p7s (authentication and encryption "
-               "required)\n";
-  for (const auto role : dds::all_roles()) {
-    const std::string name(dds::role_name(role));
-    std::cout << "  " << name << std::string(12 - name.size(), ' ') << " identities/" << name
-              << "/{cert,key}.pem, permissions/" << name << ".p7s\n";
-  }
-  std::cout << "Use: netkf launch --secure " << dir.string() << " (and --secure on ctl, record)\n";
+  print_made(dir, o.days, not_after);
 }
 
 }  // namespace

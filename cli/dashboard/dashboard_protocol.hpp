@@ -1,7 +1,7 @@
 #pragma once
 // The dashboard's side of the Foxglove WebSocket protocol (foxglove.websocket.v1), without
-// sockets: the channels netkf advertises and their JSON messages, the binary message-data
-// frame, the parsing of client messages, and the link parameters (link.ID.NAME) mapped to
+// sockets: the advertisement of the channel catalogue (channel_catalogue.hpp), the binary
+// message-data frame, the parsing of client messages, and the link parameters (link.ID.NAME) mapped to
 // and from link models. docs/dashboard.md is the user-facing description.
 #include <cstdint>
 #include <optional>
@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "channel_catalogue.hpp"
 #include "live_records.hpp"
 #include "live_snapshot.hpp"
 #include "netkf/scenario.hpp"
@@ -21,23 +22,6 @@
 namespace netkf::cli::dashboard {
 
 inline constexpr const char* kSubprotocol = "foxglove.websocket.v1";
-
-/// The channels every connection is offered (ids are fixed: a reconnecting client may cache them).
-enum class ChannelId : std::uint32_t { scenario = 1, estimate = 2, truth = 3, link_status = 4, theory = 5, network = 6,
-  // Recordings only (netkf launch --record FILE.mcap), not offered by the dashboard:
-  delivered = 7, link_change = 8, events = 9 };
-
-struct Channel {
-  ChannelId id;
-  std::string topic;
-  std::string schema_name;
-  nlohmann::json schema;  // JSON schema of the messages
-};
-const std::vector<Channel>& channels();
-const Channel* find_channel(std::uint32_t id);
-/// Any channel by id: the dashboard's and the recordings' own (delivered, link_change).
-/// The topic is the DDS topic the messages come from (netkf/truth, netkf/estimate, ...).
-const Channel& channel(ChannelId id);
 
 /// A malformed or unknown client message; what() is the reason sent back to the client.
 struct ProtocolError : std::runtime_error {
@@ -48,21 +32,6 @@ struct ProtocolError : std::runtime_error {
 nlohmann::json server_info(const std::string& session_id, const Scenario& scenario);
 nlohmann::json advertise();
 nlohmann::json status_message(LiveEvent::Level level, const std::string& message);
-
-// ---- channel messages
-nlohmann::json scenario_message(const Scenario& scenario);
-nlohmann::json estimate_message(const EstimateRecord& estimate);
-nlohmann::json truth_message(const TruthRecord& truth);
-nlohmann::json link_status_message(const LinkView& link);
-/// Recordings: a delivered measurement, and one entry of the channel's link journal (the
-/// link after the change, keys as in link_status_message).
-nlohmann::json delivered_message(const DeliveredRecord& sample);
-nlohmann::json link_change_message(const LinkChangeRecord& change);
-/// Recordings: an event of the live model (the dashboard's event log) as Foxglove's
-/// well-known foxglove.Log, so Foxglove's Log panel lists it; `time_ns` on the run's clock.
-nlohmann::json log_message(const LiveEvent& event, std::uint64_t time_ns);
-nlohmann::json theory_message(const TheoryView& theory);
-nlohmann::json network_message(const LiveSnapshot& snapshot);
 
 /// The binary Message Data frame: opcode 0x01, subscription id (u32 LE), timestamp in ns
 /// (u64 LE), then the payload.

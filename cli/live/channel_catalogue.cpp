@@ -1,11 +1,11 @@
-#include "dashboard_protocol.hpp"
+// The channel catalogue (channel_catalogue.hpp): schemas and messages, one per channel.
+#include "channel_catalogue.hpp"
 
 #include <cmath>
-#include <map>
 
 #include "netkf/analysis/report.hpp"
 
-namespace netkf::cli::dashboard {
+namespace netkf::cli::catalogue {
 
 using nlohmann::json;
 
@@ -42,6 +42,25 @@ json assessment_schema() {
                 {"reason", {{"type", "string"}}}}}};
 }
 
+// The link status message's properties: the link's keys and what the link did.
+json link_status_schema_properties(json status_props) {
+  for (const char* counter : {"sensor_id", "samples_in", "delivered", "dropped", "samples_total", "delivered_total",
+                              "dropped_total", "last_request_id"})
+    status_props[counter] = {{"type", "integer"}};
+  status_props["held"] = {{"type", "integer"}};
+  status_props["late_total"] = {{"type", "integer"}};
+  status_props["late_fraction"] = nullable_number();
+  status_props["stationary_loss"] = {{"type", "number"}};
+  status_props["in_time"] = {{"type", "number"}};
+  status_props["observed_loss"] = {{"type", "number"}};
+  status_props["mean_burst_length"] = nullable_number();
+  status_props["configured_arrival_rate"] = {{"type", "number"}};
+  status_props["observed_arrival_rate"] = nullable_number();
+  status_props["last_request_rejected"] = {{"type", "boolean"}};
+  status_props["reject_reason"] = {{"type", "string"}};
+  return status_props;
+}
+
 std::vector<Channel> make_channels() {
   std::vector<Channel> c;
   json link_props = link_model_schema();
@@ -73,21 +92,7 @@ std::vector<Channel> make_channels() {
   c.push_back({ChannelId::truth, "netkf/truth", "netkf.wire.Truth",
                schema_object({{"k", {{"type", "integer"}}}, {"t", {{"type", "number"}}}, {"x", number_array()}},
                              {"k", "t", "x"})});
-  json status_props = link_props;
-  for (const char* counter : {"sensor_id", "samples_in", "delivered", "dropped", "samples_total", "delivered_total",
-                              "dropped_total", "last_request_id"})
-    status_props[counter] = {{"type", "integer"}};
-  status_props["held"] = {{"type", "integer"}};
-  status_props["late_total"] = {{"type", "integer"}};
-  status_props["late_fraction"] = nullable_number();
-  status_props["stationary_loss"] = {{"type", "number"}};
-  status_props["in_time"] = {{"type", "number"}};
-  status_props["observed_loss"] = {{"type", "number"}};
-  status_props["mean_burst_length"] = nullable_number();
-  status_props["configured_arrival_rate"] = {{"type", "number"}};
-  status_props["observed_arrival_rate"] = nullable_number();
-  status_props["last_request_rejected"] = {{"type", "boolean"}};
-  status_props["reject_reason"] = {{"type", "string"}};
+  const json status_props = link_status_schema_properties(link_props);
   c.push_back({ChannelId::link_status, "netkf/link/status", "netkf.wire.LinkStatus",
                schema_object(status_props, {"sensor_id", "model", "samples_in", "delivered", "dropped"})});
   c.push_back({ChannelId::theory, "netkf/theory", "netkf.Theory",
@@ -156,6 +161,18 @@ std::vector<Channel> make_recording_channels() {
   return c;
 }
 
+
+json assessment_json(const AssessmentView& a) {
+  return json{{"arrival_rates", a.arrival_rates},
+              {"stable", analysis::to_string(a.result.stable)},
+              {"lower_trace", optional_number(a.result.lower_trace)},
+              {"upper_trace", optional_number(a.result.upper_trace)},
+              {"markov_criterion", optional_number(a.result.markov_criterion)},
+              {"reason", a.result.reason}};
+}
+
+}  // namespace
+
 // The link by its keys; a Gilbert-Elliott link also in the user's form (loss, mean_burst).
 json link_json(const LinkSpec& link) {
   json j = json::object();
@@ -172,77 +189,6 @@ json link_json(const LinkSpec& link) {
   }
   return j;
 }
-
-json assessment_json(const AssessmentView& a) {
-  return json{{"arrival_rates", a.arrival_rates},
-              {"stable", analysis::to_string(a.result.stable)},
-              {"lower_trace", optional_number(a.result.lower_trace)},
-              {"upper_trace", optional_number(a.result.upper_trace)},
-              {"markov_criterion", optional_number(a.result.markov_criterion)},
-              {"reason", a.result.reason}};
-}
-
-// ---- client message fields
-
-const json& field(const json& j, const char* name) {
-  auto it = j.find(name);
-  if (it == j.end()) throw ProtocolError(std::string("missing field '") + name + "'");
-  return *it;
-}
-
-const json& array_field(const json& j, const char* name) {
-  const json& a = field(j, name);
-  if (!a.is_array()) throw ProtocolError(std::string("'") + name + "' must be an array");
-  if (a.size() > 10000) throw ProtocolError(std::string("'") + name + "' has too many entries");
-  return a;
-}
-
-std::uint32_t u32(const json& v, const char* what) {
-  if (!v.is_number_integer() && !v.is_number_unsigned()) throw ProtocolError(std::string(what) + " must be an integer");
-  if (v.is_number_unsigned()) {
-    const auto x = v.get<std::uint64_t>();
-    if (x > 0xffffffffULL) throw ProtocolError(std::string(what) + " is out of range");
-    return static_cast<std::uint32_t>(x);
-  }
-  const auto x = v.get<std::int64_t>();
-  if (x < 0 || x > 0xffffffffLL) throw ProtocolError(std::string(what) + " is out of range");
-  return static_cast<std::uint32_t>(x);
-}
-
-std::vector<std::string> string_list(const json& j, const char* name) {
-  std::vector<std::string> out;
-  auto it = j.find(name);
-  if (it == j.end() || it->is_null()) return out;
-  if (!it->is_array()) throw ProtocolError(std::string("'") + name + "' must be an array of strings");
-  for (const auto& v : *it) {
-    if (!v.is_string()) throw ProtocolError(std::string("'") + name + "' must be an array of strings");
-    out.push_back(v.get<std::string>());
-  }
-  return out;
-}
-
-std::optional<std::string> request_id(const json& j) {
-  auto it = j.find("id");
-  if (it == j.end() || it->is_null()) return std::nullopt;
-  if (!it->is_string()) throw ProtocolError("'id' must be a string");
-  return it->get<std::string>();
-}
-
-/// "link.2.loss" -> (2, "loss"); nullopt when not of that form.
-std::optional<std::pair<int, std::string>> split_parameter_name(const std::string& name) {
-  if (name.rfind("link.", 0) != 0) return std::nullopt;
-  const auto dot = name.find('.', 5);
-  if (dot == std::string::npos || dot == 5 || dot + 1 >= name.size()) return std::nullopt;
-  const std::string id_text = name.substr(5, dot - 5);
-  if (id_text.size() > 9) return std::nullopt;
-  std::size_t i = id_text[0] == '-' ? 1 : 0;
-  if (i == id_text.size()) return std::nullopt;
-  for (; i < id_text.size(); ++i)
-    if (id_text[i] < '0' || id_text[i] > '9') return std::nullopt;
-  return std::make_pair(std::stoi(id_text), name.substr(dot + 1));
-}
-
-}  // namespace
 
 const std::vector<Channel>& channels() {
   static const std::vector<Channel> all = make_channels();
@@ -261,30 +207,6 @@ const Channel& channel(ChannelId id) {
   for (const auto& c : recording_only)
     if (c.id == id) return c;
   throw std::logic_error("no channel " + std::to_string(static_cast<std::uint32_t>(id)));
-}
-
-json server_info(const std::string& session_id, const Scenario& scenario) {
-  return json{{"op", "serverInfo"},
-              {"name", "netkf launch"},
-              {"capabilities", {"parameters", "parametersSubscribe"}},
-              {"metadata", {{"scenario", scenario.name}}},
-              {"sessionId", session_id}};
-}
-
-json advertise() {
-  json list = json::array();
-  for (const auto& c : channels())
-    list.push_back({{"id", static_cast<std::uint32_t>(c.id)},
-                    {"topic", c.topic},
-                    {"encoding", "json"},
-                    {"schemaName", c.schema_name},
-                    {"schema", c.schema.dump()},
-                    {"schemaEncoding", "jsonschema"}});
-  return json{{"op", "advertise"}, {"channels", std::move(list)}};
-}
-
-json status_message(LiveEvent::Level level, const std::string& message) {
-  return json{{"op", "status"}, {"level", static_cast<int>(level)}, {"message", message}};
 }
 
 json scenario_message(const Scenario& scenario) {
@@ -394,138 +316,4 @@ json network_message(const LiveSnapshot& s) {
               {"processes", std::move(processes)}};
 }
 
-std::string message_data_frame(std::uint32_t subscription_id, std::uint64_t timestamp_ns, std::string_view payload) {
-  std::string frame;
-  frame.reserve(13 + payload.size());
-  frame.push_back(static_cast<char>(0x01));
-  for (int i = 0; i < 4; ++i) frame.push_back(static_cast<char>((subscription_id >> (8 * i)) & 0xff));
-  for (int i = 0; i < 8; ++i) frame.push_back(static_cast<char>((timestamp_ns >> (8 * i)) & 0xff));
-  frame.append(payload);
-  return frame;
-}
-
-ClientMessage parse_client_message(std::string_view text) {
-  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) throw ProtocolError("not valid JSON");
-  if (!j.is_object()) throw ProtocolError("a message must be a JSON object");
-  const json& op_field = field(j, "op");
-  if (!op_field.is_string()) throw ProtocolError("'op' must be a string");
-  const std::string op = op_field.get<std::string>();
-  if (op == "subscribe") {
-    Subscribe s;
-    for (const auto& sub : array_field(j, "subscriptions")) {
-      if (!sub.is_object()) throw ProtocolError("each subscription must be an object");
-      s.subscriptions.emplace_back(u32(field(sub, "id"), "subscription id"),
-                                   u32(field(sub, "channelId"), "channelId"));
-    }
-    return s;
-  }
-  if (op == "unsubscribe") {
-    Unsubscribe u;
-    for (const auto& id : array_field(j, "subscriptionIds")) u.subscription_ids.push_back(u32(id, "subscription id"));
-    return u;
-  }
-  if (op == "getParameters") return GetParameters{string_list(j, "parameterNames"), request_id(j)};
-  if (op == "setParameters") {
-    SetParameters s;
-    s.id = request_id(j);
-    for (const auto& p : array_field(j, "parameters")) {
-      if (!p.is_object()) throw ProtocolError("each parameter must be an object");
-      const json& name = field(p, "name");
-      if (!name.is_string()) throw ProtocolError("a parameter's 'name' must be a string");
-      auto value = p.find("value");
-      s.parameters.emplace_back(name.get<std::string>(), value == p.end() ? json(nullptr) : *value);
-    }
-    return s;
-  }
-  if (op == "subscribeParameterUpdates") return ParameterUpdates{true, string_list(j, "parameterNames")};
-  if (op == "unsubscribeParameterUpdates") return ParameterUpdates{false, string_list(j, "parameterNames")};
-  throw ProtocolError("unsupported op '" + op.substr(0, 64) + "'");
-}
-
-json link_parameter_values(const LinkView& link, const std::optional<std::string>& id) {
-  json list = json::array();
-  const std::string prefix = "link." + std::to_string(link.sensor_id) + ".";
-  const json keys = link_json(link.link);  // named: items() refers into it
-  for (const auto& [name, value] : keys.items()) {
-    json p{{"name", prefix + name}, {"value", value}};
-    if (value.is_number()) p["type"] = "float64";
-    list.push_back(std::move(p));
-  }
-  json j{{"op", "parameterValues"}, {"parameters", std::move(list)}};
-  if (id) j["id"] = *id;
-  return j;
-}
-
-json parameter_values(const std::vector<LinkView>& links, const std::vector<std::string>& names,
-                      const std::optional<std::string>& id) {
-  json list = json::array();
-  for (const auto& link : links) {
-    json values = link_parameter_values(link, std::nullopt);  // named: the loop runs over a part of it
-    for (auto& p : values["parameters"]) {
-      const auto name = p["name"].get<std::string>();
-      bool wanted = names.empty();
-      for (const auto& n : names) wanted = wanted || n == name;
-      if (wanted) list.push_back(std::move(p));
-    }
-  }
-  json j{{"op", "parameterValues"}, {"parameters", std::move(list)}};
-  if (id) j["id"] = *id;
-  return j;
-}
-
-std::vector<LinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links) {
-  // Gather each link's requested values; refuse names that are not link parameters.
-  std::vector<LinkChange> refused;
-  std::map<int, std::map<std::string, json>> by_link;
-  for (const auto& [name, value] : request.parameters) {
-    const auto parts = split_parameter_name(name);
-    if (!parts) {
-      refused.push_back({-1, std::nullopt, {}, "unknown parameter '" + name.substr(0, 80) + "' (expected link.ID.NAME)"});
-      continue;
-    }
-    by_link[parts->first][parts->second] = value;
-  }
-  std::vector<LinkChange> out;
-  for (auto& [sensor_id, values] : by_link) {
-    LinkChange change{sensor_id, std::nullopt, {}, {}};
-    const LinkView* link = nullptr;
-    for (const auto& l : links)
-      if (l.sensor_id == sensor_id) link = &l;
-    if (!link) {
-      change.refusal = "link " + std::to_string(sensor_id) + ": unknown link (no sensor with that id)";
-      out.push_back(change);
-      continue;
-    }
-    // The values become link keys by their JSON type; the link type judges them (names,
-    // types, combinations, ranges), exactly as for a scenario file or `netkf ctl`.
-    LinkKeys keys;
-    std::string problem;
-    for (const auto& [param, value] : values) {
-      // A model equal to the link's changes nothing by itself (a panel sends it along).
-      if (param == "model" && value.is_string() && value.get<std::string>() == link_model_name(link->link.loss)) continue;
-      if (value.is_string()) {
-        keys.push_back({param, value.get<std::string>().substr(0, 64)});
-      } else if (value.is_number()) {
-        keys.push_back({param, value.get<double>()});
-      } else {
-        problem = param.substr(0, 40) + " must be a number or a name";
-        break;
-      }
-    }
-    if (problem.empty()) {
-      try {
-        change.link = apply_link_keys(link->link, keys);
-        change.keys = std::move(keys);
-      } catch (const LinkError& e) {
-        problem = e.what();
-      }
-    }
-    if (!problem.empty()) change.refusal = "link " + std::to_string(sensor_id) + ": " + problem;
-    out.push_back(std::move(change));
-  }
-  out.insert(out.end(), refused.begin(), refused.end());
-  return out;
-}
-
-}  // namespace netkf::cli::dashboard
+}  // namespace netkf::cli::catalogue

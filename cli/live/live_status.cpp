@@ -53,7 +53,7 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
     // eff λ: the arrival rate the estimator gets, (1 − loss) · P(delay <= deadline).
     const double late = l.delivered > 0 ? static_cast<double>(l.past_deadline) / static_cast<double>(l.delivered) : 0.0;
     std::snprintf(line, sizeof line, "%-6d %8.4f %8.4f %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n", l.sensor_id,
-                  l.in_time, (1.0 - stationary_loss(l.link.loss)) * l.in_time,
+                  l.in_time, l.arrival_rate(),
                   static_cast<unsigned long long>(l.samples_in), static_cast<unsigned long long>(l.delivered),
                   static_cast<unsigned long long>(l.dropped), l.observed_loss, l.mean_burst_length, late,
                   static_cast<unsigned long long>(l.held), describe_link(l.link).c_str());

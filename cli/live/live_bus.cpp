@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "netkf/dds/dds.hpp"
 
@@ -29,6 +30,78 @@ EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) 
   r.publish_stamp = ns_to_s(e.stamp_ns);
   r.last_sample_stamp = ns_to_s(e.last_sample_stamp_ns);
   return r;
+}
+
+/// A link status from the wire; throws when its link is not valid.
+LinkStatusRecord to_record(const wire::LinkStatus& w) {
+  LinkStatusRecord r;
+  r.sensor_id = w.sensor_id();
+  r.link = dds::link_of(w);  // validated
+  r.samples_in = w.samples_in();
+  r.delivered = w.delivered();
+  r.dropped = w.dropped();
+  r.observed_loss = w.observed_loss();
+  r.mean_burst_length = w.mean_burst_length();
+  r.samples_total = w.samples_total();
+  r.delivered_total = w.delivered_total();
+  r.dropped_total = w.dropped_total();
+  r.last_request_id = w.last_request_id();
+  r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
+  r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
+  r.held = w.held();
+  r.past_deadline = w.past_deadline();
+  return r;
+}
+
+/// A link journal entry from the wire; throws when its link is not valid.
+LinkChangeRecord to_record(const wire::LinkChange& w) {
+  LinkChangeRecord r;
+  r.sensor_id = w.sensor_id();
+  r.at_period = static_cast<std::int64_t>(w.at_period());
+  r.origin = w.origin();
+  r.request_id = w.request_id();
+  r.link = dds::from_wire(w.link());
+  return r;
+}
+
+TruthRecord to_truth(const wire::Truth& w) {
+  if (!dds::all_finite(w.x())) throw dds::ConversionError("truth with a non-finite value");
+  return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x()};
+}
+
+EstimateRecord to_estimate(const wire::Estimate& w) { return to_record(dds::from_wire(w), w); }
+
+DeliveredRecord to_delivered(const wire::Measurement& w) {
+  if (!dds::all_finite(w.y())) throw dds::ConversionError("measurement with a non-finite value");
+  return DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), ns_to_s(w.stamp_ns()), w.y()};
+}
+
+LinkStatusRecord to_link_status(const wire::LinkStatus& w) { return to_record(w); }
+LinkChangeRecord to_link_change(const wire::LinkChange& w) { return to_record(w); }
+LinkReplyRecord to_link_reply(const wire::LinkControlReply& w) {
+  return LinkReplyRecord{w.request_id(), w.sensor_id(), w.applied(), w.reason()};
+}
+
+/// A reader of `topic` when the command handles it: each sample is converted on the command's
+/// io thread; one that fails its conversion is counted and reported as invalid (`what` + why).
+template <typename Wire, typename Record>
+std::unique_ptr<dds::Reader<Wire>> open_reader(dds::Participant& participant, const dds::Topic<Wire>& topic,
+                                               boost::asio::io_context::executor_type ex,
+                                               Record (*convert)(const Wire&),
+                                               const std::function<void(Record&&)>& handler,
+                                               const std::function<void(const std::string&)>& invalid,
+                                               const std::string& what) {
+  if (!handler) return nullptr;
+  return std::make_unique<dds::Reader<Wire>>(
+      participant, topic, dds::post_to<Wire>(ex, [=](Wire w) {
+        std::optional<Record> record;
+        try {
+          record = convert(w);
+        } catch (const std::exception& e) {
+          return invalid(what + e.what());
+        }
+        handler(std::move(*record));
+      }));
 }
 
 }  // namespace
@@ -76,90 +149,20 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
                                                                  std::vector<int>{}, options.presence->scenario_hash,
                                                                  options.presence->detail);
   }
-  auto ex = io.get_executor();
-  auto invalid = [this, cb = h.invalid](const std::string& what) {
+  const auto ex = io.get_executor();
+  const std::function<void(const std::string&)> invalid = [this, cb = h.invalid](const std::string& what) {
     ++invalid_;
     if (cb) cb(what);
   };
-
-  if (h.truth) {
-    impl_->truth = std::make_unique<dds::Reader<wire::Truth>>(
-        impl_->participant, dds::topics::truth,
-        dds::post_to<wire::Truth>(ex, [cb = h.truth, invalid](wire::Truth w) {
-          if (!dds::all_finite(w.x())) return invalid("truth with a non-finite value");
-          cb(TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x()});
-        }));
-  }
-  if (h.estimate) {
-    impl_->estimate = std::make_unique<dds::Reader<wire::Estimate>>(
-        impl_->participant, dds::topics::estimate,
-        dds::post_to<wire::Estimate>(ex, [cb = h.estimate, invalid](wire::Estimate w) {
-          try {
-            cb(to_record(dds::from_wire(w), w));
-          } catch (const std::exception& e) {
-            invalid(std::string("estimate rejected: ") + e.what());
-          }
-        }));
-  }
-  if (h.delivered) {
-    impl_->delivered = std::make_unique<dds::Reader<wire::Measurement>>(
-        impl_->participant, dds::topics::delivered_measurement,
-        dds::post_to<wire::Measurement>(ex, [cb = h.delivered, invalid](wire::Measurement w) {
-          if (!dds::all_finite(w.y())) return invalid("measurement with a non-finite value");
-          cb(DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), ns_to_s(w.stamp_ns()), w.y()});
-        }));
-  }
-  if (h.link_status) {
-    impl_->link_status = std::make_unique<dds::Reader<wire::LinkStatus>>(
-        impl_->participant, dds::topics::link_status,
-        dds::post_to<wire::LinkStatus>(ex, [cb = h.link_status, invalid](wire::LinkStatus w) {
-          LinkStatusRecord r;
-          r.sensor_id = w.sensor_id();
-          try {
-            r.link = dds::link_of(w);  // validated
-          } catch (const std::exception& e) {
-            return invalid(std::string("link status rejected: ") + e.what());
-          }
-          r.samples_in = w.samples_in();
-          r.delivered = w.delivered();
-          r.dropped = w.dropped();
-          r.observed_loss = w.observed_loss();
-          r.mean_burst_length = w.mean_burst_length();
-          r.samples_total = w.samples_total();
-          r.delivered_total = w.delivered_total();
-          r.dropped_total = w.dropped_total();
-          r.last_request_id = w.last_request_id();
-          r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
-          r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
-          r.held = w.held();
-          r.past_deadline = w.past_deadline();
-          cb(std::move(r));
-        }));
-  }
-  if (h.link_change) {
-    impl_->link_change = std::make_unique<dds::Reader<wire::LinkChange>>(
-        impl_->participant, dds::topics::link_change,
-        dds::post_to<wire::LinkChange>(ex, [cb = h.link_change, invalid](wire::LinkChange w) {
-          LinkChangeRecord r;
-          r.sensor_id = w.sensor_id();
-          r.at_period = static_cast<std::int64_t>(w.at_period());
-          r.origin = w.origin();
-          r.request_id = w.request_id();
-          try {
-            r.link = dds::from_wire(w.link());
-          } catch (const std::exception& e) {
-            return invalid(std::string("link change rejected: ") + e.what());
-          }
-          cb(std::move(r));
-        }));
-  }
-  if (h.link_reply) {
-    impl_->link_reply = std::make_unique<dds::Reader<wire::LinkControlReply>>(
-        impl_->participant, dds::topics::link_control_reply,
-        dds::post_to<wire::LinkControlReply>(ex, [cb = h.link_reply](wire::LinkControlReply w) {
-          cb(LinkReplyRecord{w.request_id(), w.sensor_id(), w.applied(), w.reason()});
-        }));
-  }
+  auto& p = impl_->participant;
+  impl_->truth = open_reader(p, dds::topics::truth, ex, to_truth, h.truth, invalid, "");
+  impl_->estimate = open_reader(p, dds::topics::estimate, ex, to_estimate, h.estimate, invalid, "estimate rejected: ");
+  impl_->delivered = open_reader(p, dds::topics::delivered_measurement, ex, to_delivered, h.delivered, invalid, "");
+  impl_->link_status = open_reader(p, dds::topics::link_status, ex, to_link_status, h.link_status, invalid,
+                                   "link status rejected: ");
+  impl_->link_change = open_reader(p, dds::topics::link_change, ex, to_link_change, h.link_change, invalid,
+                                   "link change rejected: ");
+  impl_->link_reply = open_reader(p, dds::topics::link_control_reply, ex, to_link_reply, h.link_reply, invalid, "");
   if (link_control_writer)
     impl_->link_control = std::make_unique<dds::Writer<wire::LinkControl>>(impl_->participant, dds::topics::link_control);
 }

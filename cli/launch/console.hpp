@@ -25,22 +25,22 @@
 
 namespace netkf::cli {
 
-struct LiveViewsOptions {
+struct LiveConsoleOptions {
   std::optional<DashboardOptions> dashboard;  // nullopt: no dashboard, no port opened
   double status_interval = 1.0;               // seconds between terminal status updates (0: none)
   bool status_screen = false;                 // redraw in place (a terminal) instead of printing lines
   std::string header;                         // first line of the in-place screen
 };
 
-class LiveViews {
+class LiveConsole {
  public:
   using SendLinkControl = std::function<bool(std::uint64_t request_id, int sensor_id, const LinkKeys& keys)>;
   using Clock = std::chrono::steady_clock;
 
   /// Throws std::runtime_error when the dashboard cannot listen (e.g. its port is taken).
-  LiveViews(boost::asio::io_context& io, const Scenario& scenario, LiveViewsOptions options,
+  LiveConsole(boost::asio::io_context& io, const Scenario& scenario, LiveConsoleOptions options,
             SendLinkControl send_link_control);
-  ~LiveViews();
+  ~LiveConsole();
 
   void truth(const TruthRecord& truth);
   void estimate(const EstimateRecord& estimate);
@@ -76,7 +76,7 @@ class LiveViews {
   static std::uint64_t wall_ns();
 
   boost::asio::io_context& io_;
-  LiveViewsOptions options_;
+  LiveConsoleOptions options_;
   SendLinkControl send_link_control_;
   LiveModel model_;
   LiveMetrics metrics_;

@@ -56,7 +56,7 @@ class DashboardServer {
   /// Send a channel message to its subscribers (in the next batch) and keep it as the
   /// channel's latest value for new subscribers; `latch_key` separates values kept side by
   /// side on one channel (the link id on netkf/link/status).
-  void publish(dashboard::ChannelId channel, const nlohmann::json& message, std::uint64_t timestamp_ns,
+  void publish(catalogue::ChannelId channel, const nlohmann::json& message, std::uint64_t timestamp_ns,
                int latch_key = 0);
   /// A status message to every client (sent at once).
   void broadcast_status(LiveEvent::Level level, const std::string& message);

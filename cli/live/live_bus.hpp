@@ -39,6 +39,25 @@ struct BusOptions {
   std::optional<Presence> presence;
 };
 
+/// The DDS settings every live command shares (--domain, --dds-profile, --secure,
+/// --discovery-server; each falls back to its NETKF_* variable, then the localhost default).
+struct NetworkSettings {
+  std::optional<int> domain;
+  std::optional<std::string> profile;
+  std::optional<std::string> secure;
+  std::optional<std::string> discovery_server;
+  BusOptions bus(const std::string& name, dds::Role role) const {
+    BusOptions b;
+    b.domain = domain;
+    b.profile = profile;
+    b.name = name;
+    b.secure = secure;
+    b.role = role;
+    b.discovery_server = discovery_server;
+    return b;
+  }
+};
+
 struct BusHandlers {
   std::function<void(TruthRecord&&)> truth;
   std::function<void(EstimateRecord&&)> estimate;

@@ -4,7 +4,7 @@
 #include <cctype>
 #include <cmath>
 
-#include "dashboard_protocol.hpp"
+#include "channel_catalogue.hpp"
 
 namespace netkf::cli {
 
@@ -15,8 +15,8 @@ std::uint64_t seconds_to_ns(double s) {
   return static_cast<std::uint64_t>(std::llround(s * 1e9));
 }
 
-std::uint16_t add_channel(McapWriter& w, dashboard::ChannelId id) {
-  const auto& c = dashboard::channel(id);
+std::uint16_t add_channel(McapWriter& w, catalogue::ChannelId id) {
+  const auto& c = catalogue::channel(id);
   const auto schema = w.add_schema(c.schema_name, "jsonschema", c.schema.dump());
   return w.add_channel(schema, c.topic, "json");
 }
@@ -32,7 +32,7 @@ bool is_mcap_path(const std::string& path) {
 
 McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered)
     : writer_(out), model_(scenario), period_s_(scenario.period_ms / 1000.0), with_delivered_(with_delivered) {
-  using dashboard::ChannelId;
+  using catalogue::ChannelId;
   truth_ = add_channel(writer_, ChannelId::truth);
   estimate_ = add_channel(writer_, ChannelId::estimate);
   if (with_delivered_) delivered_ = add_channel(writer_, ChannelId::delivered);
@@ -53,7 +53,7 @@ void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std
 
 void McapRecorder::write_events() {
   for (const auto& event : model_.take_events()) {
-    write(events_, latest_ns_, dashboard::log_message(event, latest_ns_).dump());
+    write(events_, latest_ns_, catalogue::log_message(event, latest_ns_).dump());
     ++events_written_;
   }
 }
@@ -62,21 +62,21 @@ void McapRecorder::truth(const TruthRecord& t) {
   if (finished()) return;
   model_.add_truth(t);
   note_time(t.t);
-  write(truth_, seconds_to_ns(t.t), dashboard::truth_message(t).dump());
+  write(truth_, seconds_to_ns(t.t), catalogue::truth_message(t).dump());
 }
 
 void McapRecorder::estimate(const EstimateRecord& e) {
   if (finished()) return;
   model_.add_estimate(e);  // counts late samples per link for the link status messages
   note_time(e.t);
-  write(estimate_, seconds_to_ns(e.t), dashboard::estimate_message(e).dump());
+  write(estimate_, seconds_to_ns(e.t), catalogue::estimate_message(e).dump());
   ++estimates_;
   write_events();
 }
 
 void McapRecorder::delivered(const DeliveredRecord& d) {
   if (finished() || !with_delivered_) return;
-  write(delivered_, period_time_ns(d.k), dashboard::delivered_message(d).dump());
+  write(delivered_, period_time_ns(d.k), catalogue::delivered_message(d).dump());
 }
 
 void McapRecorder::link_status(const LinkStatusRecord& l) {
@@ -84,12 +84,12 @@ void McapRecorder::link_status(const LinkStatusRecord& l) {
   model_.add_link_status(l);
   write_events();
   for (const auto& view : model_.snapshot().links)
-    if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, dashboard::link_status_message(view).dump());
+    if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, catalogue::link_status_message(view).dump());
 }
 
 void McapRecorder::link_change(const LinkChangeRecord& c) {
   if (finished()) return;
-  std::string json = dashboard::link_change_message(c).dump();
+  std::string json = catalogue::link_change_message(c).dump();
   if (!changes_seen_.insert(json).second) return;
   write(link_change_, period_time_ns(c.at_period), json);
   model_.add_link_change(c);  // a timeline step is an event too

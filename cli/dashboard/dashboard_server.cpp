@@ -11,7 +11,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "dashboard_assets.hpp"
+#include "dashboard__assets.hpp"
 
 namespace netkf::cli {
 
@@ -448,7 +448,7 @@ void DashboardServer::Impl::handle_client_message(WsSession& session, const std:
   }
   if (auto* sub = std::get_if<Subscribe>(&message)) {
     for (const auto& [subscription, channel] : sub->subscriptions) {
-      if (!find_channel(channel)) {
+      if (!catalogue::find_channel(channel)) {
         refuse("subscribe: unknown channel " + std::to_string(channel));
         continue;
       }
@@ -508,7 +508,7 @@ std::string DashboardServer::url() const {
   return u;
 }
 
-void DashboardServer::publish(dashboard::ChannelId channel, const nlohmann::json& message, std::uint64_t timestamp_ns,
+void DashboardServer::publish(catalogue::ChannelId channel, const nlohmann::json& message, std::uint64_t timestamp_ns,
                               int latch_key) {
   if (impl_->stopped) return;
   const auto channel_id = static_cast<std::uint32_t>(channel);

@@ -124,41 +124,6 @@ class Supervisor {
   std::string finished_reason_;
 };
 
-/// The sensor processes of a launch: the sensor ids in scenario order, `per_process` to a
-/// process (the last takes the rest). Throws std::invalid_argument for per_process < 1.
-std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sensor_ids, int per_process);
-/// Sensors per process chosen by `netkf launch --sensors-per-process auto` (the default):
-/// one process per sensor while there are at most 2 x `cpus` sensors, else the fewest per
-/// process that keep the sensor processes within 2 x `cpus`. Every sensor process wakes on
-/// the same tick; more simultaneous wake-ups than cores queue up in front of the channel and
-/// the estimator (BENCHMARKS.md, 2 cores: 8 sensors as 8 processes had a pipeline p50 of
-/// 300-400 µs, as 4 processes of 2, 240-310 µs; 64 sensors as 64 processes fell behind for
-/// good, as 4 of 16 they kept up). Grouping changes no sample and no estimate (e2e sensor_groups).
-int auto_sensors_per_process(std::size_t sensors, unsigned cpus);
-/// CPUs this process may run on (its affinity mask; at least 1).
-unsigned usable_cpus();
-/// The supervisor's name of a sensor process: "sensor_node[3]", "sensor_node[1,2,3]".
-std::string sensor_process_name(const std::vector<int>& sensor_ids);
-
-/// The roles one `netkf launch` runs (`--only`): on several hosts, each runs its part.
-struct LaunchRoles {
-  bool plant = true;
-  bool channel = true;
-  bool estimator = true;
-  std::vector<int> sensor_ids;  // in scenario order
-  /// All of the scenario: plant, channel, estimator and every sensor.
-  bool all = true;
-};
-/// `--only` text: a comma list of plant, sensors (all of them), sensors=ID (then further bare
-/// ids belong to it: "sensors=1,3"), channel, estimator, or "all". Throws std::invalid_argument
-/// naming the bad word, an id the scenario does not have, or an empty selection.
-LaunchRoles parse_launch_roles(const std::string& text, const std::vector<int>& scenario_sensor_ids);
-/// "plant, sensors 1,3, channel" (for the launch line and the presence detail).
-std::string describe_launch_roles(const LaunchRoles& roles);
-/// The run id that every host's launch derives alike when none is given: the scenario's hash and
-/// the domain mixed (never 0), so hosts with the same scenario and domain join the same run.
-std::uint64_t derived_run_id(std::uint64_t scenario_hash, int domain);
-
 /// Directory holding the node executables: $NETKF_BIN_DIR if set, else the build
 /// tree's root found from /proc/self/exe (build/<preset>/cli/netkf -> build/<preset>).
 std::string node_binary_root();

@@ -1,4 +1,4 @@
-#include "live_views.hpp"
+#include "console.hpp"
 
 #include <boost/asio/post.hpp>
 #include <iostream>
@@ -22,7 +22,7 @@ const char* level_prefix(LiveEvent::Level level) {
 }
 }  // namespace
 
-LiveViews::LiveViews(boost::asio::io_context& io, const Scenario& scenario, LiveViewsOptions options,
+LiveConsole::LiveConsole(boost::asio::io_context& io, const Scenario& scenario, LiveConsoleOptions options,
                      SendLinkControl send_link_control)
     : io_(io),
       options_(std::move(options)),
@@ -47,9 +47,9 @@ LiveViews::LiveViews(boost::asio::io_context& io, const Scenario& scenario, Live
     std::random_device session;
     dashboard_ = std::make_unique<DashboardServer>(
         io_, *options_.dashboard, dashboard::server_info(std::to_string(session()), scenario), std::move(hooks));
-    dashboard_->publish(dashboard::ChannelId::scenario, dashboard::scenario_message(scenario), wall_ns());
+    dashboard_->publish(catalogue::ChannelId::scenario, catalogue::scenario_message(scenario), wall_ns());
     for (const auto& l : model_.snapshot().links)
-      dashboard_->publish(dashboard::ChannelId::link_status, dashboard::link_status_message(l), wall_ns(), l.sensor_id);
+      dashboard_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(l), wall_ns(), l.sensor_id);
   }
   theory_ = std::make_unique<TheoryWorker>([this](TheoryView view) {
     // On the worker thread: hand the result to the loop.
@@ -57,33 +57,33 @@ LiveViews::LiveViews(boost::asio::io_context& io, const Scenario& scenario, Live
   });
 }
 
-LiveViews::~LiveViews() {
+LiveConsole::~LiveConsole() {
   theory_.reset();  // never waits for a computation in progress
   if (dashboard_) dashboard_->stop();
 }
 
-std::uint64_t LiveViews::wall_ns() {
+std::uint64_t LiveConsole::wall_ns() {
   return static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
 }
 
-void LiveViews::truth(const TruthRecord& truth) {
+void LiveConsole::truth(const TruthRecord& truth) {
   model_.add_truth(truth);
-  if (dashboard_) dashboard_->publish(dashboard::ChannelId::truth, dashboard::truth_message(truth), wall_ns());
+  if (dashboard_) dashboard_->publish(catalogue::ChannelId::truth, catalogue::truth_message(truth), wall_ns());
 }
 
-void LiveViews::estimate(const EstimateRecord& estimate) {
+void LiveConsole::estimate(const EstimateRecord& estimate) {
   model_.add_estimate(estimate);
   if (estimate.last_sample_stamp > 0.0) metrics_.observe_pipeline_latency(estimate.publish_stamp - estimate.last_sample_stamp);
-  if (dashboard_) dashboard_->publish(dashboard::ChannelId::estimate, dashboard::estimate_message(estimate), wall_ns());
+  if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
 }
 
-void LiveViews::link_status(const LinkStatusRecord& status) {
+void LiveConsole::link_status(const LinkStatusRecord& status) {
   const auto before = model_.snapshot().links;
   model_.add_link_status(status);
   for (const auto& l : model_.snapshot().links) {
     if (l.sensor_id != status.sensor_id) continue;
-    if (dashboard_) dashboard_->publish(dashboard::ChannelId::link_status, dashboard::link_status_message(l), wall_ns(), l.sensor_id);
+    if (dashboard_) dashboard_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(l), wall_ns(), l.sensor_id);
     for (const auto& b : before) {
       if (b.sensor_id == l.sensor_id && (!b.reported || !(b.link == l.link))) {
         theory_due_ = true;  // the configured operating point moved: reassess now
@@ -94,7 +94,7 @@ void LiveViews::link_status(const LinkStatusRecord& status) {
   emit_events();
 }
 
-void LiveViews::link_reply(const LinkReplyRecord& reply) {
+void LiveConsole::link_reply(const LinkReplyRecord& reply) {
   auto it = pending_.find(reply.request_id);
   if (it == pending_.end()) return;  // another client's request
   const PendingChange change = it->second;
@@ -115,18 +115,18 @@ void LiveViews::link_reply(const LinkReplyRecord& reply) {
   }
 }
 
-void LiveViews::link_change(const LinkChangeRecord& change) {
+void LiveConsole::link_change(const LinkChangeRecord& change) {
   model_.add_link_change(change);
   emit_events();
 }
 
-void LiveViews::invalid_sample(const std::string& what) {
+void LiveConsole::invalid_sample(const std::string& what) {
   model_.count_invalid();
   if (const auto left_out = invalid_log_.allow())
     log(LiveEvent::Level::warning, "rejected a sample: " + what + dds::left_out_text(*left_out));
 }
 
-void LiveViews::log(LiveEvent::Level level, const std::string& line) {
+void LiveConsole::log(LiveEvent::Level level, const std::string& line) {
   if (options_.status_screen) {
     screen_events_.push_back(std::string(level_prefix(level)) + line);
     while (screen_events_.size() > kScreenEvents) screen_events_.pop_front();
@@ -135,16 +135,16 @@ void LiveViews::log(LiveEvent::Level level, const std::string& line) {
   }
 }
 
-void LiveViews::announce(LiveEvent::Level level, const std::string& line) {
+void LiveConsole::announce(LiveEvent::Level level, const std::string& line) {
   log(level, line);
   if (dashboard_) dashboard_->broadcast_status(level, line);
 }
 
-void LiveViews::set_processes(std::vector<ProcessView> processes) { model_.set_processes(std::move(processes)); }
+void LiveConsole::set_processes(std::vector<ProcessView> processes) { model_.set_processes(std::move(processes)); }
 
-void LiveViews::count_restart(const std::string& process) { metrics_.count_restart(process); }
+void LiveConsole::count_restart(const std::string& process) { metrics_.count_restart(process); }
 
-void LiveViews::on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
+void LiveConsole::on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
   for (const auto& change : dashboard::link_changes(request, model_.snapshot().links)) {
     const LinkView* current = nullptr;
     for (const auto& l : model_.snapshot().links)
@@ -166,7 +166,7 @@ void LiveViews::on_set_parameters(DashboardServer::ClientId client, const dashbo
   }
 }
 
-void LiveViews::request_theory(bool with_region) {
+void LiveConsole::request_theory(bool with_region) {
   TheoryRequest r;
   r.configured = model_.configured_scenario();
   r.observed_rates = model_.observed_rates();
@@ -175,22 +175,22 @@ void LiveViews::request_theory(bool with_region) {
   theory_->request(std::move(r));
 }
 
-void LiveViews::on_theory(TheoryView view) {
+void LiveConsole::on_theory(TheoryView view) {
   model_.set_theory(std::move(view));
-  if (dashboard_) dashboard_->publish(dashboard::ChannelId::theory, dashboard::theory_message(model_.snapshot().theory), wall_ns());
+  if (dashboard_) dashboard_->publish(catalogue::ChannelId::theory, catalogue::theory_message(model_.snapshot().theory), wall_ns());
   emit_events();
 }
 
-void LiveViews::emit_events() {
+void LiveConsole::emit_events() {
   for (const auto& e : model_.take_events()) announce(e.level, e.text);
 }
 
-std::string LiveViews::render_metrics() {
+std::string LiveConsole::render_metrics() {
   metrics_.update(model_.snapshot());
   return metrics_.serialize();
 }
 
-void LiveViews::tick(Clock::time_point now) {
+void LiveConsole::tick(Clock::time_point now) {
   // Link changes the channel never answered.
   for (auto it = pending_.begin(); it != pending_.end();) {
     if (now < it->second.deadline) {
@@ -214,7 +214,7 @@ void LiveViews::tick(Clock::time_point now) {
     theory_due_ = false;
   }
   if (refresh_due && dashboard_)
-    dashboard_->publish(dashboard::ChannelId::network, dashboard::network_message(model_.snapshot()), wall_ns());
+    dashboard_->publish(catalogue::ChannelId::network, catalogue::network_message(model_.snapshot()), wall_ns());
   if (options_.status_interval > 0 && now >= next_status_) {
     next_status_ = now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(options_.status_interval));
     const bool pending = theory_->busy();
@@ -229,11 +229,11 @@ void LiveViews::tick(Clock::time_point now) {
   emit_events();
 }
 
-void LiveViews::stop() {
+void LiveConsole::stop() {
   if (dashboard_) dashboard_->stop();
 }
 
-std::optional<std::string> LiveViews::dashboard_url() const {
+std::optional<std::string> LiveConsole::dashboard_url() const {
   if (!dashboard_) return std::nullopt;
   return dashboard_->url();
 }

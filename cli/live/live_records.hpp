@@ -63,6 +63,10 @@ struct LinkStatusRecord {
   std::uint64_t dropped_total = 0;
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;  // empty when the last request was applied
+
+  /// λ = (1 − stationary loss) · P(in time): the rate at which the link's samples reach the
+  /// estimator before the deadline (docs/scenario-format.md, "Delay"), the rate the theory uses.
+  double arrival_rate() const { return (1.0 - stationary_loss(link.loss)) * in_time; }
 };
 
 /// One entry of the channel's link journal: the link after a change, and the period of the

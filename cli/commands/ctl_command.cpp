@@ -1,0 +1,250 @@
+// `netkf ctl`: tune the links of a running network (set-link) and show their status.
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <chrono>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "command_options.hpp"
+#include "commands.hpp"
+#include "exit_code.hpp"
+#include "live_bus.hpp"
+#include "live_status.hpp"
+#include "serve_loop.hpp"
+#include "text.hpp"
+
+namespace netkf::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+nlohmann::json link_json(const LinkStatusRecord& l) {
+  nlohmann::json j{{"sensor_id", l.sensor_id},
+                   {"samples_in", l.samples_in},
+                   {"delivered", l.delivered},
+                   {"dropped", l.dropped},
+                   {"observed_loss", l.observed_loss},
+                   {"mean_burst_length", l.mean_burst_length},
+                   {"samples_total", l.samples_total},
+                   {"delivered_total", l.delivered_total},
+                   {"dropped_total", l.dropped_total},
+                   {"held", l.held},
+                   {"past_deadline", l.past_deadline},
+                   {"last_request_id", l.last_request_id}};
+  for (const auto& k : link_keys(l.link)) {
+    if (const auto* word = std::get_if<std::string>(&k.value)) j[k.name] = *word;
+    else j[k.name] = std::get<double>(k.value);
+  }
+  j["stationary_loss"] = stationary_loss(l.link.loss);
+  if (std::holds_alternative<GilbertElliottLink>(l.link.loss)) j["mean_burst"] = mean_burst_length(l.link.loss);
+  j["in_time"] = l.in_time;
+  j["arrival_rate"] = l.arrival_rate();
+  if (!l.rejection_reason.empty()) j["last_rejection"] = l.rejection_reason;
+  return j;
+}
+
+struct CtlOptions {
+  NetworkSettings network;
+  double timeout = 10.0;
+  int sensor_id = 0;
+  std::optional<double> bernoulli;
+  std::vector<double> gilbert_elliott;
+  std::optional<std::string> model;
+  std::optional<double> loss;
+  std::optional<double> mean_burst;
+  std::optional<double> delay;
+  std::optional<double> jitter;
+  std::optional<std::string> distribution;
+  std::vector<std::string> set;  // KEY=VALUE
+  bool json = false;
+};
+
+/// The link keys a `ctl set-link` asks for. Names and number syntax are checked here (exit 2);
+/// whether they make a valid link with the link's current state is the channel's answer.
+LinkKeys ctl_link_keys(const CtlOptions& o) {
+  LinkKeys keys;
+  if (o.bernoulli) {
+    keys.push_back({"model", std::string("bernoulli")});
+    keys.push_back({"loss", *o.bernoulli});
+  }
+  if (!o.gilbert_elliott.empty()) {
+    if (o.gilbert_elliott.size() != 2 && o.gilbert_elliott.size() != 4)
+      fail(ExitCode::bad_usage, "--gilbert-elliott takes P R [LOSS_GOOD LOSS_BAD] (2 or 4 numbers), got " +
+                  std::to_string(o.gilbert_elliott.size()));
+    keys.push_back({"model", std::string("gilbert_elliott")});
+    keys.push_back({"p", o.gilbert_elliott[0]});
+    keys.push_back({"r", o.gilbert_elliott[1]});
+    if (o.gilbert_elliott.size() == 4) {
+      keys.push_back({"loss_good", o.gilbert_elliott[2]});
+      keys.push_back({"loss_bad", o.gilbert_elliott[3]});
+    }
+  }
+  if (o.model) keys.push_back({"model", *o.model});
+  if (o.loss) keys.push_back({"loss", *o.loss});
+  if (o.mean_burst) keys.push_back({"mean_burst", *o.mean_burst});
+  if (o.delay) keys.push_back({"delay_ms", *o.delay});
+  if (o.jitter) keys.push_back({"jitter_ms", *o.jitter});
+  if (o.distribution) keys.push_back({"delay_distribution", *o.distribution});
+  for (const auto& kv : o.set) {
+    const auto eq = kv.find('=');
+    if (eq == std::string::npos || eq == 0) fail(ExitCode::bad_usage, "--set takes KEY=VALUE, got '" + kv + "'");
+    const std::string name = kv.substr(0, eq);
+    const std::string text = kv.substr(eq + 1);
+    if (link_key_is_word(name)) {
+      keys.push_back({name, text});
+      continue;
+    }
+    std::size_t used = 0;
+    double value = 0.0;
+    try {
+      value = std::stod(text, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != text.size()) fail(ExitCode::bad_usage, "--set " + name + ": '" + text + "' is not a number");
+    keys.push_back({name, value});
+  }
+  if (keys.empty())
+    fail(ExitCode::bad_usage, "give what to change: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD LOSS_BAD], --loss, "
+            "--mean-burst, --delay, --jitter, --distribution, --model or --set KEY=VALUE");
+  // Names, duplicates and word/number kinds: the link type's own check, on a link of the
+  // model asked for (or of each model) so that only the current state is left to the channel.
+  std::string first_problem;
+  for (const LinkSpec& probe : {LinkSpec(BernoulliLink{0.5}), LinkSpec(GilbertElliottLink{0.1, 0.5, 0.0, 1.0})}) {
+    try {
+      (void)apply_link_keys(probe, keys);
+      return keys;
+    } catch (const LinkError& e) {
+      if (first_problem.empty()) first_problem = e.what();
+    }
+  }
+  fail(ExitCode::bad_usage, "invalid link change: " + first_problem);
+}
+
+int run_ctl_status(const CtlOptions& o) {
+  boost::asio::io_context io;
+  std::map<int, LinkStatusRecord> links;
+  BusHandlers h;
+  h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
+  std::unique_ptr<LiveBus> bus;
+  try {
+    BusOptions bus_options = o.network.bus("netkf-ctl", dds::Role::observer);
+    bus_options.presence = BusOptions::Presence{};  // watch who takes part, without announcing
+    bus = std::make_unique<LiveBus>(io, bus_options, h, false);
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, std::string("DDS: ") + e.what());
+  }
+  const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
+  if (!run_until(io, [&] { return !links.empty(); }, timeout))
+    fail(ExitCode::no_network, "no link status received within " + number_text(o.timeout) + " s on DDS domain " +
+                std::to_string(bus->domain()) + " (is a network running? netkf launch)");
+  // Link status is transient-local: the other links arrive in the same burst right
+  // after the first; a short grace period collects them.
+  run_until(io, [] { return false; }, std::chrono::milliseconds(400));
+  std::vector<LinkStatusRecord> list;
+  for (auto& [id, l] : links) list.push_back(l);
+  // The processes of the network, on every host (presence), running ones first.
+  std::vector<dds::PresenceRecord> processes;
+  for (const auto& p : bus->processes())
+    if (p.running()) processes.push_back(p);
+  if (o.json) {
+    nlohmann::json j{{"domain", bus->domain()}, {"links", nlohmann::json::array()},
+                     {"processes", nlohmann::json::array()}};
+    for (const auto& l : list) j["links"].push_back(link_json(l));
+    for (const auto& p : processes) {
+      j["processes"].push_back({{"role", p.role}, {"sensor_ids", p.sensor_ids}, {"host", p.host}, {"pid", p.pid},
+                                {"run", hex_id(p.run)}, {"detail", p.detail}});
+    }
+    std::cout << j.dump(2) << "\n";
+  } else {
+    std::cout << render_link_table(list);
+    if (!processes.empty()) {
+      std::cout << "\nprocesses (" << processes.size() << "):\n";
+      for (const auto& p : processes)
+        std::cout << "  " << p.who() << (p.detail.empty() ? "" : ": " + p.detail) << "\n";
+    }
+  }
+  return 0;
+}
+
+int run_ctl_set_link(const CtlOptions& o) {
+  const LinkKeys keys = ctl_link_keys(o);
+
+  boost::asio::io_context io;
+  std::optional<LinkReplyRecord> reply;
+  std::optional<LinkStatusRecord> acknowledged;
+  const std::uint64_t request_id = random_request_id();  // unlikely to collide with another ctl's
+  BusHandlers h;
+  h.link_reply = [&](LinkReplyRecord&& r) {
+    if (r.request_id == request_id) reply = r;
+  };
+  h.link_status = [&](LinkStatusRecord&& l) {
+    if (l.last_request_id == request_id) acknowledged = l;
+  };
+  std::unique_ptr<LiveBus> bus;
+  try {
+    bus = std::make_unique<LiveBus>(io, o.network.bus("netkf-ctl", dds::Role::ctl), h, true);
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, std::string("DDS: ") + e.what());
+  }
+  const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
+  const auto start = Clock::now();
+  if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
+    fail(ExitCode::no_network, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
+                number_text(o.timeout) + " s (is a network running? netkf launch)");
+  if (!bus->send_link_control(request_id, o.sensor_id, keys)) fail(ExitCode::no_network, "DDS refused to send the link change");
+  const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
+  if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
+    fail(ExitCode::no_network, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
+                number_text(o.timeout) + " s");
+  if (!reply->applied) fail(ExitCode::refused, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
+  // Show the status that acknowledges the request (published right after applying).
+  run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
+  if (acknowledged) {
+    const auto& l = *acknowledged;
+    std::cout << "link " << o.sensor_id << ": applied " << describe_link(l.link) << " (request " << request_id
+              << ", effective arrival rate " << l.arrival_rate() << ")\n";
+    std::cout << render_link_table({l});
+  } else {
+    std::cout << "link " << o.sensor_id << ": applied (request " << request_id << ")\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_ctl_command(CLI::App& app) {
+  auto o = std::make_shared<CtlOptions>();
+  auto* cmd = app.add_subcommand("ctl", "Tune links of a running network and show their status");
+  cmd->require_subcommand(1);
+  auto* set = cmd->add_subcommand(
+      "set-link", "Change one link from its next sample on: only what is given changes (e.g. --delay keeps the loss)");
+  set->add_option("id", o->sensor_id, "Sensor id of the link")->required();
+  auto* b = set->add_option("--bernoulli", o->bernoulli, "i.i.d. drops with probability LOSS");
+  auto* ge = set->add_option("--gilbert-elliott", o->gilbert_elliott,
+                             "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
+                 ->expected(2, 4);
+  b->excludes(ge);
+  set->add_option("--model", o->model, "bernoulli or gilbert_elliott (with the keys of that model)");
+  set->add_option("--loss", o->loss,
+                  "Loss: a bernoulli link's P(drop), or a gilbert_elliott link's stationary loss (with --mean-burst)");
+  set->add_option("--mean-burst", o->mean_burst,
+                  "gilbert_elliott by the user's form: mean length of a run of drops (>= 1), with --loss");
+  set->add_option("--delay", o->delay, "Base delay of a delivered sample, ms");
+  set->add_option("--jitter", o->jitter, "Spread of the delay, ms (half-width, sd or scale: see --distribution)");
+  set->add_option("--distribution", o->distribution, "Delay distribution: uniform, normal, pareto, paretonormal");
+  set->add_option("--set", o->set, "Any link key: KEY=VALUE (docs/scenario-format.md, \"Links\"); repeatable");
+  add_network_options(set, o->network);
+  set->add_option("--timeout", o->timeout, "Seconds to wait for the channel emulator's answer")->check(timeout_seconds());
+  set->callback([o] { run_command([&] { return run_ctl_set_link(*o); }); });
+  auto* status = cmd->add_subcommand("status", "Table of links (model, counts, observed loss)");
+  status->add_flag("--json", o->json, "One JSON object on stdout");
+  add_network_options(status, o->network);
+  status->add_option("--timeout", o->timeout, "Seconds to wait for the first link status")->check(timeout_seconds());
+  status->callback([o] { run_command([&] { return run_ctl_status(*o); }); });
+}
+
+}  // namespace netkf::cli

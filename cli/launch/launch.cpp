@@ -1,0 +1,462 @@
+#include "launch.hpp"
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <set>
+#include <sstream>
+#include <unistd.h>
+
+#include "domain_guard.hpp"
+#include "exit_code.hpp"
+#include "netkf/dds/node_support.hpp"
+#include "netkf/dds/participant_slot.hpp"
+#include "netkf/dds/presence.hpp"
+#include "netkf/nodes/estimator_core.hpp"
+#include "serve_loop.hpp"
+#include "text.hpp"
+
+namespace netkf::cli {
+namespace {
+
+/// Fast DDS's shared-memory files no live process holds (`fastdds shm clean`) and the
+/// participant markers of `domain` that killed processes left (participant_slot.hpp). Only at
+/// the start and the end of a launch: then no writer of this launch can still hold a killed
+/// process's port open.
+void remove_stale_shared_memory(int domain, const char* what) {
+  const auto shm = clean_stale_shared_memory();
+  const int slots = dds::remove_stale_participant_slots(domain);
+  if (shm.zombie_segments + shm.zombie_ports + slots > 0)
+    std::cerr << "netkf launch: removed what " << what << " left: " << shm.zombie_segments
+              << " Fast DDS shared-memory segments, " << shm.zombie_ports << " ports (fastdds shm clean), "
+              << slots << " participant markers\n";
+}
+
+/// The checkpoint a restarted estimator resumes from: the last estimate it published.
+nodes::EstimatorCheckpoint checkpoint_of(const EstimateRecord& e) {
+  nodes::EstimatorCheckpoint c;
+  const auto n = static_cast<Eigen::Index>(e.xhat.size());
+  c.k = static_cast<std::uint64_t>(e.k);
+  c.t = e.t;
+  c.x_hat = Eigen::Map<const Vector>(e.xhat.data(), n);
+  if (e.P.size() != e.xhat.size() * e.xhat.size()) throw std::runtime_error("the last estimate carries no full P");
+  c.P = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(e.P.data(), n, n);
+  c.restarts = e.restarts + 1;
+  c.late_total = e.late_total;
+  c.rejected_total = e.rejected;
+  return c;
+}
+
+/// Run `f`; any exception becomes CommandError(bad_usage) with `prefix` and its message.
+template <typename F>
+auto or_bad_usage(F&& f, const std::string& prefix = {}) {
+  try {
+    return f();
+  } catch (const CommandError&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, prefix + e.what());
+  }
+}
+
+}  // namespace
+
+Scenario load_or_default(const std::optional<std::string>& file) {
+  if (!file) return default_scenario();
+  return or_bad_usage([&] { return load_scenario_file(*file); });
+}
+
+BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSummaryBuilder* summary,
+                               std::uint64_t& invalid) {
+  BusHandlers h;
+  h.truth = [&recording, console, summary](TruthRecord&& t) {
+    recording.truth(t);
+    if (console) console->truth(t);
+    if (summary) summary->add_truth(t);
+  };
+  h.estimate = [&recording, console, summary](EstimateRecord&& e) {
+    recording.estimate(e);
+    if (console) console->estimate(e);
+    if (summary) summary->add_estimate(e);
+  };
+  if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
+  if (recording.journals_changes() || console) {
+    h.link_change = [&recording, console](LinkChangeRecord&& c) {
+      recording.link_change(c);
+      if (console) console->link_change(c);
+    };
+  }
+  if (console || summary || recording.wants_link_status()) {
+    h.link_status = [&recording, console, summary](LinkStatusRecord&& l) {
+      recording.link_status(l);
+      if (summary) summary->add_link_status(l);
+      if (console) console->link_status(l);
+    };
+  }
+  if (console) h.link_reply = [console](LinkReplyRecord&& r) { console->link_reply(r); };
+  h.invalid = [console, &invalid](const std::string& what) {
+    ++invalid;
+    if (console) console->invalid_sample(what);
+    else std::cerr << "netkf: rejected a sample: " << what << "\n";
+  };
+  return h;
+}
+
+Launch::Launch(LaunchOptions options) : o_(std::move(options)) {}
+
+Launch::~Launch() = default;
+
+int Launch::run() {
+  prepare();
+  start();
+  serve();
+  stop();
+  return conclude();
+}
+
+// ---------------------------------------------------------------- prepare
+
+void Launch::prepare() {
+  read_inputs();
+  resolve_discovery();
+  prepare_files();
+  open_network();
+}
+
+/// The scenario, the roles and the user's checks: a mistake in any is exit 2 before
+/// anything starts, not a failed check after a long run.
+void Launch::read_inputs() {
+  scenario_ = load_or_default(o_.scenario);
+  if (o_.events) or_bad_usage([&] { add_replayed_events(scenario_, load_events_file(*o_.events, scenario_)); });
+  policy_ = parse_restart_policy(o_.restart_policy);
+  // The largest live network measured to run; a larger one started, matched partly and fused nothing.
+  if (scenario_.sensors.size() > kMaxLiveSensors)
+    fail(ExitCode::bad_usage, "the scenario has " + std::to_string(scenario_.sensors.size()) +
+                                  " sensors; a live network runs at most " + std::to_string(kMaxLiveSensors) +
+                                  " (the largest measured to run; README, \"Failure behaviour\")");
+  std::vector<int> sensor_ids;
+  for (const auto& sensor : scenario_.sensors) sensor_ids.push_back(sensor.id);
+  roles_ = or_bad_usage([&] { return parse_launch_roles(o_.only, sensor_ids); });
+  scenario_hash_ = dds::scenario_hash(scenario_);
+  for (const auto& text : o_.checks) checks_.push_back(or_bad_usage([&] { return parse_check(text, sensor_ids); }));
+  if (o_.summary) {
+    summary_out_.open(*o_.summary, std::ios::trunc);
+    if (!summary_out_) fail(ExitCode::bad_usage, "cannot write " + *o_.summary + ": " + std::strerror(errno));
+  }
+  if (o_.summary || !checks_.empty()) summary_ = std::make_unique<RunSummaryBuilder>(scenario_);
+}
+
+/// The localhost profile, or a Discovery Server (this launch's own with --serve-discovery:
+/// it lives in this process and ends with it).
+void Launch::resolve_discovery() {
+  or_bad_usage([&] {
+    domain_ = dds::resolve_domain(o_.network.domain);
+    discovery_ = dds::resolve_discovery_server(o_.network.discovery_server);
+    if (!o_.serve_discovery) return;
+    served_ = dds::parse_discovery_server(*o_.serve_discovery);
+    if (discovery_ && discovery_->text() != served_->text())
+      fail(ExitCode::bad_usage, "--serve-discovery " + served_->text() + " and --discovery-server " +
+                                    discovery_->text() + " name different servers");
+    discovery_ = served_;
+  });
+}
+
+/// The launch's private files: the effective scenario the children read, the estimator's
+/// checkpoint. A launch killed earlier left its directory and maybe Fast DDS shared-memory
+/// files behind: both are cleaned here.
+void Launch::prepare_files() {
+  files_ = or_bad_usage([] { return std::make_unique<LaunchFiles>(); });
+  for (const auto& stale : files_->removed_stale())
+    std::cerr << "netkf launch: removed the files of a launch that is no longer running (" << stale.string() << ")\n";
+  remove_stale_shared_memory(domain_, "killed processes of earlier runs");
+  scenario_path_ = files_->file("scenario.yaml");
+  std::ofstream out(scenario_path_);
+  out << scenario_to_yaml(scenario_);
+  if (!out) fail(ExitCode::bad_usage, "cannot write " + scenario_path_.string());
+  checkpoint_path_ = files_->file("estimator-checkpoint.json");
+  if (!served_) return;
+  dds::ParticipantOptions so;
+  so.domain = domain_;
+  so.name = "netkf-discovery-server";
+  so.discovery_server = served_;
+  so.serve_discovery = true;
+  if (auto dir = dds::resolve_secure(o_.network.secure))
+    so.security = dds::ParticipantOptions::Security{*dir, dds::Role::observer};
+  discovery_server_ = or_bad_usage([&] { return std::make_unique<dds::Participant>(so); },
+                                   "cannot serve discovery on " + served_->text() + ": ");
+}
+
+void Launch::open_network() {
+  recording_ = std::make_unique<Recording>(o_.record, o_.record_samples, scenario_);
+  open_console();
+  // This run's id: every node stamps it on its samples and drops those of another run. A launch
+  // of the whole network draws one; the launches of one network on several hosts (--only) share
+  // one: given (--run-id), or derived alike from the scenario and the domain.
+  run_id_ = o_.run_id ? *o_.run_id : !roles_.all ? derived_run_id(scenario_hash_, domain_) : random_run_id();
+  open_bus();
+}
+
+/// The console first: a dashboard port that is taken fails the launch before anything starts.
+void Launch::open_console() {
+  console_options_.status_interval = o_.status_interval;
+  const char* term = std::getenv("TERM");
+  console_options_.status_screen =
+      o_.status_interval > 0 && isatty(STDERR_FILENO) == 1 && term && std::string(term) != "dumb";
+  if (o_.dashboard != "off") {
+    DashboardOptions d;
+    d.port = static_cast<unsigned short>(std::stoi(o_.dashboard));
+    if (o_.dashboard_bind) {
+      d.bind = *o_.dashboard_bind;
+      d.token = random_token();  // listening beyond 127.0.0.1: every request needs it
+    }
+    d.allowed_origins = o_.dashboard_allow_origins;
+    console_options_.dashboard = d;
+  }
+  console_ = or_bad_usage([&] {
+    return std::make_unique<LiveConsole>(io_, scenario_, console_options_,
+                                         [this](std::uint64_t id, int sensor_id, const LinkKeys& keys) {
+                                           return bus_ && bus_->send_link_control(id, sensor_id, keys);
+                                         });
+  });
+}
+
+void Launch::open_bus() {
+  BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
+  handlers.estimate = [record = std::move(handlers.estimate), this](EstimateRecord&& e) {
+    fused_periods_ += e.fused.empty() ? 0 : 1;
+    last_estimate_ = e;
+    record(std::move(e));
+  };
+  // The dashboard retunes links: a launch serving it needs the ctl identity.
+  const auto role = console_options_.dashboard ? dds::Role::ctl : dds::Role::observer;
+  BusOptions bus_options = o_.network.bus("netkf-launch", role);
+  bus_options.run = run_id_;
+  if (discovery_) bus_options.discovery_server = discovery_->text();
+  bus_options.presence = BusOptions::Presence{dds::presence_role::launch, scenario_hash_, describe_launch_roles(roles_)};
+  bus_ = or_bad_usage(
+      [&] {
+        return std::make_unique<LiveBus>(io_, bus_options, std::move(handlers),
+                                         /*link_control_writer=*/console_options_.dashboard.has_value());
+      },
+      "DDS: ");
+}
+
+// ---------------------------------------------------------------- start
+
+void Launch::start() {
+  guard_domain(*bus_, {domain_, run_id_, scenario_hash_, roles_.all, o_.domain_check});
+  SupervisorOptions so;
+  so.policy = policy_;
+  so.max_restarts = o_.max_restarts;
+  supervisor_ = std::make_unique<Supervisor>(so);
+  here_ = dds::this_host();
+  start_children();
+  if (o_.pid_file) {
+    // For scripts and tests: name and pid of every child.
+    std::ofstream pids(*o_.pid_file);
+    for (const auto& e : started_) pids << e.child << " " << e.pid << "\n";
+  }
+  print_launch_line();
+}
+
+void Launch::start_children() {
+  LaunchPlanInputs in;
+  in.scenario_file = scenario_path_.string();
+  in.checkpoint_file = checkpoint_path_.string();
+  in.domain = domain_;
+  in.log_level = o_.log_level;
+  in.run_id = run_id_;
+  if (discovery_) in.discovery_server = discovery_->text();
+  in.dds_profile = o_.network.profile;
+  // Explicit (so a launch secured by $NETKF_SECURE secures its children too) and absolute.
+  if (const auto secure = dds::resolve_secure(o_.network.secure)) in.secure_dir = secure->string();
+  in.roles = roles_;
+  in.sensors_per_process = o_.sensors_per_process == "auto"
+                               ? auto_sensors_per_process(roles_.sensor_ids.size(), usable_cpus())
+                               : std::stoi(o_.sensors_per_process);
+  in.sensor_nice = o_.sensor_nice;
+  in.ready_timeout_s = o_.ready_timeout;
+  plan_ = plan_launch(in);
+  for (const auto& child : plan_.children) {
+    // A restarted estimator resumes from the last estimate this launch saw (written just before
+    // the restart, after the backoff, so no estimate of the previous life is still in flight).
+    std::function<void()> before_restart;
+    if (child.estimator) before_restart = [this] { write_checkpoint_for_restart(); };
+    started_.push_back(supervisor_->start(child.spec, before_restart));
+  }
+  report(started_);
+  if (!supervisor_->failed()) return;
+  supervisor_->stop_all();
+  // CI still gets its summary and a verdict per check (all unmeasured) before the failure.
+  RunVerdict verdict;
+  verdict.summary_end = "failure: " + supervisor_->failure_reason();
+  if (summary_)
+    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, o_.summary ? &summary_out_ : nullptr,
+                 o_.summary.value_or(""), verdict);
+  fail(ExitCode::run_failed, supervisor_->failure_reason());
+}
+
+void Launch::write_checkpoint_for_restart() {
+  try {
+    if (!last_estimate_) {
+      std::filesystem::remove(checkpoint_path_);
+      console_->announce(LiveEvent::Level::warning, "the estimator died before its first estimate: it starts afresh");
+      return;
+    }
+    write_checkpoint(checkpoint_path_.string(), checkpoint_of(*last_estimate_));
+  } catch (const std::exception& e) {
+    console_->announce(LiveEvent::Level::warning, std::string("estimator checkpoint not written: ") + e.what());
+  }
+}
+
+void Launch::print_launch_line() {
+  const bool auto_grouping = o_.sensors_per_process == "auto";
+  const std::size_t per_process = plan_.sensor_groups.empty() ? 0 : plan_.sensor_groups.front().size();
+  std::ostringstream line;
+  line << "netkf launch: scenario '" << scenario_.name << "' on DDS domain " << domain_ << ", ";
+  if (!roles_.all)
+    line << "this host runs " << describe_launch_roles(roles_) << " (run " << hex_id(run_id_)
+         << "; the rest of the network on other hosts), ";
+  line << roles_.sensor_ids.size() << " sensors in " << plan_.sensor_groups.size() << " processes"
+       << (auto_grouping && per_process > 1
+               ? " (" + std::to_string(per_process) + " per process, auto: at most 2 sensor processes per CPU, " +
+                     std::to_string(usable_cpus()) + " CPUs; --sensors-per-process 1 for one each)"
+               : std::string())
+       << ", period " << scenario_.period_ms << " ms"
+       << (o_.duration > 0 ? ", for " + number_text(o_.duration) + " s" : ", Ctrl-C stops");
+  if (served_) line << "\nnetkf launch: serving discovery on " << served_->text();
+  else if (discovery_) line << "\nnetkf launch: discovery through the server at " << discovery_->text();
+  if (const auto url = console_->dashboard_url()) line << "\nnetkf launch: dashboard: " << *url;
+  std::cerr << line.str() << "\n" << std::flush;
+  console_->set_header(line.str());
+}
+
+/// The processes of the run: this launch's children, then what the other hosts run (presence).
+std::vector<dds::PresenceRecord> Launch::refresh_processes() {
+  auto presences = bus_->processes();
+  std::vector<ProcessView> processes;
+  std::set<int> children;
+  for (const auto& c : supervisor_->children()) {
+    processes.push_back({c.name, c.pid, c.running, c.restarts, here_});
+    children.insert(c.pid);
+  }
+  for (const auto& p : presences) {
+    if (p.run != run_id_ || (p.host == here_ && (children.count(p.pid) || p.pid == getpid()))) continue;
+    std::string name = p.role;
+    if (!p.sensor_ids.empty()) name = sensor_process_name(p.sensor_ids);
+    processes.push_back({name, p.pid, p.running(), 0, p.host});
+  }
+  console_->set_processes(std::move(processes));
+  return presences;
+}
+
+/// Trouble: a process that died unexpectedly, a restart, a failure to start; a clean exit
+/// (the plant ending the run, or any exit during the stop) is not.
+void Launch::report(const std::vector<SupervisorEvent>& events, bool stopping) {
+  for (const auto& e : events) {
+    const bool clean_exit = e.kind == SupervisorEvent::Kind::exited && e.exit.clean();
+    const bool trouble = !stopping && e.kind != SupervisorEvent::Kind::started && !clean_exit;
+    console_->announce(trouble ? LiveEvent::Level::warning : LiveEvent::Level::info, e.message());
+    if (e.kind == SupervisorEvent::Kind::restart_scheduled) console_->count_restart(e.child);
+  }
+  if (!events.empty()) refresh_processes();
+}
+
+// ---------------------------------------------------------------- serve
+
+void Launch::serve() {
+  signals_ = std::make_unique<boost::asio::signal_set>(io_, SIGINT, SIGTERM);
+  signals_->async_wait([this](const boost::system::error_code& ec, int) {
+    if (!ec && facts_.end == RunEnd::running) facts_.end = RunEnd::signal;
+  });
+  start_ = Clock::now();
+  last_presence_look_ = start_;
+  run_end_ = RunEndWatch(run_id_, std::chrono::seconds(1));
+  cli::serve(io_, std::chrono::milliseconds(50), [this] { return serve_step(); });
+}
+
+/// One step of the loop (every 50 ms): supervise, flush the recording, follow presence,
+/// decide whether the run is over, refresh the console. False once it is over.
+bool Launch::serve_step() {
+  report(supervisor_->poll());
+  recording_->flush();
+  const auto now = Clock::now();
+  if (now - last_presence_look_ >= std::chrono::milliseconds(500)) {
+    last_presence_look_ = now;
+    const auto processes = refresh_processes();
+    if (!roles_.plant) run_end_.look(processes, now);
+  }
+  if (facts_.end == RunEnd::running) {
+    if (supervisor_->failed()) {
+      facts_.end = RunEnd::process_failed;
+      facts_.failure = supervisor_->failure_reason();
+    } else if (recording_->write_error()) {
+      facts_.end = RunEnd::recording_failed;
+      facts_.failure = *recording_->write_error() + ": the run was stopped";
+      console_->announce(LiveEvent::Level::error, facts_.failure);
+    } else if (supervisor_->finished() || run_end_.over(now)) {
+      facts_.end = RunEnd::finished;
+    } else if (o_.duration > 0 && now - start_ >= std::chrono::duration<double>(o_.duration)) {
+      facts_.end = RunEnd::duration;
+    }
+  }
+  console_->tick(now);
+  return facts_.end == RunEnd::running;
+}
+
+// ---------------------------------------------------------------- stop
+
+/// The children get SIGTERM (SIGKILL after the timeout); then take what DDS still delivered
+/// so the recording ends with the last complete period.
+void Launch::stop() {
+  console_->set_screen(false);  // from here on, plain lines
+  report(supervisor_->stop_all(), /*stopping=*/true);
+  io_.restart();
+  io_.run_for(std::chrono::milliseconds(300));
+  recording_->flush();
+  recording_->finish();
+  if (facts_.end != RunEnd::process_failed && facts_.end != RunEnd::recording_failed && recording_->write_error()) {
+    facts_.end = RunEnd::recording_failed;
+    facts_.failure = *recording_->write_error();
+  }
+  console_->stop();
+  io_.restart();
+  io_.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
+  signals_->cancel();
+  if (facts_.end == RunEnd::finished) facts_.finished_why = run_end_.why().value_or(supervisor_->finished_reason());
+  const std::uint64_t foreign_samples = bus_->foreign_samples();
+  bus_->end_presence(end_text(facts_));
+  bus_.reset();
+  discovery_server_.reset();
+  // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
+  // DDS shared-memory files: every process of the run has ended, so remove them now.
+  remove_stale_shared_memory(domain_, "killed processes of this run");
+  std::cerr << "netkf launch: stopped (" << end_text(facts_) << "); " << console_->model().snapshot().estimates
+            << " estimates seen";
+  if (foreign_samples > 0) std::cerr << ", " << foreign_samples << " samples of another run on the domain dropped";
+  if (o_.record)
+    std::cerr << ", " << recording_->rows() << (is_mcap_path(*o_.record) ? " periods in " : " rows in ") << *o_.record;
+  std::cerr << "\n";
+  if (console_->model().saw_non_finite() || invalid_samples_ > 0)
+    std::cerr << "netkf launch: WARNING: " << invalid_samples_ << " invalid samples were rejected\n";
+}
+
+// ---------------------------------------------------------------- conclude
+
+/// Checks are judged after everything is recorded; a run that failed keeps its own failure.
+int Launch::conclude() {
+  add_snapshot_facts(console_->model().snapshot(), facts_);
+  facts_.fused_periods = fused_periods_;
+  facts_.ran_for_s = std::chrono::duration<double>(Clock::now() - start_).count();
+  RunVerdict verdict = judge_run(facts_);
+  if (verdict.failure && facts_.end != RunEnd::process_failed && facts_.end != RunEnd::recording_failed)
+    std::cerr << "netkf launch: ERROR: " << *verdict.failure << "\n";
+  if (summary_)
+    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, o_.summary ? &summary_out_ : nullptr,
+                 o_.summary.value_or(""), verdict);
+  if (verdict.failure) fail(verdict.exit, *verdict.failure);
+  return 0;
+}
+
+}  // namespace netkf::cli

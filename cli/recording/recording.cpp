@@ -1,0 +1,139 @@
+#include "recording.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "exit_code.hpp"
+
+namespace netkf::cli {
+namespace {
+
+int max_measurement_dim(const Scenario& s) {
+  int m = 0;
+  for (const auto& sensor : s.sensors) m = std::max(m, static_cast<int>(sensor.C.rows()));
+  return m;
+}
+
+void open_or_fail(std::ofstream& out, const std::string& file, std::ios::openmode mode) {
+  out.open(file, mode);
+  if (!out) fail(ExitCode::bad_usage, "cannot write " + file + ": " + std::strerror(errno));
+}
+
+}  // namespace
+
+Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
+                     const Scenario& scenario)
+    : periods_(scenario.state_dim()),
+      samples_(max_measurement_dim(scenario)),
+      periods_file_(periods_file),
+      samples_file_(samples_file) {
+  if (periods_file && is_mcap_path(*periods_file)) {
+    open_or_fail(mcap_out_, *periods_file, std::ios::trunc | std::ios::binary);
+    mcap_ = std::make_unique<McapRecorder>(mcap_out_, scenario, /*with_delivered=*/samples_file.has_value());
+    mcap_out_.flush();
+  } else if (periods_file) {
+    open_or_fail(periods_out_, *periods_file, std::ios::trunc);
+    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim()) << "\n";
+  }
+  if (periods_file) {
+    events_file_ = *periods_file + ".events.yaml";
+    // An empty journal too: a replay of a run without changes is valid.
+    if (!write_events()) fail(ExitCode::bad_usage, *write_error_);
+  }
+  if (samples_file) {
+    open_or_fail(samples_out_, *samples_file, std::ios::trunc);
+    samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario)) << "\n";
+  }
+}
+
+Recording::~Recording() {
+  try {
+    finish();
+  } catch (...) {
+  }
+}
+
+void Recording::truth(const TruthRecord& t) {
+  if (periods_out_.is_open()) periods_.add_truth(t);
+  if (mcap_) mcap_->truth(t);
+}
+
+void Recording::estimate(const EstimateRecord& e) {
+  if (periods_out_.is_open()) periods_.add_estimate(e);
+  if (samples_out_.is_open()) samples_.add_estimate(e);
+  if (mcap_) mcap_->estimate(e);
+}
+
+void Recording::delivered(const DeliveredRecord& d) {
+  if (samples_out_.is_open()) samples_.add_delivered(d);
+  if (mcap_) mcap_->delivered(d);
+}
+
+void Recording::link_status(const LinkStatusRecord& l) {
+  if (mcap_) mcap_->link_status(l);
+}
+
+void Recording::link_change(const LinkChangeRecord& c) {
+  if (mcap_) mcap_->link_change(c);
+  if (!events_file_ || c.origin != "request") return;
+  LinkEvent e;
+  e.at_period = c.at_period;
+  e.link = c.sensor_id;
+  e.keys = link_keys(c.link);  // the whole link: a replay sets exactly what the run had
+  for (const auto& seen : journal_)
+    if (seen.request_id == c.request_id && seen.event == e) return;  // transient-local repeats
+  journal_.push_back({c.request_id, std::move(e)});
+  journal_changed_ = true;
+}
+
+void Recording::check(const std::ostream& out, const std::string& file, int saved_errno) {
+  if (out || write_error_) return;
+  write_error_ = "writing " + file + " failed" + (saved_errno != 0 ? std::string(": ") + std::strerror(saved_errno) : "");
+}
+
+void Recording::flush() {
+  errno = 0;
+  if (periods_out_.is_open()) {
+    periods_.flush(periods_out_);
+    periods_out_.flush();
+    check(periods_out_, *periods_file_, errno);
+  }
+  if (samples_out_.is_open()) {
+    samples_.flush(samples_out_);
+    samples_out_.flush();
+    check(samples_out_, *samples_file_, errno);
+  }
+  if (mcap_) {
+    mcap_out_.flush();
+    check(mcap_out_, *periods_file_, errno);
+  }
+  if (journal_changed_) write_events();
+}
+
+void Recording::finish() {
+  if (mcap_ && !mcap_->finished()) {
+    errno = 0;
+    mcap_->finish();
+    mcap_out_.flush();
+    check(mcap_out_, *periods_file_, errno);
+  }
+}
+
+std::uint64_t Recording::rows() const { return mcap_ ? mcap_->estimates() : periods_.rows_written(); }
+
+bool Recording::write_events() {
+  std::vector<LinkEvent> events;
+  for (const auto& j : journal_) events.push_back(j.event);
+  errno = 0;
+  std::ofstream out(*events_file_, std::ios::trunc);
+  out << "# Live link changes of a netkf run, with the period each applied from.\n"
+         "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n"
+      << events_to_yaml(events);
+  out.flush();
+  check(out, *events_file_, errno);
+  journal_changed_ = false;
+  return static_cast<bool>(out);
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,77 @@
+#pragma once
+// What a live command records, behind one facade: truth and estimates (a CSV, or an MCAP
+// file when the name ends with .mcap), optionally every delivered sample, and the live link
+// changes journaled as FILE.events.yaml (which `netkf launch --events` replays).
+//
+// Opening a file that cannot be written is the user's input error (CommandError, exit 2,
+// before anything starts). A write that fails during the run (e.g. a full disk) never throws
+// from the flush: the first one is kept as write_error(), the caller stops the run in order
+// and ends with exit 1 naming it.
+#include <cstdint>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "live_records.hpp"
+#include "netkf/scenario.hpp"
+#include "record_csv.hpp"
+#include "record_mcap.hpp"
+
+namespace netkf::cli {
+
+class Recording {
+ public:
+  /// Throws CommandError (bad_usage) when a file cannot be opened.
+  Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
+            const Scenario& scenario);
+  Recording(const Recording&) = delete;
+  Recording& operator=(const Recording&) = delete;
+  ~Recording();
+
+  void truth(const TruthRecord& t);
+  void estimate(const EstimateRecord& e);
+  void delivered(const DeliveredRecord& d);
+  void link_status(const LinkStatusRecord& l);
+  /// A live change (ctl, dashboard) with the period it applied from: journaled.
+  void link_change(const LinkChangeRecord& c);
+
+  bool wants_samples() const { return samples_out_.is_open(); }
+  bool wants_link_status() const { return mcap_ != nullptr; }
+  bool journals_changes() const { return events_file_.has_value(); }
+
+  /// Write what is buffered (whole records: a reader of a killed launch gets all but an MCAP
+  /// footer). A failed write is kept in write_error(), never thrown.
+  void flush();
+  /// Complete the MCAP file (DataEnd, Footer, magic): on every stop, SIGINT/SIGTERM included.
+  void finish();
+  /// The first write that failed during the run ("writing run.csv: No space left on device").
+  const std::optional<std::string>& write_error() const { return write_error_; }
+  /// CSV: rows written; MCAP: estimates (periods) written.
+  std::uint64_t rows() const;
+
+ private:
+  struct Journaled {
+    std::uint64_t request_id;
+    LinkEvent event;
+  };
+  /// Rewrite the journal whole (it is small), so it is complete whenever the launch stops.
+  bool write_events();
+  void check(const std::ostream& out, const std::string& file, int saved_errno);
+
+  PeriodCsvRecorder periods_;
+  SampleCsvRecorder samples_;
+  std::optional<std::string> periods_file_;
+  std::optional<std::string> samples_file_;
+  std::ofstream periods_out_;
+  std::ofstream samples_out_;
+  std::ofstream mcap_out_;
+  std::unique_ptr<McapRecorder> mcap_;  // declared after its stream: destroyed first
+  std::optional<std::string> events_file_;
+  std::vector<Journaled> journal_;
+  bool journal_changed_ = false;
+  std::optional<std::string> write_error_;
+};
+
+}  // namespace netkf::cli

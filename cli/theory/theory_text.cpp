@@ -1,0 +1,142 @@
+#include "theory_text.hpp"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace netkf::cli {
+
+using nlohmann::json;
+
+namespace {
+
+json number_or_null(const std::optional<double>& v) {
+  if (!v || !std::isfinite(*v)) return nullptr;
+  return *v;
+}
+
+json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+json report_json(const analysis::AnalysisReport& r) {
+  json j;
+  j["spectral_radius"] = number_or_null(r.spectral_radius);
+  j["stable"] = analysis::to_string(r.stable);
+  j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
+                              {"upper_trace", number_or_null(r.upper_trace)}};
+  if (r.critical_rate) {
+    const auto& cr = *r.critical_rate;
+    j["critical_rate"] = {{"lower", number_or_null(cr.lower)},
+                          {"upper", number_or_null(cr.upper)},
+                          {"upper_iteration", number_or_null(cr.upper_iteration)},
+                          {"exact", number_or_null(cr.exact)}};
+  } else {
+    j["critical_rate"] = nullptr;
+  }
+  j["markov_criterion"] = number_or_null(r.markov_criterion);
+  j["second_order_criterion"] = number_or_null(r.second_order_criterion);
+  j["links"] = json::array();
+  for (const auto& l : r.links)
+    j["links"].push_back({{"sensor_id", l.sensor_id},
+                          {"loss", number_or_null(l.loss)},
+                          {"in_time", number_or_null(l.in_time)},
+                          {"effective_arrival_rate", number_or_null(l.effective_arrival_rate)}});
+  j["notes"] = r.notes;
+  return j;
+}
+
+std::string show(const std::optional<double>& v, const char* missing = "unbounded") {
+  if (!v) return missing;
+  std::ostringstream os;
+  os << std::setprecision(6) << *v;
+  return os.str();
+}
+
+}  // namespace
+
+void print_analysis(std::ostream& out, const Scenario& s, const analysis::AnalysisReport& r) {
+  out << "scenario " << s.name << " (" << s.state_dim() << " states, " << s.sensors.size() << " sensors)\n";
+  out << "  spectral radius alpha      " << std::setprecision(6) << r.spectral_radius << "\n";
+  out << "  stable                     " << analysis::to_string(r.stable) << "\n";
+  const char* missing = r.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
+  out << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
+  out << "  Tr V-bar (upper bound)     " << show(r.upper_trace, missing) << "\n";
+  out << "  Markov criterion           " << show(r.markov_criterion, "n/a") << "\n";
+  out << "  links: id  loss  P(in time)  effective arrival rate (1 - loss) * P(in time)\n";
+  for (const auto& l : r.links)
+    out << "    " << std::setw(4) << l.sensor_id << "  " << std::setw(9) << show(l.loss) << "  " << std::setw(9)
+              << show(l.in_time) << "  " << std::setw(9) << show(l.effective_arrival_rate) << "\n";
+  if (r.critical_rate) {
+    const auto& cr = *r.critical_rate;
+    out << "  critical arrival rate      lower " << show(cr.lower) << ", upper (LMI) " << show(cr.upper, "none")
+              << ", upper (iteration) " << show(cr.upper_iteration, "none") << ", exact " << show(cr.exact, "n/a")
+              << "\n";
+  }
+  if (!r.region.empty()) {
+    out << "  stability region (Liu-Goldsmith): lambda1 -> lambda2 lower / upper / exact\n";
+    for (const auto& p : r.region)
+      out << "    " << std::setw(5) << p.lambda1 << "  " << std::setw(9) << show(p.lambda2_lower) << "  "
+                << std::setw(9) << show(p.lambda2_upper, "none") << "  " << std::setw(9) << show(p.lambda2_exact, "n/a")
+                << "\n";
+  }
+  if (!r.sweep.empty()) {
+    out << "  sweep: lambda -> Tr S-bar / Tr V-bar\n";
+    for (const auto& p : r.sweep)
+      out << "    " << std::setw(5) << p.lambda << "  " << std::setw(12) << show(p.lower_trace) << "  "
+                << std::setw(12) << show(p.upper_trace) << "\n";
+  }
+  for (const auto& n : r.notes) out << "  note: " << n << "\n";
+}
+
+json analysis_json(const analysis::AnalysisReport& r, bool with_region, bool with_sweep) {
+  json j = report_json(r);
+  if (with_region) {
+    json region = json::array();
+    for (const auto& p : r.region)
+      region.push_back({{"lambda1", p.lambda1},
+                        {"lambda2_lower", number_or_null(p.lambda2_lower)},
+                        {"lambda2_upper", number_or_null(p.lambda2_upper)},
+                        {"lambda2_upper_iteration", number_or_null(p.lambda2_upper_iteration)},
+                        {"lambda2_exact", number_or_null(p.lambda2_exact)}});
+    j["region"] = region;
+  }
+  if (with_sweep) {
+    json sweep = json::array();
+    for (const auto& p : r.sweep)
+      sweep.push_back({{"lambda", p.lambda},
+                       {"lower_trace", number_or_null(p.lower_trace)},
+                       {"upper_trace", number_or_null(p.upper_trace)}});
+    j["sweep"] = sweep;
+  }
+  return j;
+}
+
+json monte_carlo_json(const MonteCarloResult& r) {
+  json j;
+  auto put = [&](const char* key, const MeanSe& m) {
+    j[key] = number_or_null(m.mean);
+    j[std::string(key) + "_se"] = number_or_null(m.se);
+  };
+  put("mean_trace_P_pred", r.trace_P_pred);
+  put("mean_trace_P_filt", r.trace_P_filt);
+  put("mean_sq_error_pred", r.sq_error_pred);
+  put("mean_sq_error_filt", r.sq_error_filt);
+  j["diverged_fraction"] = r.diverged_fraction;
+  j["runs"] = r.runs;
+  j["steps"] = r.steps;
+  j["seed"] = r.seed;
+  j["kernel"] = r.used_fixed_size_kernel ? "fast" : "reference";
+  return j;
+}
+
+void print_monte_carlo(std::ostream& out, const Scenario& s, const MonteCarloResult& r) {
+  out << "scenario " << s.name << ": " << r.runs << " runs x " << r.steps << " steps, seed " << r.seed << " ("
+      << (r.used_fixed_size_kernel ? "fixed-size" : "reference") << " kernel)\n"
+      << std::setprecision(6) << "  at k = " << r.steps - 1 << " (mean +/- standard error):\n"
+      << "  Tr P_{k|k-1}        " << r.trace_P_pred.mean << " +/- " << r.trace_P_pred.se << "\n"
+      << "  Tr P_{k|k}          " << r.trace_P_filt.mean << " +/- " << r.trace_P_filt.se << "\n"
+      << "  |x - x^_{k|k-1}|^2  " << r.sq_error_pred.mean << " +/- " << r.sq_error_pred.se << "\n"
+      << "  |x - x^_{k|k}|^2    " << r.sq_error_filt.mean << " +/- " << r.sq_error_filt.se << "\n"
+      << "  diverged fraction   " << r.diverged_fraction << "\n";
+}
+
+}  // namespace netkf::cli

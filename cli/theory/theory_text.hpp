@@ -1,0 +1,21 @@
+#pragma once
+// What `netkf analyze` and `netkf simulate` print: the report as a readable table or as JSON
+// (the keys are a contract: docs/architecture.md, "Contracts"). JSON has no NaN or infinity:
+// a non-finite or missing number is null.
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "netkf/analysis/report.hpp"
+#include "netkf/monte_carlo.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli {
+
+/// The analysis as JSON, with the region's and the sweep's grids when asked for.
+nlohmann::json analysis_json(const analysis::AnalysisReport& report, bool with_region, bool with_sweep);
+void print_analysis(std::ostream& out, const Scenario& scenario, const analysis::AnalysisReport& report);
+
+nlohmann::json monte_carlo_json(const MonteCarloResult& result);
+void print_monte_carlo(std::ostream& out, const Scenario& scenario, const MonteCarloResult& result);
+
+}  // namespace netkf::cli

@@ -1,0 +1,222 @@
+// The launch's DDS-free pieces: its plan (which children, in which order, with which flags) and
+// its verdict (how a run that ended is judged). The expectations are the documented contracts
+// (README "Exit codes", docs/architecture.md "netkf launch"), written out by hand here.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <sstream>
+
+#include "launch_plan.hpp"
+#include "run_verdict.hpp"
+
+namespace netkf::cli {
+namespace {
+
+LaunchPlanInputs inputs(std::vector<int> sensors, int per_process = 1) {
+  LaunchPlanInputs in;
+  in.scenario_file = "/run/x/scenario.yaml";
+  in.checkpoint_file = "/run/x/estimator-checkpoint.json";
+  in.domain = 42;
+  in.run_id = 7;
+  in.roles.sensor_ids = std::move(sensors);
+  in.sensors_per_process = per_process;
+  return in;
+}
+
+std::vector<std::string> names(const LaunchPlan& plan) {
+  std::vector<std::string> out;
+  for (const auto& c : plan.children) out.push_back(c.spec.name);
+  return out;
+}
+
+/// The value after `flag` in `args` ("" when absent).
+std::string value_of(const std::vector<std::string>& args, const std::string& flag) {
+  const auto it = std::find(args.begin(), args.end(), flag);
+  return it == args.end() || it + 1 == args.end() ? std::string() : *(it + 1);
+}
+
+bool has(const std::vector<std::string>& args, const std::string& flag) {
+  return std::find(args.begin(), args.end(), flag) != args.end();
+}
+
+std::string identity(const std::string& name) { return name; }
+
+TEST(LaunchPlan, ConsumersStartFirstAndThePlantLast) {
+  const auto plan = plan_launch(inputs({1, 2, 3}), identity);
+  EXPECT_EQ(names(plan), (std::vector<std::string>{"channel_emulator", "estimator_node", "sensor_node[1]",
+                                                   "sensor_node[2]", "sensor_node[3]", "plant_node"}));
+  for (const auto& c : plan.children) {
+    EXPECT_EQ(c.spec.critical, c.spec.name == "plant_node") << c.spec.name;  // only the clock is never restarted
+    EXPECT_EQ(c.estimator, c.spec.name == "estimator_node") << c.spec.name;
+  }
+  EXPECT_EQ(plan.children.back().spec.executable, "plant_node");
+}
+
+TEST(LaunchPlan, EveryChildReadsTheSameScenarioDomainAndRun) {
+  const auto plan = plan_launch(inputs({1, 2}), identity);
+  for (const auto& c : plan.children) {
+    EXPECT_EQ(value_of(c.spec.args, "--scenario"), "/run/x/scenario.yaml") << c.spec.name;
+    EXPECT_EQ(value_of(c.spec.args, "--domain"), "42") << c.spec.name;
+    EXPECT_EQ(value_of(c.spec.args, "--run-id"), "7") << c.spec.name;
+    EXPECT_EQ(value_of(c.spec.args, "--log-level"), "warn") << c.spec.name;
+    // Not asked for: none of the optional network flags.
+    EXPECT_FALSE(has(c.spec.args, "--discovery-server") || has(c.spec.args, "--dds-profile") ||
+                 has(c.spec.args, "--secure"))
+        << c.spec.name;
+  }
+}
+
+TEST(LaunchPlan, OptionalNetworkFlagsReachEveryChild) {
+  auto in = inputs({1});
+  in.discovery_server = "10.0.0.1:11811";
+  in.dds_profile = "p.xml";
+  in.secure_dir = "/etc/netkf/secure";
+  for (const auto& c : plan_launch(in, identity).children) {
+    EXPECT_EQ(value_of(c.spec.args, "--discovery-server"), "10.0.0.1:11811") << c.spec.name;
+    EXPECT_EQ(value_of(c.spec.args, "--dds-profile"), "p.xml") << c.spec.name;
+    EXPECT_EQ(value_of(c.spec.args, "--secure"), "/etc/netkf/secure") << c.spec.name;
+  }
+}
+
+TEST(LaunchPlan, OnlyTheEstimatorResumesFromTheCheckpoint) {
+  for (const auto& c : plan_launch(inputs({1, 2}), identity).children)
+    EXPECT_EQ(value_of(c.spec.args, "--resume-from"),
+              c.spec.name == "estimator_node" ? "/run/x/estimator-checkpoint.json" : "")
+        << c.spec.name;
+}
+
+TEST(LaunchPlan, ThePlantWaitsForPresenceAndCountsThisHostsTruthReaders) {
+  auto in = inputs({1, 2, 3, 4, 5}, 2);
+  in.ready_timeout_s = 12.5;
+  const auto plan = plan_launch(in, identity);
+  ASSERT_EQ(plan.sensor_groups, (std::vector<std::vector<int>>{{1, 2}, {3, 4}, {5}}));
+  const auto& plant = plan.children.back().spec.args;
+  EXPECT_TRUE(has(plant, "--wait-for-presence"));
+  EXPECT_EQ(value_of(plant, "--truth-readers"), "4");  // 3 sensor processes and the launch
+  EXPECT_EQ(value_of(plant, "--startup-wait-ms"), "12500");
+  // Each sensor process gets its sensors' ids, in order.
+  const auto& grouped = plan.children[2].spec;
+  EXPECT_EQ(grouped.name, "sensor_node[1,2]");
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i + 1 < grouped.args.size(); ++i)
+    if (grouped.args[i] == "--sensor-id") ids.push_back(grouped.args[i + 1]);
+  EXPECT_EQ(ids, (std::vector<std::string>{"1", "2"}));
+}
+
+TEST(LaunchPlan, APartialLaunchStartsOnlyItsRoles) {
+  auto in = inputs({});
+  in.roles = parse_launch_roles("sensors=1,3,channel", {1, 2, 3});
+  const auto plan = plan_launch(in, identity);
+  EXPECT_EQ(names(plan), (std::vector<std::string>{"channel_emulator", "sensor_node[1]", "sensor_node[3]"}));
+}
+
+TEST(LaunchPlan, SensorNiceAppliesToSensorProcessesOnly) {
+  auto in = inputs({1});
+  in.sensor_nice = 5;
+  for (const auto& c : plan_launch(in, identity).children)
+    EXPECT_EQ(c.spec.nice, c.spec.name == "sensor_node[1]" ? 5 : 0) << c.spec.name;
+}
+
+// ---------------------------------------------------------------- verdict
+
+RunFacts ran(RunEnd end, std::uint64_t estimates, std::uint64_t fused) {
+  RunFacts f;
+  f.end = end;
+  f.estimates = estimates;
+  f.fused_periods = fused;
+  f.ran_for_s = 30;
+  return f;
+}
+
+TEST(RunVerdict, ARunThatFusedEndsOkWithItsEnd) {
+  const auto v = judge_run(ran(RunEnd::duration, 300, 290));
+  EXPECT_EQ(v.exit, ExitCode::ok);
+  EXPECT_FALSE(v.failure);
+  EXPECT_EQ(v.summary_end, "duration reached");
+  auto finished = ran(RunEnd::finished, 300, 290);
+  finished.finished_why = "the plant (pid 1 on a) ended the run";
+  EXPECT_EQ(judge_run(finished).summary_end, "the plant (pid 1 on a) ended the run");
+}
+
+TEST(RunVerdict, AFailedProcessOrRecordingKeepsItsReason) {
+  auto f = ran(RunEnd::process_failed, 0, 0);
+  f.failure = "plant_node died";
+  auto v = judge_run(f);
+  EXPECT_EQ(v.exit, ExitCode::run_failed);
+  EXPECT_EQ(v.failure, "plant_node died");
+  EXPECT_EQ(v.summary_end, "failure: plant_node died");
+  f.end = RunEnd::recording_failed;
+  f.failure = "writing run.csv failed: No space left on device";
+  v = judge_run(f);
+  EXPECT_EQ(v.exit, ExitCode::run_failed);
+  EXPECT_EQ(v.summary_end, "failure: writing run.csv failed: No space left on device");
+}
+
+TEST(RunVerdict, ARunWithoutEstimatesOrWithSilentSensorsIsIncomplete) {
+  auto f = ran(RunEnd::signal, 0, 0);
+  EXPECT_EQ(judge_run(f).failure, "no estimate arrived during the run: the network never ran");
+  f.ran_for_s = 4;  // too short to judge
+  EXPECT_FALSE(judge_run(f).failure);
+
+  f = ran(RunEnd::duration, 10, 10);
+  f.silent_sensors = {2, 5};
+  EXPECT_EQ(judge_run(f).failure, "sensors 2, 5 never sent a sample to the channel: the run did not include them");
+  f.estimates = 9;  // too early to judge
+  EXPECT_FALSE(judge_run(f).failure);
+}
+
+TEST(RunVerdict, NothingFusedIsAFailureUnlessEveryLinkDropsEverything) {
+  auto f = ran(RunEnd::duration, 100, 0);
+  EXPECT_EQ(judge_run(f).failure,
+            "no sample was fused in 100 periods although the links deliver: the estimator never heard the channel");
+  f.all_links_drop_everything = true;
+  EXPECT_FALSE(judge_run(f).failure);
+  f = ran(RunEnd::duration, 99, 0);
+  EXPECT_FALSE(judge_run(f).failure);
+}
+
+TEST(RunVerdict, SnapshotFactsFindSilentSensorsAndLinksThatDeliver) {
+  LiveSnapshot s;
+  s.estimates = 12;
+  LinkView a, b;
+  a.sensor_id = 1;
+  a.samples_total = 10;
+  a.link.loss = BernoulliLink{1.0};
+  b.sensor_id = 2;
+  b.link.loss = BernoulliLink{1.0};
+  s.links = {a, b};
+  RunFacts f;
+  add_snapshot_facts(s, f);
+  EXPECT_EQ(f.estimates, 12u);
+  EXPECT_EQ(f.silent_sensors, std::vector<int>{2});
+  EXPECT_TRUE(f.all_links_drop_everything);
+  s.links[1].link.loss = BernoulliLink{0.999};
+  add_snapshot_facts(s, f);
+  EXPECT_FALSE(f.all_links_drop_everything);
+}
+
+TEST(RunVerdict, FailedChecksFailTheRunAndTheSummarySaysHowItEnded) {
+  RunSummary summary;  // nothing measured: a check on rms_error fails, saying why
+  std::vector<Check> checks{parse_check("rms_error<0.8", {1})};
+  RunVerdict v = judge_run(ran(RunEnd::duration, 300, 290));
+  std::ostringstream table, json;
+  conclude_run(summary, checks, "default", table, &json, "s.json", v);
+  EXPECT_EQ(v.exit, ExitCode::run_failed);
+  EXPECT_EQ(v.failure, "1 of 1 checks failed");
+  EXPECT_NE(table.str().find("rms_error"), std::string::npos);
+  EXPECT_NE(json.str().find("\"end\": \"duration reached\""), std::string::npos);
+  EXPECT_NE(json.str().find("\"scenario\": \"default\""), std::string::npos);
+}
+
+TEST(RunVerdict, ARunThatFailedKeepsItsOwnFailureOverItsChecks) {
+  auto f = ran(RunEnd::process_failed, 0, 0);
+  f.failure = "channel_emulator gave up";
+  RunVerdict v = judge_run(f);
+  std::ostringstream table;
+  conclude_run(RunSummary{}, {parse_check("rms_error<0.8", {1})}, "default", table, nullptr, "", v);
+  EXPECT_EQ(v.failure, "channel_emulator gave up");
+  EXPECT_EQ(v.exit, ExitCode::run_failed);
+}
+
+}  // namespace
+}  // namespace netkf::cli
