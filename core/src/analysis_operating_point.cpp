@@ -3,10 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
-#include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/riccati.hpp"
+#include "netkf/analysis/stability.hpp"
 
 namespace netkf::analysis {
 namespace {
@@ -16,32 +15,23 @@ OperatingPointAssessment assess(const Scenario& scenario, const std::vector<Sens
   OperatingPointAssessment out;
   const Matrix& A = scenario.plant.A;
   const Matrix& Q = scenario.plant.Q;
-  // i.i.d. bounds at these rates (cheap: capped iterations, the live caller runs once a second).
-  const auto patterns = independent_arrival_patterns(sensors, rates);
+  // The verdict `netkf analyze` gives for these links (analysis/stability.hpp).
+  const StabilityDecision decision = decide_stability(A, Q, sensors);
+  out.stable = decision.stable;
+  out.reason = decision.reason;
+  if (decision.markov.applies) out.markov_criterion = decision.markov.value;
+  if (decision.iid_bounds) {
+    if (decision.lower) out.lower_trace = decision.lower->trace();
+    if (decision.upper.status == BoundStatus::bounded) out.upper_trace = decision.upper.V.trace();
+    return out;
+  }
+  // Links with memory: the status still shows the i.i.d. bounds at the stationary rates
+  // (operating_point.hpp); they bound nothing for such links, so they did not decide.
   if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(rates))) out.lower_trace = S->trace();
   UpperBoundOptions ub;
-  ub.max_iterations = 2000;
-  const UpperBound V = expected_covariance_upper_bound(A, Q, patterns, ub);
+  ub.max_iterations = stability_upper_bound_iterations;
+  const UpperBound V = expected_covariance_upper_bound(A, Q, independent_arrival_patterns(sensors, rates), ub);
   if (V.status == BoundStatus::bounded) out.upper_trace = V.V.trace();
-
-  const MarkovCriterion markov = markov_stability_criterion(A, sensors);
-  std::ostringstream why;
-  why.precision(4);
-  if (markov.applies) {
-    out.markov_criterion = markov.value;
-    out.stable = markov.stable() ? Verdict::yes : Verdict::no;
-    why << "Markov criterion " << markov.value << (markov.stable() ? " < 1 (stable)" : " >= 1 (below the critical boundary)");
-  } else if (V.status == BoundStatus::bounded) {
-    out.stable = Verdict::yes;
-    why << "V-bar exists (Sinopoli Thm 3/5): stable";
-  } else if (!out.lower_trace) {
-    out.stable = Verdict::no;
-    why << "S-bar unbounded (all-lost probability * alpha^2 >= 1): below the critical rate";
-  } else {
-    out.stable = Verdict::unknown;
-    why << "between the bounds; " << (markov.reasons.empty() ? std::string() : markov.reasons.front());
-  }
-  out.reason = why.str();
   return out;
 }
 

@@ -9,6 +9,7 @@
 
 #include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/riccati.hpp"
+#include "netkf/analysis/stability.hpp"
 #include "netkf/gaussian.hpp"
 
 namespace netkf::analysis {
@@ -69,15 +70,6 @@ bool noise_controllable(const Matrix& A, const Matrix& Q) {
 
 }  // namespace
 
-const char* to_string(Verdict verdict) {
-  switch (verdict) {
-    case Verdict::yes: return "yes";
-    case Verdict::no: return "no";
-    case Verdict::unknown: return "unknown";
-  }
-  return "unknown";
-}
-
 AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options) {
   AnalysisReport report;
   // Everything below is about what reaches the estimator in time: delays fold into the
@@ -107,6 +99,9 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   report.spectral_radius = spectral_radius(A);
   const double alpha = report.spectral_radius;
 
+  // The verdict and the bounds it used, as the live status has them (analysis/stability.hpp).
+  const StabilityDecision decision = decide_stability(A, Q, sensors);
+
   bool all_bernoulli = true;
   std::vector<double> rates;
   for (const auto& s : sensors) {
@@ -124,7 +119,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   if (alpha < 1.0) report.notes.push_back("A is stable (alpha < 1): E[P] stays bounded for every arrival rate");
 
   // Necessary-and-sufficient Markov criterion (multi-sensor paper Thm 4/7/9; Rohr et al. Thm 3.1).
-  const MarkovCriterion markov = markov_stability_criterion(A, sensors);
+  const MarkovCriterion& markov = decision.markov;
   if (markov.applies) {
     report.markov_criterion = markov.value;
     report.notes.push_back("markov_criterion = max over eigen-blocks of alpha_i^2 limsup P(R_N)^(1/N), by the "
@@ -132,15 +127,11 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   }
   for (const auto& r : markov.reasons) report.notes.push_back(r);
 
-  // i.i.d. bounds S̄ ≤ lim E[P] ≤ V̄ (Sinopoli Thm 4, 6; Liu-Goldsmith Thm 4).
-  UpperBound upper;
-  std::optional<Matrix> lower;
-  if (all_bernoulli && d > 0) {
-    const auto patterns = independent_arrival_patterns(sensors, rates);
-    lower = lyapunov_lower_bound(A, Q, all_lost_probability(rates));
-    upper = expected_covariance_upper_bound(A, Q, patterns);
+  // i.i.d. bounds S̄ ≤ lim E[P] ≤ V̄ (Sinopoli Thm 4, 6; Liu-Goldsmith Thm 4), computed by the verdict.
+  const UpperBound& upper = decision.upper;
+  if (decision.iid_bounds) {
     report.iid_bounds = true;
-    if (lower) report.lower_trace = lower->trace();
+    if (decision.lower) report.lower_trace = decision.lower->trace();
     if (upper.status == BoundStatus::bounded) report.upper_trace = upper.V.trace();
     if (upper.status == BoundStatus::undecided)
       report.notes.push_back("upper bound V-bar: the g iteration neither certified a fixed point nor diverged in " +
@@ -169,32 +160,11 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     }
   }
 
-  // Verdict: the necessary-and-sufficient criterion first, then the i.i.d. bounds.
-  if (d == 0) {
-    report.stable = alpha < 1.0 ? Verdict::yes : Verdict::no;
-    report.notes.push_back("no sensors: open-loop prediction only");
-  } else if (markov.applies) {
-    report.stable = markov.stable() ? Verdict::yes : Verdict::no;
-    report.notes.push_back("stable decided by the Markov criterion " + fmt(markov.value) + (markov.stable() ? " < 1" : " >= 1"));
-    if (upper.status == BoundStatus::bounded && !markov.stable())
-      report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
-  } else if (all_bernoulli) {
-    if (upper.status == BoundStatus::bounded) {
-      report.stable = Verdict::yes;
-      report.notes.push_back("stable decided by the upper bound: V-bar = g(V-bar) exists (Sinopoli Thm 3/5)");
-    } else if (!lower) {
-      report.stable = Verdict::no;
-      report.notes.push_back("unstable decided by the lower bound: S-bar does not exist (q alpha^2 >= 1, Sinopoli Thm 3)");
-    } else {
-      report.stable = Verdict::unknown;
-      report.notes.push_back("stable unknown: the rates lie between the lower and upper bounds of the critical "
-                             "region, and the exact Markov criterion does not apply");
-    }
-  } else {
-    report.stable = Verdict::unknown;
-    report.notes.push_back("stable unknown: Gilbert-Elliott links are decided only by the Markov criterion, which "
-                           "does not apply here");
-  }
+  report.stable = decision.stable;
+  report.stable_reason = decision.reason;
+  report.notes.push_back(decision.reason);
+  if (markov.applies && !markov.stable() && upper.status == BoundStatus::bounded)
+    report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
 
   if (shared) {
     CriticalRates cr;
@@ -232,7 +202,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     if (!all_bernoulli) report.notes.push_back("sweep: every link treated as Bernoulli with the swept arrival rate");
     const int points = std::max(2, options.sweep_points);
     UpperBoundOptions ub;
-    ub.max_iterations = 5000;
+    ub.max_iterations = stability_upper_bound_iterations;  // the verdict's cap: a point at its rates agrees
     for (int k = 0; k < points; ++k) {
       SweepPoint p;
       p.lambda = static_cast<double>(k) / (points - 1);

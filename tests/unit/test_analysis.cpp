@@ -2,15 +2,20 @@
 // system calls, and bad input. Expected values are closed forms.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <vector>
 #include <cmath>
 #include <limits>
 
+#include "test_paths.hpp"
 #include "netkf/analysis/operating_point.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/analysis/riccati.hpp"
+#include "netkf/analysis/stability.hpp"
+#include "netkf/scenario.hpp"
 #include "../validation/theory_systems.hpp"
 
 namespace netkf::analysis {
@@ -68,6 +73,99 @@ TEST(Analysis, OperatingPointBadInputIsUnknownNotACrash) {
   EXPECT_EQ(assess_operating_point(s, {0.5, std::numeric_limits<double>::quiet_NaN()}).stable, Verdict::unknown);
   // Out-of-range observed rates are clamped, not rejected.
   EXPECT_EQ(assess_operating_point(s, {1.2, 1.0}).stable, Verdict::yes);
+}
+
+// ---------------------------------------------------------------------------------
+// One verdict: `netkf analyze` and the live status (analysis/stability.hpp).
+
+// `netkf analyze` and the live status side by side: the same verdict and the same line.
+void expect_one_verdict(const Scenario& s, Verdict expected) {
+  const AnalysisReport report = analyze(s);
+  const OperatingPointAssessment live = assess_configured_links(s);
+  EXPECT_EQ(report.stable, expected) << report.stable_reason;
+  EXPECT_EQ(live.stable, report.stable) << "analyze: " << report.stable_reason << "\nlive: " << live.reason;
+  EXPECT_EQ(live.reason, report.stable_reason);
+  EXPECT_FALSE(report.stable_reason.empty());
+  EXPECT_NE(std::find(report.notes.begin(), report.notes.end(), report.stable_reason), report.notes.end())
+      << "the reason is among analyze's notes";
+}
+
+TEST(OneVerdict, EveryShippedScenarioGetsTheSameVerdictAndReasonFromAnalyzeAndTheLiveStatus) {
+  namespace fs = std::filesystem;
+  const fs::path dir = netkf::test::source_dir() / "deploy" / "scenarios";
+  std::vector<fs::path> files;
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (entry.path().extension() == ".yaml") files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  ASSERT_GE(files.size(), 10u) << dir;  // a wrong directory must not pass with nothing to check
+  for (const auto& file : files) {
+    SCOPED_TRACE(file.filename().string());
+    const Scenario s = load_scenario_file(file);
+    const AnalysisReport report = analyze(s);
+    const OperatingPointAssessment live = assess_configured_links(s);
+    EXPECT_EQ(live.stable, report.stable) << "analyze: " << report.stable_reason << "\nlive: " << live.reason;
+    EXPECT_EQ(live.reason, report.stable_reason);
+    EXPECT_FALSE(live.reason.empty());
+    // Only one file is built below the critical rate (its comment: λ = 0.3 < λ_c = 0.36).
+    EXPECT_EQ(report.stable, file.stem() == "below-critical" ? Verdict::no : Verdict::yes) << report.stable_reason;
+  }
+}
+
+// A = [[1.25, 1], [0, 1.25]] is a Jordan block: the Markov criterion needs a diagonalisable
+// A, so the i.i.d. bounds decide. V̄ exists from λ̄ = 0.5904 up (bisection on the g iteration),
+// but just above λ̄ the iteration needs more than 2000 steps to certify it: with the old caps
+// `netkf analyze` (20000) said "yes" here and the live status (2000) "unknown".
+TEST(OneVerdict, JordanBlockJustAboveTheUpperCriticalRate) {
+  const double rate = 0.5904001;
+  const auto s = netkf::testing::system(mat({{1.25, 1.0}, {0.0, 1.25}}), mat({{1.0, 0.0}, {0.0, 1.0}}),
+                                        {netkf::testing::sensor(1, mat({{1.0, 0.0}}), mat({{2.5}}),
+                                                                BernoulliLink{1.0 - rate})});
+  const StabilityDecision d = decide_stability(s.plant.A, s.plant.Q, s.sensors);
+  EXPECT_FALSE(d.markov.applies);
+  ASSERT_EQ(d.upper.status, BoundStatus::bounded);
+  // Still the case the old caps split (else this test no longer checks what it says).
+  EXPECT_GT(d.upper.iterations, 2000);
+  EXPECT_LE(d.upper.iterations, stability_upper_bound_iterations);
+  expect_one_verdict(s, Verdict::yes);
+  // The observed-rate path (the live status's second row) says the same.
+  const auto observed = assess_operating_point(s, {rate});
+  EXPECT_EQ(observed.stable, Verdict::yes);
+  EXPECT_EQ(observed.reason, d.reason);
+  // Below λ̄ V̄ does not exist while S̄ does (q α² = 0.42 · 1.5625 < 1): no paper decides.
+  auto below = s;
+  below.sensors[0].link = BernoulliLink{1.0 - 0.58};
+  expect_one_verdict(below, Verdict::unknown);
+}
+
+// Gilbert-Elliott links where the Markov criterion does not apply (an aperiodic rotation):
+// the i.i.d. bounds at the stationary rate bound nothing for a chain with memory. The live
+// status used to decide by them ("no" at stationary loss 5/7: q α² = 1.12 ≥ 1; "yes" at
+// loss 1/6, V̄ exists) where `netkf analyze` said "unknown".
+TEST(OneVerdict, GilbertLinksAreNotDecidedByTheIidBounds) {
+  const double a = 1.25, th = 1.0;  // 1 rad: no τ with A^τ ∝ I
+  const Matrix A = mat({{a * std::cos(th), -a * std::sin(th)}, {a * std::sin(th), a * std::cos(th)}});
+  for (const auto& link : {GilbertElliottLink{0.5, 0.2, 0.0, 1.0}, GilbertElliottLink{0.1, 0.5, 0.0, 1.0}}) {
+    const auto s = netkf::testing::system(A, mat({{1.0, 0.0}, {0.0, 1.0}}),
+                                          {netkf::testing::sensor(1, mat({{1.0, 0.0}}), mat({{2.5}}), link)});
+    SCOPED_TRACE(stationary_loss(s.sensors[0].link.loss));
+    expect_one_verdict(s, Verdict::unknown);
+    const auto live = assess_configured_links(s);
+    EXPECT_NE(live.reason.find("Gilbert-Elliott"), std::string::npos) << live.reason;
+    EXPECT_FALSE(live.markov_criterion.has_value());
+  }
+}
+
+TEST(OneVerdict, NoSensorsIsOpenLoopPrediction) {
+  const auto unstable = decide_stability(mat({{1.25}}), mat({{1.0}}), {});
+  EXPECT_EQ(unstable.stable, Verdict::no);
+  EXPECT_NE(unstable.reason.find("no sensors"), std::string::npos) << unstable.reason;
+  EXPECT_EQ(decide_stability(mat({{0.9}}), mat({{1.0}}), {}).stable, Verdict::yes);
+}
+
+TEST(OneVerdict, MoreThanSixteenSensorsIsAnErrorNotAnAnswer) {
+  std::vector<SensorSpec> sensors;
+  for (int id = 1; id <= 17; ++id) sensors.push_back(netkf::testing::sensor(id, mat({{1.0}}), mat({{1.0}})));
+  EXPECT_THROW(decide_stability(mat({{1.25}}), mat({{1.0}}), sensors), std::invalid_argument);
 }
 
 TEST(Analysis, ConfiguredGilbertLinksUseTheMarkovCriterion) {

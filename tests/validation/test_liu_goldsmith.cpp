@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "netkf/analysis/critical_rate.hpp"
+#include "netkf/analysis/operating_point.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "theory_systems.hpp"
@@ -55,6 +56,21 @@ TEST(LiuGoldsmith, DiagonalSystemRegionIsLambda1Above084Lambda2Above59) {
   EXPECT_EQ(analyze(netkf::testing::liu_goldsmith_diagonal(0.85, 0.6)).stable, Verdict::yes);
   EXPECT_EQ(analyze(netkf::testing::liu_goldsmith_diagonal(0.83, 0.9)).stable, Verdict::no);
   EXPECT_EQ(analyze(netkf::testing::liu_goldsmith_diagonal(0.9, 0.55)).stable, Verdict::no);
+}
+
+// Sec. VI-B again, from the live status: stable iff λ1 > 0.84 and λ2 > 5/9, for the links as
+// configured and for the same rates observed.
+TEST(LiuGoldsmith, DiagonalSystemVerdictsFromTheLiveStatus) {
+  const struct {
+    double l1, l2;
+    Verdict paper;
+  } cases[] = {{0.85, 0.6, Verdict::yes}, {0.83, 0.9, Verdict::no}, {0.9, 0.55, Verdict::no}, {0.95, 0.95, Verdict::yes}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::to_string(c.l1) + ", " + std::to_string(c.l2));
+    const auto s = netkf::testing::liu_goldsmith_diagonal(c.l1, c.l2);
+    EXPECT_EQ(assess_configured_links(s).stable, c.paper);
+    EXPECT_EQ(assess_operating_point(s, {c.l1, c.l2}).stable, c.paper);
+  }
 }
 
 TEST(LiuGoldsmith, Fig5UpperCurveAboveLowerCurve) {

@@ -7,6 +7,7 @@
 
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/lmi.hpp"
+#include "netkf/analysis/operating_point.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "theory_systems.hpp"
@@ -50,6 +51,19 @@ TEST(Sinopoli, ScalarFixedPointSolvesTheQuadratic) {
   const auto V = expected_covariance_upper_bound(mat({{a}}), mat({{q}}), patterns);
   ASSERT_EQ(V.status, BoundStatus::bounded);
   EXPECT_NEAR(V.V(0, 0), expected, 1e-9);
+}
+
+// Sec. IV: λ_c = 1 − 1/1.25² = 0.36. `netkf analyze` and both rows of the live status (the
+// configured links, the observed rates) give the paper's verdict on either side of it.
+TEST(Sinopoli, ScalarVerdictOnEitherSideOfTheCriticalRateFromAnalyzeAndTheLiveStatus) {
+  for (double rate : {0.2, 0.35, 0.37, 0.6, 0.95}) {
+    SCOPED_TRACE(rate);
+    const Verdict paper = rate > 0.36 ? Verdict::yes : Verdict::no;
+    const auto s = netkf::testing::sinopoli_scalar(rate);
+    EXPECT_EQ(analyze(s).stable, paper);
+    EXPECT_EQ(assess_configured_links(s).stable, paper);
+    EXPECT_EQ(assess_operating_point(s, {rate}).stable, paper);
+  }
 }
 
 TEST(Sinopoli, BelowCriticalRateIsUnboundedNotHuge) {

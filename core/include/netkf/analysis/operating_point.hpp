@@ -2,12 +2,16 @@
 // Theory next to the running network: is the current operating point stable, and what
 // do the bounds predict for the mean prediction covariance?
 //
+// The verdict and its reason are decide_stability()'s (analysis/stability.hpp), the same
+// as `netkf analyze` gives for the same links.
+//
 // Intended callers: the estimator's published status and `netkf launch` status, about
-// once per second. Cost: one expected-Riccati fixed point (≤ 2000 iterations, then a
-// few linear solves) and the Markov criterion: measured 0.01-1 ms for most shipped
-// scenarios, 21 ms for liu-goldsmith-fig5 and 28 ms for a 6-state, 4-sensor system (an
-// aperiodic eigen-block makes the Markov chain search run to its cap) on a loaded 2-core
-// machine. No caches, no threads, no logging: safe to call from any thread.
+// once per second. Cost: the Markov criterion and one expected-Riccati fixed point (at
+// most stability_upper_bound_iterations iterations, then a few linear solves); dearest
+// where an aperiodic eigen-block runs the Markov chain search to its cap or an operating
+// point near the boundary runs V̄ to the iteration cap. Measured: BENCHMARKS.md,
+// "Operating-point assessment". No caches, no threads, no logging: safe to call from any
+// thread.
 //
 // Typical use (estimator, once per second):
 //   std::vector<double> rates = observed_arrival_rates();   // delivered / expected, per sensor
@@ -29,7 +33,8 @@ struct OperatingPointAssessment {
   std::optional<double> lower_trace;   // Tr S̄ at these rates (nullopt: unbounded)
   std::optional<double> upper_trace;   // Tr V̄ at these rates (nullopt: unbounded / undecided)
   std::optional<double> markov_criterion;  // < 1 stable (when it applies)
-  std::string reason;                  // one line: which result decided, or why none did
+  std::string reason;                  // decide_stability()'s line (which result decided, or why none
+                                       // did), or what is wrong with the rates
 };
 
 /// Assess the scenario's plant and sensors with each sensor's samples arriving i.i.d. at
@@ -37,8 +42,10 @@ struct OperatingPointAssessment {
 /// Rates are clamped to [0, 1]; a wrong count or a NaN gives Verdict::unknown with the reason.
 OperatingPointAssessment assess_operating_point(const Scenario& scenario, const std::vector<double>& arrival_rates);
 
-/// The same for the links as configured (Gilbert-Elliott links keep their memory: decided
-/// by the Markov criterion; the i.i.d. bounds are then evaluated at the stationary rates).
+/// The same for the links as configured, delays folded in: `stable` and `reason` are those of
+/// analyze(scenario). Gilbert-Elliott links keep their memory: decided by the Markov criterion
+/// alone (unknown where it does not apply); the traces are then the i.i.d. bounds at the
+/// stationary rates, which did not decide.
 OperatingPointAssessment assess_configured_links(const Scenario& scenario);
 
 /// Per-sensor stationary arrival rates 1 − stationary_loss(link).

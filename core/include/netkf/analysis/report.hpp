@@ -6,12 +6,10 @@
 #include <vector>
 
 #include "netkf/analysis/critical_rate.hpp"
+#include "netkf/analysis/stability.hpp"  // Verdict
 #include "netkf/scenario.hpp"
 
 namespace netkf::analysis {
-
-enum class Verdict { yes, no, unknown };
-const char* to_string(Verdict verdict);
 
 struct CriticalRates {
   double lower = 0.0;                       // Sinopoli Thm 3 closed form (1 − α^{−2/d})
@@ -37,7 +35,8 @@ struct LinkArrival {
 
 struct AnalysisReport {
   double spectral_radius = 0.0;
-  Verdict stable = Verdict::unknown;
+  Verdict stable = Verdict::unknown;   // decide_stability() for the configured links
+  std::string stable_reason;           // its one line, as the live status says it (also in `notes`)
   std::optional<double> lower_trace;   // Tr S̄ for the configured links
   std::optional<double> upper_trace;   // Tr V̄
   bool iid_bounds = false;             // S̄/V̄ were computed (every link Bernoulli); else not reported
