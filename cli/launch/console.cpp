@@ -72,9 +72,9 @@ void LiveConsole::truth(const TruthRecord& truth) {
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::truth, catalogue::truth_message(truth), wall_ns());
 }
 
-void LiveConsole::estimate(const EstimateRecord& estimate) {
+void LiveConsole::estimate(const Estimate& estimate) {
   model_.add_estimate(estimate);
-  if (estimate.last_sample_stamp > 0.0) metrics_.observe_pipeline_latency(estimate.publish_stamp - estimate.last_sample_stamp);
+  if (estimate.has_pipeline_latency()) metrics_.observe_pipeline_latency(estimate.pipeline_latency_s());
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
 }
 
@@ -170,7 +170,7 @@ void LiveConsole::request_theory(bool with_region) {
   TheoryRequest r;
   r.configured = model_.configured_scenario();
   r.observed_rates = model_.observed_rates();
-  r.k = model_.snapshot().period ? model_.snapshot().period->k : -1;
+  r.k = model_.snapshot().period ? static_cast<std::int64_t>(model_.snapshot().period->estimate.k) : -1;
   r.with_region = with_region;
   theory_->request(std::move(r));
 }

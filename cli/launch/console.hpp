@@ -43,7 +43,7 @@ class LiveConsole {
   ~LiveConsole();
 
   void truth(const TruthRecord& truth);
-  void estimate(const EstimateRecord& estimate);
+  void estimate(const Estimate& estimate);
   void link_status(const LinkStatusRecord& status);
   void link_reply(const LinkReplyRecord& reply);
   void link_change(const LinkChangeRecord& change);

@@ -33,21 +33,6 @@ void remove_stale_shared_memory(int domain, const char* what) {
               << slots << " participant markers\n";
 }
 
-/// The checkpoint a restarted estimator resumes from: the last estimate it published.
-nodes::EstimatorCheckpoint checkpoint_of(const EstimateRecord& e) {
-  nodes::EstimatorCheckpoint c;
-  const auto n = static_cast<Eigen::Index>(e.xhat.size());
-  c.k = static_cast<std::uint64_t>(e.k);
-  c.t = e.t;
-  c.x_hat = Eigen::Map<const Vector>(e.xhat.data(), n);
-  if (e.P.size() != e.xhat.size() * e.xhat.size()) throw std::runtime_error("the last estimate carries no full P");
-  c.P = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(e.P.data(), n, n);
-  c.restarts = e.restarts + 1;
-  c.late_total = e.late_total;
-  c.rejected_total = e.rejected;
-  return c;
-}
-
 /// Run `f`; any exception becomes CommandError(bad_usage) with `prefix` and its message.
 template <typename F>
 auto or_bad_usage(F&& f, const std::string& prefix = {}) {
@@ -75,7 +60,7 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
     if (console) console->truth(t);
     if (summary) summary->add_truth(t);
   };
-  h.estimate = [&recording, console, summary](EstimateRecord&& e) {
+  h.estimate = [&recording, console, summary](Estimate&& e) {
     recording.estimate(e);
     if (console) console->estimate(e);
     if (summary) summary->add_estimate(e);
@@ -223,7 +208,7 @@ void Launch::open_console() {
 
 void Launch::open_bus() {
   BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
-  handlers.estimate = [record = std::move(handlers.estimate), this](EstimateRecord&& e) {
+  handlers.estimate = [record = std::move(handlers.estimate), this](Estimate&& e) {
     fused_periods_ += e.fused.empty() ? 0 : 1;
     last_estimate_ = e;
     record(std::move(e));
@@ -304,7 +289,7 @@ void Launch::write_checkpoint_for_restart() {
       console_->announce(LiveEvent::Level::warning, "the estimator died before its first estimate: it starts afresh");
       return;
     }
-    write_checkpoint(checkpoint_path_.string(), checkpoint_of(*last_estimate_));
+    nodes::write_checkpoint(checkpoint_path_.string(), *last_estimate_);
   } catch (const std::exception& e) {
     console_->announce(LiveEvent::Level::warning, std::string("estimator checkpoint not written: ") + e.what());
   }

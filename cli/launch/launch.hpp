@@ -123,7 +123,7 @@ class Launch {
   std::unique_ptr<LiveConsole> console_;
   std::uint64_t invalid_samples_ = 0;
   std::uint64_t run_id_ = 0;
-  std::optional<EstimateRecord> last_estimate_;  // the checkpoint a restarted estimator resumes from
+  std::optional<Estimate> last_estimate_;  // the checkpoint a restarted estimator resumes from
   std::uint64_t fused_periods_ = 0;              // estimates that fused at least one sample
   std::unique_ptr<Supervisor> supervisor_;
   std::string here_;

@@ -220,12 +220,21 @@ json scenario_message(const Scenario& scenario) {
               {"sensors", std::move(sensors)}};
 }
 
-json estimate_message(const EstimateRecord& e) {
-  return json{{"k", e.k},         {"t", e.t},
-              {"x_hat", e.xhat},  {"P", e.P},
-              {"fused", e.fused}, {"late", e.late},
-              {"late_total", e.late_total},  {"rejected_total", e.rejected},
-              {"state", e.state}, {"trace_P", number_or_null(e.trace_P)},
+json estimate_message(const Estimate& e) {
+  std::vector<double> P;  // row-major, as on the wire
+  P.reserve(static_cast<std::size_t>(e.P.size()));
+  for (Eigen::Index r = 0; r < e.P.rows(); ++r)
+    for (Eigen::Index c = 0; c < e.P.cols(); ++c) P.push_back(e.P(r, c));
+  return json{{"k", e.k},
+              {"t", e.t},
+              {"x_hat", std::vector<double>(e.x_hat.begin(), e.x_hat.end())},
+              {"P", std::move(P)},
+              {"fused", e.fused},
+              {"late", e.late},
+              {"late_total", e.late_total},
+              {"rejected_total", e.rejected_total},
+              {"state", to_string(e.state)},
+              {"trace_P", number_or_null(e.trace_P())},
               {"trace_P_pred", number_or_null(e.trace_P_pred)}};
 }
 
@@ -303,7 +312,7 @@ json network_message(const LiveSnapshot& s) {
   for (const auto& p : s.processes)
     processes.push_back(
         {{"name", p.name}, {"pid", p.pid}, {"running", p.running}, {"restarts", p.restarts}, {"host", p.host}});
-  return json{{"k", s.period ? json(s.period->k) : json(nullptr)},
+  return json{{"k", s.period ? json(s.period->estimate.k) : json(nullptr)},
               {"estimates", s.estimates},
               {"rms_error", optional_number(s.rms_error)},
               {"mean_trace_P", number_or_null(s.mean_trace_P)},

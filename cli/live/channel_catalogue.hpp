@@ -38,7 +38,7 @@ nlohmann::json link_json(const LinkSpec& link);
 
 // ---- channel messages
 nlohmann::json scenario_message(const Scenario& scenario);
-nlohmann::json estimate_message(const EstimateRecord& estimate);
+nlohmann::json estimate_message(const Estimate& estimate);
 nlohmann::json truth_message(const TruthRecord& truth);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the

@@ -12,26 +12,6 @@ namespace {
 
 double ns_to_s(std::int64_t ns) { return static_cast<double>(ns) * 1e-9; }
 
-EstimateRecord to_record(const dds::EstimateRecord& e, const wire::Estimate& w) {
-  EstimateRecord r;
-  r.k = static_cast<std::int64_t>(e.k);
-  r.t = e.t;
-  r.xhat.assign(e.x_hat.data(), e.x_hat.data() + e.x_hat.size());
-  r.P = dds::to_wire_row_major(e.P);
-  r.trace_P = w.trace_P();
-  r.trace_P_pred = e.trace_P_pred;
-  r.fused = e.fused;
-  r.late = e.late;
-  r.late_sensors = e.late_sensors;
-  r.late_total = e.late_total;
-  r.rejected = e.rejected_total;
-  r.restarts = e.restarts;
-  r.state = to_string(e.state);
-  r.publish_stamp = ns_to_s(e.stamp_ns);
-  r.last_sample_stamp = ns_to_s(e.last_sample_stamp_ns);
-  return r;
-}
-
 /// A link status from the wire; throws when its link is not valid.
 LinkStatusRecord to_record(const wire::LinkStatus& w) {
   LinkStatusRecord r;
@@ -69,7 +49,7 @@ TruthRecord to_truth(const wire::Truth& w) {
   return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x()};
 }
 
-EstimateRecord to_estimate(const wire::Estimate& w) { return to_record(dds::from_wire(w), w); }
+Estimate to_estimate(const wire::Estimate& w) { return dds::from_wire(w); }
 
 DeliveredRecord to_delivered(const wire::Measurement& w) {
   if (!dds::all_finite(w.y())) throw dds::ConversionError("measurement with a non-finite value");

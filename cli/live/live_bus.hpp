@@ -60,7 +60,7 @@ struct NetworkSettings {
 
 struct BusHandlers {
   std::function<void(TruthRecord&&)> truth;
-  std::function<void(EstimateRecord&&)> estimate;
+  std::function<void(Estimate&&)> estimate;
   std::function<void(DeliveredRecord&&)> delivered;
   std::function<void(LinkStatusRecord&&)> link_status;
   std::function<void(LinkChangeRecord&&)> link_change;

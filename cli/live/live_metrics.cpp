@@ -115,10 +115,11 @@ void LiveMetrics::update(const LiveSnapshot& s) {
     link_observed_loss_->Add(labels).Set(l.observed_loss);
   }
   if (s.period) {
-    period_->Set(static_cast<double>(s.period->k));
-    trace_P_->Set(s.period->trace_P);
-    diverging_->Set(s.period->state == "diverging" ? 1.0 : 0.0);
-    fused_sensors_->Set(static_cast<double>(s.period->fused.size()));
+    const Estimate& e = s.period->estimate;
+    period_->Set(static_cast<double>(e.k));
+    trace_P_->Set(e.trace_P());
+    diverging_->Set(e.state == FilterState::diverging ? 1.0 : 0.0);
+    fused_sensors_->Set(static_cast<double>(e.fused.size()));
   }
   advance(*late_, s.late_total, late_total_);
   advance(*rejected_, s.rejected_total, rejected_total_);

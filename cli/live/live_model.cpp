@@ -5,16 +5,6 @@
 
 namespace netkf::cli {
 
-namespace {
-constexpr std::int64_t kScoreWindow = 500;  // periods kept for joining truth and estimates
-
-bool all_finite(const std::vector<double>& v) {
-  for (double x : v)
-    if (!std::isfinite(x)) return false;
-  return true;
-}
-}  // namespace
-
 LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
   for (const auto& sensor : scenario_.sensors) {
     LinkView view;
@@ -33,13 +23,13 @@ LinkView* LiveModel::link(int sensor_id) {
 }
 
 void LiveModel::add_truth(const TruthRecord& truth) {
-  if (snapshot_.period && snapshot_.period->k == truth.k) snapshot_.period->truth = truth.x;
-  truth_[truth.k] = truth.x;
-  score(truth.k);
+  if (snapshot_.period && static_cast<std::int64_t>(snapshot_.period->estimate.k) == truth.k)
+    snapshot_.period->truth = truth.x;
+  score(join_.add_truth(truth.k, truth.x));
 }
 
-void LiveModel::add_estimate(const EstimateRecord& e) {
-  if (!std::isfinite(e.trace_P) || !std::isfinite(e.trace_P_pred) || !all_finite(e.xhat) || !all_finite(e.P)) {
+void LiveModel::add_estimate(const Estimate& e) {
+  if (!std::isfinite(e.trace_P_pred) || !e.x_hat.allFinite() || !e.P.allFinite()) {
     // The bus validates estimates; this is the views' own last gate.
     saw_non_finite_ = true;
     ++snapshot_.invalid_samples;
@@ -56,7 +46,7 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
       raise(LiveEvent::Level::error, "sensors " + silent + " have sent nothing to the channel in " +
                                          std::to_string(kSilentSensorCheck) + " periods: is every sensor process running?");
   }
-  sum_trace_ += e.trace_P;
+  sum_trace_ += e.trace_P();
   sum_trace_pred_ += e.trace_P_pred;
   s.mean_trace_P = sum_trace_ / static_cast<double>(s.estimates);
   s.mean_trace_P_pred = sum_trace_pred_ / static_cast<double>(s.estimates);
@@ -66,7 +56,7 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
   if (++window_estimates_ == kLateWindow) check_late_share();
   for (int id : e.late_sensors)
     if (LinkView* l = link(id)) ++l->late_total;
-  s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected);
+  s.rejected_total = std::max<std::uint64_t>(s.rejected_total, e.rejected_total);
   if (e.restarts > s.estimator_restarts) {
     s.estimator_restarts = e.restarts;
     restart_gap_from_ = e.k;
@@ -82,23 +72,13 @@ void LiveModel::add_estimate(const EstimateRecord& e) {
                                         std::to_string(gap) + " periods without samples after its restart)");
     restart_gap_from_.reset();
   }
-  if (!s.period || e.k >= s.period->k) {
-    PeriodView p;
-    p.k = e.k;
-    p.t = e.t;
-    if (auto t = truth_.find(e.k); t != truth_.end()) p.truth = t->second;
-    p.x_hat = e.xhat;
-    p.P = e.P;
-    p.trace_P = e.trace_P;
-    p.trace_P_pred = e.trace_P_pred;
-    p.fused = e.fused;
-    p.late = e.late;
-    p.rejected_total = e.rejected;
-    p.state = e.state;
+  const auto k = static_cast<std::int64_t>(e.k);
+  if (!s.period || e.k >= s.period->estimate.k) {
+    PeriodView p{e, {}};
+    if (const auto* truth = join_.truth(k)) p.truth = *truth;
     s.period = std::move(p);
   }
-  xhat_[e.k] = e.xhat;
-  score(e.k);
+  score(join_.add_estimate(k, e.x_hat));
 }
 
 void LiveModel::check_late_share() {
@@ -125,24 +105,12 @@ void LiveModel::check_late_share() {
   late_warned_ = too_many;
 }
 
-void LiveModel::score(std::int64_t k) {
-  auto t = truth_.find(k);
-  auto e = xhat_.find(k);
-  if (t != truth_.end() && e != xhat_.end() && t->second.size() == e->second.size()) {
-    double sq = 0.0;
-    for (std::size_t i = 0; i < t->second.size(); ++i) {
-      const double d = t->second[i] - e->second[i];
-      sq += d * d;
-    }
-    snapshot_.error_norm = std::sqrt(sq);
-    sum_sq_error_ += sq;
-    ++scored_;
-    snapshot_.rms_error = std::sqrt(sum_sq_error_ / static_cast<double>(scored_));
-    xhat_.erase(e);
-    // The truth stays until the window passes: the newest period's view may still need it.
-  }
-  while (!truth_.empty() && truth_.begin()->first < k - kScoreWindow) truth_.erase(truth_.begin());
-  while (!xhat_.empty() && xhat_.begin()->first < k - kScoreWindow) xhat_.erase(xhat_.begin());
+void LiveModel::score(std::optional<double> squared_error) {
+  if (!squared_error) return;
+  snapshot_.error_norm = std::sqrt(*squared_error);
+  sum_sq_error_ += *squared_error;
+  ++scored_;
+  snapshot_.rms_error = std::sqrt(sum_sq_error_ / static_cast<double>(scored_));
 }
 
 void LiveModel::note_own_request(std::uint64_t request_id, std::string source) {

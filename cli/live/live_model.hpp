@@ -11,6 +11,7 @@
 
 #include "live_records.hpp"
 #include "live_snapshot.hpp"
+#include "period_join.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -29,7 +30,7 @@ class LiveModel {
   explicit LiveModel(Scenario scenario);
 
   void add_truth(const TruthRecord& truth);
-  void add_estimate(const EstimateRecord& estimate);
+  void add_estimate(const Estimate& estimate);
   void add_link_status(const LinkStatusRecord& status);
   /// A journaled link change (the timeline's show up in the event log).
   void add_link_change(const LinkChangeRecord& change);
@@ -57,14 +58,13 @@ class LiveModel {
   bool saw_non_finite() const { return saw_non_finite_; }
 
  private:
-  void score(std::int64_t k);
+  void score(std::optional<double> squared_error);
   void check_late_share();
   LinkView* link(int sensor_id);
 
   Scenario scenario_;
   LiveSnapshot snapshot_;
-  std::map<std::int64_t, std::vector<double>> truth_;  // recent truth by k, waiting for its estimate
-  std::map<std::int64_t, std::vector<double>> xhat_;   // recent x̂ by k, waiting for its truth
+  PeriodJoin join_;
   double sum_trace_ = 0.0;
   double sum_trace_pred_ = 0.0;
   double sum_sq_error_ = 0.0;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/estimate.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -17,24 +18,8 @@ struct TruthRecord {
   std::vector<double> x;
 };
 
-/// The estimator's output for period k: x̂_{k|k}, P_{k|k} (row-major) and bookkeeping.
-struct EstimateRecord {
-  std::int64_t k = 0;
-  double t = 0.0;
-  std::vector<double> xhat;
-  std::vector<double> P;       // n*n, row-major (may be empty if not carried)
-  double trace_P = 0.0;        // Tr P_{k|k}
-  double trace_P_pred = 0.0;   // Tr P_{k|k-1} (what the theory's S̄, V̄ bound)
-  std::vector<int> fused;      // sensor ids fused for k (sorted)
-  std::uint32_t late = 0;      // samples that arrived during k for periods already fused
-  std::vector<int> late_sensors;  // the sensor id of each of them (late == its size)
-  std::uint64_t late_total = 0;
-  std::uint64_t rejected = 0;   // running total of rejected samples
-  std::uint32_t restarts = 0;   // times the estimator was restarted from its last estimate
-  std::string state;           // "ok" / "diverging"
-  double publish_stamp = 0.0;  // seconds (clock of the estimator)
-  double last_sample_stamp = 0.0;  // publish stamp of the newest sample fused for k, seconds (0: none)
-};
+/// The estimator's output for period k is the core type `netkf::Estimate` (netkf/estimate.hpp).
+using netkf::Estimate;
 
 /// A measurement the channel delivered to the estimator.
 struct DeliveredRecord {

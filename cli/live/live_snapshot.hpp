@@ -8,23 +8,15 @@
 
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/operating_point.hpp"
+#include "netkf/estimate.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
 
 /// The newest estimate, joined with the truth of the same period when it is known.
 struct PeriodView {
-  std::int64_t k = 0;
-  double t = 0.0;
-  std::vector<double> truth;   // x_k (empty until the plant's sample for k arrived)
-  std::vector<double> x_hat;   // x̂_{k|k}
-  std::vector<double> P;       // P_{k|k}, row-major
-  double trace_P = 0.0;        // Tr P_{k|k}
-  double trace_P_pred = 0.0;   // Tr P_{k|k-1}
-  std::vector<int> fused;
-  std::uint32_t late = 0;
-  std::uint32_t rejected_total = 0;
-  std::string state;           // "ok" / "diverging"
+  Estimate estimate;
+  std::vector<double> truth;  // x_k (empty until the plant's sample for k arrived)
 };
 
 /// One link as the channel last reported it, with the rates the theory needs.

@@ -67,8 +67,8 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
 std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   std::ostringstream out;
   if (s.period) {
-    const auto& p = *s.period;
-    out << "period " << p.k << "  t=" << fmt(p.t) << "s  state=" << p.state << "  Tr P_k|k=" << fmt(p.trace_P)
+    const Estimate& p = s.period->estimate;
+    out << "period " << p.k << "  t=" << fmt(p.t) << "s  state=" << to_string(p.state) << "  Tr P_k|k=" << fmt(p.trace_P())
         << "  Tr P_k|k-1=" << fmt(p.trace_P_pred) << " (mean " << fmt(s.mean_trace_P_pred) << ")";
     if (s.error_norm) out << "  |x-x̂|=" << fmt(*s.error_norm) << " (rms " << fmt(*s.rms_error) << ")";
     out << "  fused=";

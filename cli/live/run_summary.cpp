@@ -11,10 +11,6 @@ namespace netkf::cli {
 
 namespace {
 
-// A period whose partner record (truth or estimate) never comes is forgotten after this
-// many newer periods, bounding memory (as the recorder does).
-constexpr std::int64_t kJoinWindow = 2000;
-
 constexpr const char* kNoEstimate = "no estimate received";
 
 Measured count(std::uint64_t v) {
@@ -226,48 +222,32 @@ LinkSummary* RunSummaryBuilder::link(int sensor_id) {
 }
 
 void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
-  truth_[truth.k] = truth.x;
-  score(truth.k);
+  score(join_.add_truth(truth.k, truth.x));
 }
 
-void RunSummaryBuilder::add_estimate(const EstimateRecord& e) {
+void RunSummaryBuilder::add_estimate(const Estimate& e) {
   auto& s = summary_;
   ++s.periods;
-  s.sum_trace_P += e.trace_P;
+  s.sum_trace_P += e.trace_P();
   s.fused += e.fused.size();
   for (int id : e.fused)
     if (auto* l = link(id)) ++l->fused;
   s.late += e.late;
   for (int id : e.late_sensors)
     if (auto* l = link(id)) ++l->late;  // a late sample of an unknown id still counts in `late`
-  if (e.state == "diverging") ++s.periods_diverging;
-  if (e.last_sample_stamp > 0.0) {
+  if (e.state == FilterState::diverging) ++s.periods_diverging;
+  if (e.has_pipeline_latency()) {
     // The same latency as /metrics' netkf_pipeline_latency_seconds.
-    const double ms = (e.publish_stamp - e.last_sample_stamp) * 1e3;
-    if (std::isfinite(ms) && ms >= 0.0) s.latencies_ms.push_back(ms);
+    const double ms = e.pipeline_latency_s() * 1e3;
+    if (ms >= 0.0) s.latencies_ms.push_back(ms);
   }
-  xhat_[e.k] = e.xhat;
-  score(e.k);
+  score(join_.add_estimate(static_cast<std::int64_t>(e.k), e.x_hat));
 }
 
-void RunSummaryBuilder::score(std::int64_t k) {
-  auto t = truth_.find(k);
-  auto e = xhat_.find(k);
-  if (t != truth_.end() && e != xhat_.end()) {
-    if (t->second.size() == e->second.size()) {
-      double sq = 0.0;
-      for (std::size_t i = 0; i < t->second.size(); ++i) {
-        const double d = t->second[i] - e->second[i];
-        sq += d * d;
-      }
-      summary_.sum_squared_error += sq;
-      ++summary_.periods_scored;
-    }
-    truth_.erase(t);
-    xhat_.erase(e);
-  }
-  while (!truth_.empty() && truth_.begin()->first < k - kJoinWindow) truth_.erase(truth_.begin());
-  while (!xhat_.empty() && xhat_.begin()->first < k - kJoinWindow) xhat_.erase(xhat_.begin());
+void RunSummaryBuilder::score(std::optional<double> squared_error) {
+  if (!squared_error) return;
+  summary_.sum_squared_error += *squared_error;
+  ++summary_.periods_scored;
 }
 
 void RunSummaryBuilder::add_link_status(const LinkStatusRecord& status) {

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "live_records.hpp"
+#include "period_join.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -86,13 +87,12 @@ class RunSummaryBuilder {
   explicit RunSummaryBuilder(const Scenario& scenario);
 
   void add_truth(const TruthRecord& truth);
-  void add_estimate(const EstimateRecord& estimate);
+  void add_estimate(const Estimate& estimate);
   void add_link_status(const LinkStatusRecord& status);
 
   const RunSummary& summary() const { return summary_; }
 
  private:
-  void score(std::int64_t k);
   LinkSummary* link(int sensor_id);
 
   /// The channel's lifetime counters of one link; a total that goes back means the channel
@@ -103,8 +103,8 @@ class RunSummaryBuilder {
   std::map<int, Counters> before_restarts_;
   std::map<int, Counters> last_;
   RunSummary summary_;
-  std::map<std::int64_t, std::vector<double>> truth_;  // truth waiting for its estimate
-  std::map<std::int64_t, std::vector<double>> xhat_;   // x̂ waiting for its truth
+  PeriodJoin join_;
+  void score(std::optional<double> squared_error);
 };
 
 // ---------------------------------------------------------------- checks

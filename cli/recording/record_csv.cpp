@@ -4,12 +4,14 @@
 #include <cstdio>
 #include <sstream>
 
+#include "period_join.hpp"
+
 namespace netkf::cli {
 
 namespace {
 // A period whose partner record never comes (recording started mid-period, or a
 // process restarted) is dropped after this many newer periods, bounding memory.
-constexpr std::int64_t kJoinWindow = 2000;
+constexpr std::int64_t kJoinWindow = PeriodJoin::kWindow;
 }  // namespace
 
 std::string format_double(double value) {
@@ -39,13 +41,14 @@ void PeriodCsvRecorder::add_truth(const TruthRecord& truth) {
   try_complete(truth.k);
 }
 
-void PeriodCsvRecorder::add_estimate(const EstimateRecord& estimate) {
-  if (static_cast<int>(estimate.xhat.size()) != n_) {
+void PeriodCsvRecorder::add_estimate(const Estimate& estimate) {
+  if (estimate.x_hat.size() != n_) {
     ++rejected_;
     return;
   }
-  estimates_[estimate.k] = estimate;
-  try_complete(estimate.k);
+  const auto k = static_cast<std::int64_t>(estimate.k);
+  estimates_[k] = estimate;
+  try_complete(k);
 }
 
 void PeriodCsvRecorder::try_complete(std::int64_t k) {
@@ -56,10 +59,10 @@ void PeriodCsvRecorder::try_complete(std::int64_t k) {
     // t is the plant's time of period k (the truth's clock).
     row << k << ',' << format_double(t->second.t);
     for (double v : t->second.x) row << ',' << format_double(v);
-    for (double v : e->second.xhat) row << ',' << format_double(v);
-    row << ',' << format_double(e->second.trace_P) << ',';
+    for (double v : e->second.x_hat) row << ',' << format_double(v);
+    row << ',' << format_double(e->second.trace_P()) << ',';
     for (std::size_t i = 0; i < e->second.fused.size(); ++i) row << (i ? ";" : "") << e->second.fused[i];
-    row << ',' << e->second.late << ',' << e->second.state << '\n';
+    row << ',' << e->second.late << ',' << to_string(e->second.state) << '\n';
     ready_[k] = row.str();
     truth_.erase(t);
     estimates_.erase(e);
@@ -101,17 +104,18 @@ void SampleCsvRecorder::add_delivered(const DeliveredRecord& sample) {
   }
 }
 
-void SampleCsvRecorder::add_estimate(const EstimateRecord& estimate) {
-  auto& ids = fused_[estimate.k];
+void SampleCsvRecorder::add_estimate(const Estimate& estimate) {
+  const auto k = static_cast<std::int64_t>(estimate.k);
+  auto& ids = fused_[k];
   ids.insert(estimate.fused.begin(), estimate.fused.end());
-  auto p = pending_.find(estimate.k);
+  auto p = pending_.find(k);
   if (p != pending_.end()) {
     auto samples = std::move(p->second);
     pending_.erase(p);
     for (const auto& s : samples) add_delivered(s);
   }
-  while (!fused_.empty() && fused_.begin()->first < estimate.k - kJoinWindow) fused_.erase(fused_.begin());
-  while (!pending_.empty() && pending_.begin()->first < estimate.k - kJoinWindow) pending_.erase(pending_.begin());
+  while (!fused_.empty() && fused_.begin()->first < k - kJoinWindow) fused_.erase(fused_.begin());
+  while (!pending_.empty() && pending_.begin()->first < k - kJoinWindow) pending_.erase(pending_.begin());
 }
 
 std::size_t SampleCsvRecorder::flush(std::ostream& out) {

@@ -24,7 +24,7 @@ class PeriodCsvRecorder {
   static std::string header(int state_dim);
 
   void add_truth(const TruthRecord& truth);
-  void add_estimate(const EstimateRecord& estimate);
+  void add_estimate(const Estimate& estimate);
   /// Append the completed rows (in order of k) to `out` and forget them.
   std::size_t flush(std::ostream& out);
 
@@ -36,7 +36,7 @@ class PeriodCsvRecorder {
   void try_complete(std::int64_t k);
   int n_;
   std::map<std::int64_t, TruthRecord> truth_;
-  std::map<std::int64_t, EstimateRecord> estimates_;
+  std::map<std::int64_t, Estimate> estimates_;
   std::map<std::int64_t, std::string> ready_;
   std::uint64_t rows_written_ = 0;
   std::uint64_t rejected_ = 0;
@@ -52,7 +52,7 @@ class SampleCsvRecorder {
   static std::string header(int max_measurement_dim);
 
   void add_delivered(const DeliveredRecord& sample);
-  void add_estimate(const EstimateRecord& estimate);
+  void add_estimate(const Estimate& estimate);
   std::size_t flush(std::ostream& out);
 
  private:

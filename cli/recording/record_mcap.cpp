@@ -65,7 +65,7 @@ void McapRecorder::truth(const TruthRecord& t) {
   write(truth_, seconds_to_ns(t.t), catalogue::truth_message(t).dump());
 }
 
-void McapRecorder::estimate(const EstimateRecord& e) {
+void McapRecorder::estimate(const Estimate& e) {
   if (finished()) return;
   model_.add_estimate(e);  // counts late samples per link for the link status messages
   note_time(e.t);

@@ -36,7 +36,7 @@ class McapRecorder {
   McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered);
 
   void truth(const TruthRecord& t);
-  void estimate(const EstimateRecord& e);
+  void estimate(const Estimate& e);
   void delivered(const DeliveredRecord& d);
   void link_status(const LinkStatusRecord& l);
   void link_change(const LinkChangeRecord& c);

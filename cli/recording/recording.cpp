@@ -59,7 +59,7 @@ void Recording::truth(const TruthRecord& t) {
   if (mcap_) mcap_->truth(t);
 }
 
-void Recording::estimate(const EstimateRecord& e) {
+void Recording::estimate(const Estimate& e) {
   if (periods_out_.is_open()) periods_.add_estimate(e);
   if (samples_out_.is_open()) samples_.add_estimate(e);
   if (mcap_) mcap_->estimate(e);

@@ -31,7 +31,7 @@ class Recording {
   ~Recording();
 
   void truth(const TruthRecord& t);
-  void estimate(const EstimateRecord& e);
+  void estimate(const Estimate& e);
   void delivered(const DeliveredRecord& d);
   void link_status(const LinkStatusRecord& l);
   /// A live change (ctl, dashboard) with the period it applied from: journaled.

@@ -107,7 +107,7 @@ FilterState filter_state_from_string(const std::string& s) {
   throw ConversionError("unknown filter state '" + s + "'");
 }
 
-wire::Estimate to_wire(const EstimateRecord& e) {
+wire::Estimate to_wire(const Estimate& e) {
   const auto n = e.x_hat.size();
   if (e.P.rows() != n || e.P.cols() != n) throw ConversionError("estimate: P is not n x n for n = size of x_hat");
   if (!e.x_hat.allFinite()) throw ConversionError("estimate: non-finite x_hat");
@@ -136,8 +136,8 @@ wire::Estimate to_wire(const EstimateRecord& e) {
   return w;
 }
 
-EstimateRecord from_wire(const wire::Estimate& e, int state_dim) {
-  EstimateRecord r;
+Estimate from_wire(const wire::Estimate& e, int state_dim) {
+  Estimate r;
   r.k = e.k();
   r.t = e.t();
   r.x_hat = to_vector(e.x_hat(), state_dim, "estimate x_hat");

@@ -168,21 +168,7 @@ class EstimatorApp::Impl {
 
   void publish(const std::vector<PeriodEstimate>& estimates) {
     for (const auto& e : estimates) {
-      dds::EstimateRecord r;
-      r.k = e.k;
-      r.t = e.t;
-      r.x_hat = e.x_hat;
-      r.P = e.P;
-      r.trace_P_pred = e.trace_P_pred;
-      r.fused = e.fused;
-      r.late = e.late;
-      r.late_sensors = e.late_sensors;
-      r.late_total = e.late_total;
-      r.rejected_total = e.rejected_total;
-      r.state = e.state;
-      r.fused_at_ns = e.fused_at_ns;
-      r.last_sample_stamp_ns = e.last_sample_stamp_ns;
-      r.restarts = e.restarts;
+      Estimate r = e;  // what goes on the wire, stamped at publication
       try {
         if (e.control) control_.write(dds::make_control_input(e.k, *e.control));
         r.stamp_ns = dds::steady_now_ns();

@@ -1,5 +1,6 @@
-// The checkpoint a restarted estimator resumes from (EstimatorCheckpoint): a small JSON file
-// written by whoever kept the last published estimate (`netkf launch`), read at start.
+// The checkpoint a restarted estimator resumes from: the last estimate its previous life
+// published, as a small JSON file written by whoever kept it (`netkf launch`), read at start.
+// Only what resuming needs is kept: k, t, x̂, P (row-major) and the run's counters.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -11,7 +12,7 @@
 
 namespace netkf::nodes {
 
-void write_checkpoint(const std::string& path, const EstimatorCheckpoint& c) {
+void write_checkpoint(const std::string& path, const Estimate& c) {
   nlohmann::json j;
   j["k"] = c.k;
   j["t"] = c.t;
@@ -35,12 +36,12 @@ void write_checkpoint(const std::string& path, const EstimatorCheckpoint& c) {
     throw std::runtime_error("cannot rename the estimator checkpoint to " + path);
 }
 
-EstimatorCheckpoint read_checkpoint(const std::string& path) {
+Estimate read_checkpoint(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot read the estimator checkpoint " + path);
   try {
     const auto j = nlohmann::json::parse(in);
-    EstimatorCheckpoint c;
+    Estimate c;
     c.k = j.at("k").get<std::uint64_t>();
     c.t = j.at("t").get<double>();
     const auto x = j.at("x_hat").get<std::vector<double>>();

@@ -79,14 +79,14 @@ std::optional<std::uint64_t> EstimatorCore::open_period() const {
   return open_->k;
 }
 
-void EstimatorCore::resume(const EstimatorCheckpoint& checkpoint) {
+void EstimatorCore::resume(const Estimate& last_published) {
   if (open_ || last_fused_) throw std::invalid_argument("resume: the estimator has already started");
-  filter_.restore(checkpoint.x_hat, checkpoint.P);
-  last_fused_ = checkpoint.k;
-  resumed_after_ = checkpoint.k;
-  late_total_ = checkpoint.late_total;
-  rejected_before_restart_ = checkpoint.rejected_total;
-  restarts_ = checkpoint.restarts;
+  filter_.restore(last_published.x_hat, last_published.P);
+  last_fused_ = last_published.k;
+  resumed_after_ = last_published.k;
+  late_total_ = last_published.late_total;
+  rejected_before_restart_ = last_published.rejected_total;
+  restarts_ = last_published.restarts + 1;  // this life is one restart more
   // The input sent for period k (a tick that never arrives is predicted with it, as in on_tick).
   if (gain_) last_control_ = Vector(-(*gain_) * filter_.x());
   else if (input_dim_ > 0) last_control_ = Vector::Zero(input_dim_);

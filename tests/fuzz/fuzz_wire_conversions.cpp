@@ -104,14 +104,14 @@ void fuzz_estimate(eprosima::fastrtps::rtps::SerializedPayload_t& payload) {
   if (!deserialize<wire::Estimate>(payload, e)) return;
   for (const int state_dim : {-1, 2}) {
     try {
-      const EstimateRecord r = from_wire(e, state_dim);
+      const netkf::Estimate r = from_wire(e, state_dim);
       const auto n = r.x_hat.size();
       check(state_dim < 0 || n == state_dim, "estimate: wrong state dimension accepted");
       check(r.P.rows() == n && r.P.cols() == n, "estimate: P is not n x n");
       check(r.x_hat.allFinite() && r.P.allFinite() && std::isfinite(r.trace_P_pred), "estimate: non-finite value accepted");
       check(r.late == r.late_sensors.size(), "estimate: late disagrees with late_sensors");
       // What a recorder or the dashboard republishes must convert back to the same record.
-      const EstimateRecord again = from_wire(to_wire(r), state_dim);
+      const netkf::Estimate again = from_wire(to_wire(r), state_dim);
       check(again.x_hat == r.x_hat && again.P == r.P && again.fused == r.fused &&
                 again.late_sensors == r.late_sensors && again.state == r.state,
             "estimate: changed on a round trip over the wire");

@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   write<wire::TickPubSubType>("tick", WireKind::tick, make_tick(42, 0.42, u, false));
   write<wire::ControlInputPubSubType>("control_input", WireKind::control_input, make_control_input(42, u));
 
-  EstimateRecord e;
+  netkf::Estimate e;
   e.k = 42;
   e.t = 0.42;
   e.x_hat = x;

@@ -57,7 +57,7 @@ TEST(Conversions, TickAndControlInputs) {
 }
 
 TEST(Conversions, EstimateRefusesNonFiniteAndBadShapes) {
-  dds::EstimateRecord r;
+  netkf::Estimate r;
   r.x_hat = netkf::Vector{{1.0, 2.0}};
   r.P = netkf::Matrix::Identity(2, 2);
   EXPECT_DOUBLE_EQ(dds::to_wire(r).trace_P(), 2.0);
@@ -78,7 +78,7 @@ TEST(Conversions, EstimateRefusesNonFiniteAndBadShapes) {
 }
 
 TEST(Conversions, EstimateLateCountIsItsListOfSensors) {
-  dds::EstimateRecord r;
+  netkf::Estimate r;
   r.x_hat = netkf::Vector{{1.0}};
   r.P = netkf::Matrix::Identity(1, 1);
   r.late = 2;

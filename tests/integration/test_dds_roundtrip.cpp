@@ -97,7 +97,7 @@ TEST(DdsRoundTrip, MeasurementOnBothTopics) {
 }
 
 TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
-  dds::EstimateRecord r;
+  netkf::Estimate r;
   r.k = 5;
   r.t = 0.05;
   r.x_hat = netkf::Vector{{1.0 / 3.0, -2.0 / 7.0}};

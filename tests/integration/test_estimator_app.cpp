@@ -75,7 +75,7 @@ class RunningEstimator {
 struct Estimates {
   std::mutex m;
   std::condition_variable cv;
-  std::map<std::uint64_t, dds::EstimateRecord> by_k;
+  std::map<std::uint64_t, netkf::Estimate> by_k;
   std::uint64_t duplicates = 0;
   bool wait_for(std::uint64_t k, std::chrono::milliseconds timeout) {
     std::unique_lock lock(m);
@@ -124,11 +124,10 @@ TEST(EstimatorApp, ResumesExactlyFromItsLastEstimate) {
     ASSERT_TRUE(ticks.write(dds::make_tick(k, 0.1 * static_cast<double>(k), input_of(k - 1), false)));
     for (int id : {1, 2}) delivered.write(dds::make_measurement(id, k, dds::steady_now_ns(), sample_of(id, k)));
   }
-  netkf::nodes::EstimatorCheckpoint checkpoint;
+  netkf::Estimate checkpoint;  // the last estimate the first life published
   {
     std::lock_guard lock(got.m);
-    const auto& last = got.by_k.at(first_life - 1);
-    checkpoint = {last.k, last.t, last.x_hat, last.P, last.restarts + 1, last.late_total, last.rejected_total};
+    checkpoint = got.by_k.at(first_life - 1);
   }
   {
     netkf::nodes::EstimatorAppOptions o;
@@ -180,7 +179,11 @@ TEST(EstimatorApp, RefusesACheckpointOfAnotherShape) {
   const auto sc = scenario();
   dds::Participant p(options("it-refuse"));
   netkf::nodes::EstimatorAppOptions o;
-  o.resume = netkf::nodes::EstimatorCheckpoint{3, 0.3, netkf::Vector::Zero(3), netkf::Matrix::Identity(3, 3), 1, 0, 0};
+  netkf::Estimate wrong_size;  // of another scenario: three states
+  wrong_size.k = 3;
+  wrong_size.x_hat = netkf::Vector::Zero(3);
+  wrong_size.P = netkf::Matrix::Identity(3, 3);
+  o.resume = wrong_size;
   EXPECT_THROW(netkf::nodes::EstimatorApp(sc, p, o), std::invalid_argument);
 }
 

@@ -100,7 +100,7 @@ struct Seen {
   std::condition_variable cv;
   std::map<std::uint64_t, netkf::Vector> truth;
   std::map<std::pair<int, std::uint64_t>, netkf::Vector> delivered;
-  std::map<std::uint64_t, dds::EstimateRecord> estimates;
+  std::map<std::uint64_t, netkf::Estimate> estimates;
   std::uint64_t duplicates = 0;
   template <class Pred>
   bool wait(Pred pred, std::chrono::milliseconds timeout) {

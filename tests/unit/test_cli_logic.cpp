@@ -248,13 +248,13 @@ TEST(Supervisor, NodeExecutableHonoursBinDirOverride) {
 TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
   EXPECT_EQ(PeriodCsvRecorder::header(2), "k,t,x0,x1,xhat0,xhat1,trace_P,fused,late,state");
   PeriodCsvRecorder r(2);
-  EstimateRecord e;
+  Estimate e;
   e.k = 5;
-  e.xhat = {0.1, 1.0 / 3.0};
-  e.trace_P = 2.5;
+  e.x_hat = Vector{{0.1, 1.0 / 3.0}};
+  e.P = Matrix{{2.0, 0.25}, {0.25, 0.5}};  // Tr P = 2.5
   e.fused = {1, 3};
   e.late = 2;
-  e.state = "ok";
+  e.late_sensors = {1, 1};
   r.add_estimate(e);
   std::ostringstream out;
   EXPECT_EQ(r.flush(out), 0u);  // no truth for k = 5 yet
@@ -272,11 +272,11 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
 TEST(PeriodCsv, EmptyFusedSetIsAnEmptyCell) {
   PeriodCsvRecorder r(1);
   r.add_truth({0, 0.0, {1.0}});
-  EstimateRecord e;
+  Estimate e;
   e.k = 0;
-  e.xhat = {0.5};
-  e.trace_P = 1.0;
-  e.state = "diverging";
+  e.x_hat = Vector{{0.5}};
+  e.P = Matrix{{1.0}};
+  e.state = FilterState::diverging;
   r.add_estimate(e);
   std::ostringstream out;
   r.flush(out);
@@ -288,7 +288,7 @@ TEST(SampleCsv, MarksFusedAndUnfusedSamples) {
   SampleCsvRecorder r(2);
   r.add_delivered({1, 7, 1.5, {0.25, 0.5}});
   r.add_delivered({2, 7, 1.5, {0.75}});
-  EstimateRecord e;
+  Estimate e;
   e.k = 7;
   e.fused = {1};
   r.add_estimate(e);

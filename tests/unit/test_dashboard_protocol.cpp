@@ -46,21 +46,22 @@ TEST(DashboardProtocol, MessageDataFrameIsLittleEndianAsTheSpecSays) {
 }
 
 TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
-  EstimateRecord e;
+  Estimate e;
   e.k = 5;
   e.t = 0.05;
-  e.xhat = {1.0, 2.0};
-  e.P = {1, 0, 0, 1};
-  e.trace_P = 2.0;
+  e.x_hat = Vector{{1.0, 2.0}};
+  e.P = Matrix{{1.0, 0.5}, {0.25, 1.0}};  // asymmetric: the message is row-major
   e.trace_P_pred = 3.0;
   e.fused = {1, 3};
   e.late_total = 4;
-  e.state = "ok";
   const json j = catalogue::estimate_message(e);
   for (const char* key : {"k", "t", "x_hat", "P", "fused", "late", "late_total", "rejected_total", "state", "trace_P",
                           "trace_P_pred"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["fused"], json({1, 3}));
+  EXPECT_EQ(j["P"], json({1.0, 0.5, 0.25, 1.0}));
+  EXPECT_EQ(j["trace_P"], 2.0);
+  EXPECT_EQ(j["state"], "ok");
   // A link that never delivers has an infinite mean burst: null, not an invalid JSON token.
   LinkView l = three_links()[0];
   l.link = BernoulliLink{1.0};

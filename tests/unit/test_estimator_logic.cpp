@@ -304,6 +304,20 @@ TEST(EstimatorLogic, BelowCriticalRateReportsDivergingAndStaysFinite) {
 
 namespace {
 
+/// The last estimate a previous life published (what a restarted estimator resumes from).
+netkf::Estimate last_published(std::uint64_t k, double t, Vector x_hat, Matrix P, std::uint32_t restarts,
+                               std::uint64_t late_total, std::uint64_t rejected_total) {
+  netkf::Estimate e;
+  e.k = k;
+  e.t = t;
+  e.x_hat = std::move(x_hat);
+  e.P = std::move(P);
+  e.restarts = restarts;
+  e.late_total = late_total;
+  e.rejected_total = rejected_total;
+  return e;
+}
+
 // A restart: the estimator resumes after period 4 from x̂ = 0.7, P = 0.3 (its last estimate),
 // ignores the replayed ticks up to 4, predicts 5 with the input acknowledged in tick 5 and
 // fuses the periods it missed with nothing; the counters continue.
@@ -314,7 +328,7 @@ TEST(EstimatorLogic, ResumeContinuesFromTheCheckpointWithTheAcknowledgedInputs) 
   control.gain = m1(0.9);
   sc.plant.control = control;
   EstimatorCore core(sc);
-  core.resume({4, 0.04, v1(0.7), m1(0.3), 2, 11, 5});
+  core.resume(last_published(4, 0.04, v1(0.7), m1(0.3), 1, 11, 5));  // its first life published restart 1
   EXPECT_EQ(core.rejected_total(), 5u);
   EXPECT_EQ(core.late_total(), 11u);
   // The tick history replays periods already fused: ignored, not counted as stale.
@@ -328,7 +342,7 @@ TEST(EstimatorLogic, ResumeContinuesFromTheCheckpointWithTheAcknowledgedInputs) 
   EXPECT_TRUE(out[0].fused.empty());
   EXPECT_NEAR(out[0].x_hat(0), p5.x, 1e-12);
   EXPECT_NEAR(out[0].P(0, 0), p5.P, 1e-12);
-  EXPECT_EQ(out[0].restarts, 2u);
+  EXPECT_EQ(out[0].restarts, 2u);  // one more than the estimate it resumed from
   EXPECT_EQ(out[0].late_total, 11u);
   EXPECT_EQ(out[0].rejected_total, 5u);
   core.on_sample(1, 6, v1(0.8), 0, 2 * kMs);
@@ -342,16 +356,16 @@ TEST(EstimatorLogic, ResumeContinuesFromTheCheckpointWithTheAcknowledgedInputs) 
 
 TEST(EstimatorLogic, ResumeRefusesACheckpointThatDoesNotFit) {
   EstimatorCore core(scalar_scenario());
-  EXPECT_THROW(core.resume({4, 0.04, Vector::Zero(2), Matrix::Identity(2, 2), 1, 0, 0}), std::invalid_argument);
-  EXPECT_THROW(core.resume({4, 0.04, v1(std::nan("")), m1(1.0), 1, 0, 0}), std::invalid_argument);
+  EXPECT_THROW(core.resume(last_published(4, 0.04, Vector::Zero(2), Matrix::Identity(2, 2), 0, 0, 0)), std::invalid_argument);
+  EXPECT_THROW(core.resume(last_published(4, 0.04, v1(std::nan("")), m1(1.0), 0, 0, 0)), std::invalid_argument);
   EstimatorCore started(scalar_scenario());
   started.on_tick(0, Vector(), 0);
-  EXPECT_THROW(started.resume({4, 0.04, v1(0.0), m1(1.0), 1, 0, 0}), std::invalid_argument);
+  EXPECT_THROW(started.resume(last_published(4, 0.04, v1(0.0), m1(1.0), 0, 0, 0)), std::invalid_argument);
 }
 
 TEST(EstimatorLogic, CheckpointFileRoundTripsBitIdentical) {
-  netkf::nodes::EstimatorCheckpoint c{123456789012ull, 1234.5678, Vector{{0.1, -1.0 / 3.0}},
-                                      Matrix{{2.0 / 3.0, 1e-300}, {1e-300, 5.0e7 / 7.0}}, 3, 42, 7};
+  const netkf::Estimate c = last_published(123456789012ull, 1234.5678, Vector{{0.1, -1.0 / 3.0}},
+                                           Matrix{{2.0 / 3.0, 1e-300}, {1e-300, 5.0e7 / 7.0}}, 3, 42, 7);
   const std::string path = ::testing::TempDir() + "netkf-checkpoint.json";
   netkf::nodes::write_checkpoint(path, c);
   const auto back = netkf::nodes::read_checkpoint(path);

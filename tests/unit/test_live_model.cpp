@@ -32,16 +32,14 @@ LinkStatusRecord link_status(int id, LinkModel model, std::uint64_t samples, std
   return l;
 }
 
-EstimateRecord estimate(std::int64_t k, std::vector<double> xhat, double trace, double trace_pred) {
-  EstimateRecord e;
+Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trace, double trace_pred) {
+  Estimate e;
   e.k = k;
   e.t = 0.01 * static_cast<double>(k);
-  e.xhat = std::move(xhat);
-  e.P = {trace / 2, 0.0, 0.0, trace / 2};
-  e.trace_P = trace;
+  e.x_hat = Eigen::Map<const Vector>(x_hat.data(), static_cast<Eigen::Index>(x_hat.size()));
+  e.P = Matrix::Identity(2, 2) * (trace / 2);
   e.trace_P_pred = trace_pred;
   e.fused = {1, 2};
-  e.state = "ok";
   return e;
 }
 
@@ -133,7 +131,7 @@ TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
   model.add_truth({4, 0.04, {3.0, 4.0}});  // error 5, truth after the estimate
   const auto& s = model.snapshot();
   ASSERT_TRUE(s.period);
-  EXPECT_EQ(s.period->k, 4);
+  EXPECT_EQ(s.period->estimate.k, 4u);
   EXPECT_EQ(s.period->truth, (std::vector<double>{3.0, 4.0}));
   EXPECT_DOUBLE_EQ(*s.error_norm, 5.0);
   EXPECT_DOUBLE_EQ(*s.rms_error, std::sqrt((9.0 + 25.0) / 2.0));
@@ -300,7 +298,7 @@ TEST(LiveStatusText, ALargeNetworkShowsTheLinksFurthestBelowTheirRate) {
     s.sensors.push_back(sensor);
   }
   LiveModel model(s);
-  EstimateRecord e = estimate(3, {1.0, 5.0}, 0.5, 0.9);
+  Estimate e = estimate(3, {1.0, 5.0}, 0.5, 0.9);
   e.fused.clear();
   for (int id = 1; id <= 36; ++id) e.fused.push_back(id);
   model.add_estimate(e);

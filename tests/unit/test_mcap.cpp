@@ -155,12 +155,12 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
   {
     McapRecorder r(out, scenario, /*with_delivered=*/true);
     r.truth(TruthRecord{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5)});
-    EstimateRecord e;
+    Estimate e;
     e.k = 3;
     e.t = 3 * scenario.period_s();
-    e.xhat = std::vector<double>(scenario.state_dim(), 0.1);
-    e.state = "ok";
-    e.trace_P = 1.25;
+    e.x_hat = Vector::Constant(scenario.state_dim(), 0.1);
+    e.P = Matrix::Zero(scenario.state_dim(), scenario.state_dim());
+    e.P(0, 0) = 1.25;  // Tr P
     r.estimate(e);
     r.delivered(DeliveredRecord{1, 3, 0.03, {0.2}});
     LinkStatusRecord l;

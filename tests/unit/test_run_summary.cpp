@@ -46,19 +46,21 @@ std::string parse_error(const std::string& text, const std::vector<int>& ids = {
 
 TruthRecord truth(std::int64_t k, std::vector<double> x) { return TruthRecord{k, 0.01 * static_cast<double>(k), x}; }
 
-EstimateRecord estimate(std::int64_t k, std::vector<double> xhat, double trace_P, std::vector<int> fused,
-                        std::vector<int> late_sensors, const std::string& state, double latency_ms) {
-  EstimateRecord e;
+Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trace_P, std::vector<int> fused,
+                  std::vector<int> late_sensors, const std::string& state, double latency_ms) {
+  Estimate e;
   e.k = k;
-  e.xhat = std::move(xhat);
-  e.trace_P = trace_P;
+  const auto n = static_cast<Eigen::Index>(x_hat.size());
+  e.x_hat = Eigen::Map<const Vector>(x_hat.data(), n);
+  e.P = Matrix::Identity(n, n) * (trace_P / static_cast<double>(n));
   e.fused = std::move(fused);
   e.late = static_cast<std::uint32_t>(late_sensors.size());
   e.late_sensors = std::move(late_sensors);
-  e.state = state;
-  // Stamps in seconds: 100 s into the clock, the estimate latency_ms after its newest sample.
-  e.last_sample_stamp = latency_ms >= 0.0 ? 100.0 : 0.0;
-  e.publish_stamp = 100.0 + latency_ms * 1e-3;
+  e.state = state == "diverging" ? FilterState::diverging : FilterState::ok;
+  // Stamps: 100 s into the clock, the estimate latency_ms after its newest sample.
+  constexpr std::int64_t kStart = 100'000'000'000;
+  e.last_sample_stamp_ns = latency_ms >= 0.0 ? kStart : 0;
+  e.stamp_ns = kStart + std::llround(latency_ms * 1e6);
   return e;
 }
 
@@ -289,7 +291,8 @@ TEST(RunSummary, AgreesWithAStraightforwardComputationOnARandomRun) {
       if (uniform(rng) < 0.05) p.late.push_back(id);
     }
     p.diverging = uniform(rng) < 0.1;
-    p.latency_ms = p.fused.empty() ? -1.0 : 0.2 + 5.0 * uniform(rng) * uniform(rng);
+    // Whole nanoseconds: the stamps the estimate carries.
+    p.latency_ms = p.fused.empty() ? -1.0 : std::round((0.2 + 5.0 * uniform(rng) * uniform(rng)) * 1e6) * 1e-6;
   }
   RunSummaryBuilder b(scenario_with(ids));
   // Records arrive in order of k, each truth up to 3 periods before or after its estimate.

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/estimate.hpp"
 #include "netkf/kalman_filter.hpp"
 #include "netkf/loss_model.hpp"
 #include "netkf/scenario.hpp"
@@ -52,29 +53,11 @@ wire::ControlInput make_control_input(std::uint64_t k, const Vector& u);
 Vector control_input_u(const wire::ControlInput& c, int input_dim);
 
 // ---- estimate ----
-/// One period's published estimate in core terms.
-struct EstimateRecord {
-  std::uint64_t k = 0;
-  double t = 0.0;
-  Vector x_hat;                 // x̂_{k|k}
-  Matrix P;                     // P_{k|k}
-  double trace_P_pred = 0.0;    // Tr P_{k|k-1}
-  std::vector<int> fused;       // sensor ids fused for k (sorted)
-  std::uint32_t late = 0;       // samples that arrived during period k for periods already fused
-  std::vector<int> late_sensors;  // the sensor id of each of them (late == its size)
-  std::uint64_t late_total = 0;
-  std::uint64_t rejected_total = 0;
-  FilterState state = FilterState::ok;
-  std::int64_t fused_at_ns = 0;
-  std::int64_t stamp_ns = 0;
-  std::int64_t last_sample_stamp_ns = 0;
-  std::uint32_t restarts = 0;   // times the estimator was restarted from its last estimate
-};
 /// Throws ConversionError if x_hat / P are not finite or P is not square of x_hat's size
 /// (the estimator never publishes NaN: this is the last gate).
-wire::Estimate to_wire(const EstimateRecord& e);
+wire::Estimate to_wire(const Estimate& e);
 /// Validates sizes (state_dim < 0: taken from x_hat) and finiteness.
-EstimateRecord from_wire(const wire::Estimate& e, int state_dim = -1);
+Estimate from_wire(const wire::Estimate& e, int state_dim = -1);
 /// "ok" / "diverging" <-> FilterState; throws ConversionError on anything else.
 FilterState filter_state_from_string(const std::string& s);
 

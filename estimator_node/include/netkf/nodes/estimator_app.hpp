@@ -26,8 +26,8 @@ namespace netkf::nodes {
 struct EstimatorAppOptions {
   /// Log a summary line this often.
   int status_period_ms = 10000;
-  /// Continue from this checkpoint (a restart) instead of the scenario's prior.
-  std::optional<EstimatorCheckpoint> resume;
+  /// Continue from the last estimate a previous life published (a restart) instead of the scenario's prior.
+  std::optional<Estimate> resume;
 };
 
 /// What the estimator did so far (for its summary line and for tests).

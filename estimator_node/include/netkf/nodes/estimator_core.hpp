@@ -16,49 +16,26 @@
 #include <string>
 #include <vector>
 
+#include "netkf/estimate.hpp"
 #include "netkf/kalman_filter.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
 
-/// One fused period, ready to publish.
-struct PeriodEstimate {
-  std::uint64_t k = 0;
-  double t = 0.0;
-  Vector x_hat;                        // x̂_{k|k}
-  Matrix P;                            // P_{k|k}
-  double trace_P_pred = 0.0;           // Tr P_{k|k-1} (what the theory's bounds S̄, V̄ bound)
-  std::vector<int> fused;              // sensor ids fused for k (sorted)
-  std::uint32_t late = 0;              // late samples counted since the previous published estimate
-  std::vector<int> late_sensors;       // their sensor ids, one entry per late sample (late == its size)
-  std::uint64_t late_total = 0;
-  std::uint64_t rejected_total = 0;
-  FilterState state = FilterState::ok;
-  std::optional<Vector> control;       // u_k = -L x̂_{k|k} to send to the plant (closed loop only)
-  std::int64_t fused_at_ns = 0;
-  std::int64_t last_sample_stamp_ns = 0;  // newest sensor publish stamp among fused samples
-  bool skipped_tick = false;           // tick k never arrived: open-loop period inferred from a later tick
-  std::uint32_t restarts = 0;          // times this run's estimator was restarted from a checkpoint
+/// One fused period, ready to publish: the estimate and what only the estimator node needs.
+struct PeriodEstimate : Estimate {
+  std::optional<Vector> control;  // u_k = -L x̂_{k|k} to send to the plant (closed loop only)
+  bool skipped_tick = false;      // tick k never arrived: open-loop period inferred from a later tick
 };
 
-/// Where a restarted estimator continues: the last estimate its previous life published
-/// (period k, x̂_{k|k}, P_{k|k}) and the run's counters, so the estimates after the restart
-/// stay the MMSE estimate given the samples fused (the periods it missed are fused with
-/// nothing: open-loop predictions with the inputs the plant acknowledged in its ticks).
-struct EstimatorCheckpoint {
-  std::uint64_t k = 0;
-  double t = 0.0;
-  Vector x_hat;
-  Matrix P;
-  std::uint32_t restarts = 0;  // including the restart that resumes from this checkpoint
-  std::uint64_t late_total = 0;
-  std::uint64_t rejected_total = 0;
-};
-
-/// The checkpoint file (JSON; doubles written so that they read back bit-identical).
-/// read_checkpoint throws std::runtime_error naming the file on any problem.
-void write_checkpoint(const std::string& path, const EstimatorCheckpoint& checkpoint);
-EstimatorCheckpoint read_checkpoint(const std::string& path);
+/// Where a restarted estimator continues: the checkpoint is the last estimate its previous
+/// life published (k, t, x̂_{k|k}, P_{k|k} and the run's counters), so the estimates after
+/// the restart stay the MMSE estimate given the samples fused (the periods it missed are
+/// fused with nothing: open-loop predictions with the inputs the plant acknowledged).
+/// The file is JSON (doubles written so that they read back bit-identical); read_checkpoint
+/// throws std::runtime_error naming the file on any problem.
+void write_checkpoint(const std::string& path, const Estimate& last_published);
+Estimate read_checkpoint(const std::string& path);
 
 /// Why a sample was rejected by the estimator (in addition to late samples, counted apart).
 enum class SampleRejection { unknown_sensor, wrong_size, non_finite, duplicate, buffer_full, stale_tick, count_ };
@@ -74,10 +51,11 @@ class EstimatorCore {
   /// and period k itself if all its samples were already buffered), in order.
   std::vector<PeriodEstimate> on_tick(std::uint64_t k, const Vector& applied_input, std::int64_t now_ns);
 
-  /// Continue after `checkpoint.k` (before any tick): ticks up to and including it are
-  /// ignored (a transient-local tick history replays them), later ones predict from it.
-  /// Throws std::invalid_argument when the checkpoint does not fit the scenario.
-  void resume(const EstimatorCheckpoint& checkpoint);
+  /// Continue after `last_published.k` (before any tick): ticks up to and including it are
+  /// ignored (a transient-local tick history replays them), later ones predict from it; this
+  /// life counts one restart more than the estimate it resumes from.
+  /// Throws std::invalid_argument when the estimate does not fit the scenario.
+  void resume(const Estimate& last_published);
 
   /// A delivered sample arrived. Returns period k's estimate if this completed its set.
   std::vector<PeriodEstimate> on_sample(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns,
