@@ -11,6 +11,7 @@
 #include "command_options.hpp"
 #include "commands.hpp"
 #include "exit_code.hpp"
+#include "channel_catalogue.hpp"
 #include "live_bus.hpp"
 #include "live_status.hpp"
 #include "serve_loop.hpp"
@@ -20,31 +21,6 @@ namespace netkf::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-nlohmann::json link_json(const LinkStatusRecord& l) {
-  nlohmann::json j{{"sensor_id", l.sensor_id},
-                   {"samples_in", l.samples_in},
-                   {"delivered", l.delivered},
-                   {"dropped", l.dropped},
-                   {"observed_loss", l.observed_loss},
-                   {"mean_burst_length", l.mean_burst_length},
-                   {"samples_total", l.samples_total},
-                   {"delivered_total", l.delivered_total},
-                   {"dropped_total", l.dropped_total},
-                   {"held", l.held},
-                   {"past_deadline", l.past_deadline},
-                   {"last_request_id", l.last_request_id}};
-  for (const auto& k : link_keys(l.link)) {
-    if (const auto* word = std::get_if<std::string>(&k.value)) j[k.name] = *word;
-    else j[k.name] = std::get<double>(k.value);
-  }
-  j["stationary_loss"] = stationary_loss(l.link.loss);
-  if (std::holds_alternative<GilbertElliottLink>(l.link.loss)) j["mean_burst"] = mean_burst_length(l.link.loss);
-  j["in_time"] = l.in_time;
-  j["arrival_rate"] = l.arrival_rate();
-  if (!l.rejection_reason.empty()) j["last_rejection"] = l.rejection_reason;
-  return j;
-}
 
 struct CtlOptions {
   NetworkSettings network;
@@ -153,7 +129,7 @@ int run_ctl_status(const CtlOptions& o) {
   if (o.json) {
     nlohmann::json j{{"domain", bus->domain()}, {"links", nlohmann::json::array()},
                      {"processes", nlohmann::json::array()}};
-    for (const auto& l : list) j["links"].push_back(link_json(l));
+    for (const auto& l : list) j["links"].push_back(catalogue::link_status_json(l));
     for (const auto& p : processes) {
       j["processes"].push_back({{"role", p.role}, {"sensor_ids", p.sensor_ids}, {"host", p.host}, {"pid", p.pid},
                                 {"run", hex_id(p.run)}, {"detail", p.detail}});

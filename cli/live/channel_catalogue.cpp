@@ -48,6 +48,7 @@ json link_status_schema_properties(json status_props) {
                               "dropped_total", "last_request_id"})
     status_props[counter] = {{"type", "integer"}};
   status_props["held"] = {{"type", "integer"}};
+  status_props["past_deadline"] = {{"type", "integer"}};
   status_props["late_total"] = {{"type", "integer"}};
   status_props["late_fraction"] = nullable_number();
   status_props["stationary_loss"] = {{"type", "number"}};
@@ -240,12 +241,14 @@ json estimate_message(const Estimate& e) {
 
 json truth_message(const TruthRecord& t) { return json{{"k", t.k}, {"t", t.t}, {"x", t.x}}; }
 
-json link_status_message(const LinkView& l) {
+json link_status_json(const LinkStatusRecord& l) {
   json j = link_json(l.link);
   j["sensor_id"] = l.sensor_id;
   j["stationary_loss"] = number_or_null(stationary_loss(l.link.loss));
   j["in_time"] = number_or_null(l.in_time);
+  j["configured_arrival_rate"] = number_or_null(l.arrival_rate());
   j["held"] = l.held;
+  j["past_deadline"] = l.past_deadline;
   j["samples_in"] = l.samples_in;
   j["delivered"] = l.delivered;
   j["dropped"] = l.dropped;
@@ -254,14 +257,18 @@ json link_status_message(const LinkView& l) {
   j["samples_total"] = l.samples_total;
   j["delivered_total"] = l.delivered_total;
   j["dropped_total"] = l.dropped_total;
-  j["late_total"] = l.late_total;
-  j["late_fraction"] = l.delivered_total > 0 ? json(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total))
-                                             : json(nullptr);
-  j["configured_arrival_rate"] = number_or_null(l.configured_arrival_rate);
-  j["observed_arrival_rate"] = optional_number(l.observed_arrival_rate);
   j["last_request_id"] = l.last_request_id;
   j["last_request_rejected"] = !l.rejection_reason.empty();
   j["reject_reason"] = l.rejection_reason;
+  return j;
+}
+
+json link_status_message(const LinkView& l) {
+  json j = link_status_json(l);
+  j["late_total"] = l.late_total;
+  j["late_fraction"] = l.delivered_total > 0 ? json(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total))
+                                             : json(nullptr);
+  j["observed_arrival_rate"] = optional_number(l.observed_arrival_rate);
   return j;
 }
 

@@ -40,6 +40,10 @@ nlohmann::json link_json(const LinkSpec& link);
 nlohmann::json scenario_message(const Scenario& scenario);
 nlohmann::json estimate_message(const Estimate& estimate);
 nlohmann::json truth_message(const TruthRecord& truth);
+/// The one link-status JSON shape (docs/cli.md, "Link status keys"): a link as its channel
+/// reported it; `netkf ctl status --json` prints it. The dashboard's and the recording's
+/// message adds what the estimator side knows (late_total, late_fraction, observed_arrival_rate).
+nlohmann::json link_status_json(const LinkStatusRecord& link);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the
 /// link after the change, keys as in link_status_message).

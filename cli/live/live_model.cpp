@@ -11,7 +11,6 @@ LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
     view.sensor_id = sensor.id;
     view.link = sensor.link;
     view.in_time = probability_within(sensor.link.delay, scenario_.deadline_ms());
-    view.configured_arrival_rate = effective_arrival_rate(sensor.link, scenario_.deadline_ms());
     snapshot_.links.push_back(view);
   }
 }
@@ -151,21 +150,8 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
     view->observed_arrival_rate = static_cast<double>(in_time_now) / static_cast<double>(status.samples_in);
   }
   view->delivered_in_time = in_time_now;
-  view->link = status.link;
-  view->in_time = status.in_time;
-  view->held = status.held;
+  static_cast<LinkStatusRecord&>(*view) = status;
   view->reported = true;
-  view->samples_in = status.samples_in;
-  view->delivered = status.delivered;
-  view->dropped = status.dropped;
-  view->observed_loss = status.observed_loss;
-  view->mean_burst_length = status.mean_burst_length;
-  view->samples_total = status.samples_total;
-  view->delivered_total = status.delivered_total;
-  view->dropped_total = status.dropped_total;
-  view->configured_arrival_rate = effective_arrival_rate(status.link, scenario_.deadline_ms());
-  view->last_request_id = status.last_request_id;
-  view->rejection_reason = status.rejection_reason;
 }
 
 void LiveModel::add_link_change(const LinkChangeRecord& change) {

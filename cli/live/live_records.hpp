@@ -51,7 +51,7 @@ struct LinkStatusRecord {
 
   /// λ = (1 − stationary loss) · P(in time): the rate at which the link's samples reach the
   /// estimator before the deadline (docs/scenario-format.md, "Delay"), the rate the theory uses.
-  double arrival_rate() const { return (1.0 - stationary_loss(link.loss)) * in_time; }
+  double arrival_rate() const { return netkf::arrival_rate(link.loss, in_time); }
 };
 
 /// One entry of the channel's link journal: the link after a change, and the period of the

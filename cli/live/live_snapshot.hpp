@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "live_records.hpp"
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/operating_point.hpp"
 #include "netkf/estimate.hpp"
@@ -19,27 +20,13 @@ struct PeriodView {
   std::vector<double> truth;  // x_k (empty until the plant's sample for k arrived)
 };
 
-/// One link as the channel last reported it, with the rates the theory needs.
-struct LinkView {
-  int sensor_id = 0;
-  LinkSpec link;                   // as reported by the channel (the scenario's until then)
-  double in_time = 1.0;            // theory: P(delay <= deadline) of `link`
-  std::uint64_t held = 0;          // delivered samples the channel is holding (delay)
-  bool reported = false;           // a status from the channel has arrived
-  std::uint64_t samples_in = 0;    // since the model was set
-  std::uint64_t delivered = 0;
-  std::uint64_t dropped = 0;
-  double observed_loss = 0.0;
-  double mean_burst_length = 0.0;
-  std::uint64_t samples_total = 0;  // since the channel started
-  std::uint64_t delivered_total = 0;
-  std::uint64_t dropped_total = 0;
-  std::uint64_t late_total = 0;    // delivered but after the estimator fused their period (the estimator's count)
-  double configured_arrival_rate = 1.0;          // λ_i = (1 − stationary loss) · in_time: the effective rate
+/// One link as the channel last reported it (the scenario's link until then), with what the
+/// estimator side adds: its late count and the arrival rate observed.
+struct LinkView : LinkStatusRecord {
+  bool reported = false;                         // a status from the channel has arrived
+  std::uint64_t late_total = 0;                  // delivered but after the estimator fused their period (the estimator's count)
   std::optional<double> observed_arrival_rate;   // in time / samples over the last report interval
   std::uint64_t delivered_in_time = 0;           // delivered and not delayed past the deadline (since the model was set)
-  std::uint64_t last_request_id = 0;
-  std::string rejection_reason;                  // of the last request (empty: applied)
 };
 
 /// The theory for one set of arrival rates.

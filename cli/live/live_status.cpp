@@ -92,7 +92,7 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   std::vector<const LinkView*> shown;
   for (const auto& l : s.links) shown.push_back(&l);
   const auto shortfall = [](const LinkView* l) {
-    return l->observed_arrival_rate ? l->configured_arrival_rate - *l->observed_arrival_rate
+    return l->observed_arrival_rate ? l->arrival_rate() - *l->observed_arrival_rate
                                     : std::numeric_limits<double>::infinity();
   };
   const bool shortlisted = shown.size() > kStatusLinksListed;
@@ -108,7 +108,7 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   for (const LinkView* l : shown) {
     char line[256];
     const std::string late = late_share_text(l->late_total, l->delivered_total);
-    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l->sensor_id, l->configured_arrival_rate,
+    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l->sensor_id, l->arrival_rate(),
                   l->observed_arrival_rate ? fmt(*l->observed_arrival_rate, true).c_str() : "-", late.c_str(),
                   describe_link(l->link).c_str());
     out << line;

@@ -79,8 +79,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   for (std::size_t i = 0; i < configured.sensors.size(); ++i) {
     const LinkSpec& link = configured.sensors[i].link;
     const double in_time = probability_within(link.delay, configured.deadline_ms());
-    report.links.push_back({configured.sensors[i].id, stationary_loss(link.loss), in_time,
-                            1.0 - stationary_loss(scenario.sensors[i].link.loss)});
+    report.links.push_back({configured.sensors[i].id, stationary_loss(link.loss), in_time, arrival_rate(link.loss, in_time)});
     any_delay = any_delay || !link.delay.none();
   }
   if (any_delay) {

@@ -442,8 +442,10 @@ LinkModel effective_loss_model(const LinkSpec& link, double deadline_ms) {
   return g;
 }
 
+double arrival_rate(const LinkModel& loss, double in_time) { return (1.0 - stationary_loss(loss)) * in_time; }
+
 double effective_arrival_rate(const LinkSpec& link, double deadline_ms) {
-  return 1.0 - stationary_loss(effective_loss_model(link, deadline_ms));
+  return arrival_rate(link.loss, probability_within(link.delay, deadline_ms));
 }
 
 }  // namespace netkf

@@ -161,7 +161,7 @@ TEST(LiveModel, ObservedRateFollowsTheLastReportInterval) {
   model.add_link_status(link_status(2, BernoulliLink{0.2}, 200, 130));
   EXPECT_DOUBLE_EQ((*model.observed_rates())[1], 0.5);
   // The configured rate is the channel's model, not the scenario's.
-  EXPECT_DOUBLE_EQ(model.snapshot().links[1].configured_arrival_rate, 0.8);
+  EXPECT_DOUBLE_EQ(model.snapshot().links[1].arrival_rate(), 0.8);
   EXPECT_EQ(model.configured_scenario().sensors[1].link, LinkSpec(BernoulliLink{0.2}));
 }
 

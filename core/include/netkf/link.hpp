@@ -151,7 +151,10 @@ double delay_quantile(const LinkDelay& delay, double q);
 /// are again a Gilbert-Elliott chain with the same p, r). Exact for i.i.d. delays; not for
 /// delays that depend on the chain's state or on each other.
 LinkModel effective_loss_model(const LinkSpec& link, double deadline_ms);
-/// 1 − stationary loss of the effective model: the link's effective arrival rate.
+/// The rate at which a link's samples arrive in time, λ = (1 − stationary loss)·in_time with
+/// in_time = P(delay ≤ deadline): the one place this product is written.
+double arrival_rate(const LinkModel& loss, double in_time);
+/// arrival_rate of the link at `deadline_ms` (= 1 − stationary loss of its effective model).
 double effective_arrival_rate(const LinkSpec& link, double deadline_ms);
 
 }  // namespace netkf
