@@ -4,13 +4,9 @@
 // so the page works offline and from any install location.
 #include <string_view>
 
-namespace netkf::cli::dashboard {
+#include "request_policy.hpp"  // Asset
 
-struct Asset {
-  std::string_view path;          // URL path, e.g. "/index.html"
-  std::string_view content_type;
-  std::string_view body;
-};
+namespace netkf::cli::dashboard {
 
 /// nullptr when no asset has that path.
 const Asset* find_asset(std::string_view path);

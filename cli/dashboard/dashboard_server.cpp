@@ -6,12 +6,13 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <deque>
-#include <map>
 #include <optional>
-#include <set>
 #include <stdexcept>
+#include <string_view>
 
 #include "dashboard__assets.hpp"
+#include "foxglove_session.hpp"
+#include "request_policy.hpp"
 
 namespace netkf::cli {
 
@@ -24,60 +25,35 @@ using error_code = boost::system::error_code;
 
 namespace {
 
-constexpr std::size_t kHttpLimit = 8 * 1024;  // header and body of a plain HTTP request
-constexpr auto kHttpTimeout = std::chrono::seconds(30);
-
-struct Target {
-  std::string path;
-  std::map<std::string, std::string> query;
-};
-
-Target split_target(beast::string_view target) {
-  Target t;
-  const std::string s(target);
-  const auto q = s.find('?');
-  t.path = s.substr(0, q);
-  if (q == std::string::npos) return t;
-  std::string rest = s.substr(q + 1);
-  std::size_t start = 0;
-  while (start <= rest.size()) {
-    const auto amp = rest.find('&', start);
-    const std::string pair = rest.substr(start, amp == std::string::npos ? std::string::npos : amp - start);
-    const auto eq = pair.find('=');
-    if (!pair.empty()) t.query[pair.substr(0, eq)] = eq == std::string::npos ? "" : pair.substr(eq + 1);
-    if (amp == std::string::npos) break;
-    start = amp + 1;
-  }
-  return t;
-}
-
-/// Comparison whose time does not depend on where the strings differ.
-bool same_secret(const std::string& a, const std::string& b) {
-  if (a.size() != b.size()) return false;
-  unsigned char diff = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) diff |= static_cast<unsigned char>(a[i] ^ b[i]);
-  return diff == 0;
-}
-
-bool offers_subprotocol(beast::string_view header, const std::string& wanted) {
-  std::string list(header);
-  std::size_t start = 0;
-  while (start < list.size()) {
-    auto comma = list.find(',', start);
-    if (comma == std::string::npos) comma = list.size();
-    std::string item = list.substr(start, comma - start);
-    const auto b = item.find_first_not_of(" \t");
-    const auto e = item.find_last_not_of(" \t");
-    if (b != std::string::npos && item.substr(b, e - b + 1) == wanted) return true;
-    start = comma + 1;
-  }
-  return false;
-}
-
 struct Frame {
   std::string data;
   bool binary = false;
 };
+
+std::string_view view(beast::string_view s) { return {s.data(), s.size()}; }
+
+dashboard::RequestFacts request_facts(const http::request<http::string_body>& req) {
+  return {view(req.method_string()),
+          view(req.target()),
+          view(req[http::field::authorization]),
+          view(req[http::field::origin]),
+          view(req[http::field::sec_websocket_protocol]),
+          websocket::is_upgrade(req),
+          req.keep_alive()};
+}
+
+http::response<http::string_body> make_response(const dashboard::RequestDecision& decision, unsigned version,
+                                                std::string body) {
+  http::response<http::string_body> res{static_cast<http::status>(decision.status), version};
+  for (const auto& [name, value] : decision.fields) res.set(name, value);
+  res.keep_alive(decision.keep_alive);
+  res.body() = std::move(body);
+  if (decision.head) {
+    res.content_length(res.body().size());
+    res.body().clear();
+  }
+  return res;
+}
 
 }  // namespace
 
@@ -93,12 +69,9 @@ struct DashboardServer::Impl : std::enable_shared_from_this<DashboardServer::Imp
   void schedule_flush();
   void flush();
 
-  /// nullopt: the request may proceed; else the status and reason to refuse it with.
-  std::optional<std::pair<http::status, std::string>> check_request(const http::request<http::string_body>& req,
-                                                                    bool websocket_upgrade) const;
-  http::response<http::string_body> respond(const http::request<http::string_body>& req);
-  void upgrade(beast::tcp_stream stream, http::request<http::string_body> req);
-  void handle_client_message(WsSession& session, const std::string& text);
+  void upgrade(beast::tcp_stream stream, http::request<http::string_body> req, const dashboard::RequestDecision& decision);
+  /// Do what the client's message asked (FoxgloveSession decided it).
+  void apply(WsSession& session, dashboard::SessionActions actions);
   std::vector<std::shared_ptr<WsSession>> live_sessions();
 
   net::io_context& io;
@@ -107,9 +80,9 @@ struct DashboardServer::Impl : std::enable_shared_from_this<DashboardServer::Imp
   Hooks hooks;
   tcp::acceptor acceptor;
   net::steady_timer flush_timer;
+  std::optional<dashboard::RequestPolicy> policy;  // once listening (the origins name the port)
   std::vector<std::weak_ptr<WsSession>> sessions;
-  std::map<std::pair<std::uint32_t, int>, std::pair<std::string, std::uint64_t>> latched;  // payload, timestamp
-  std::set<std::string> own_origins;
+  dashboard::LatchedMessages latched;
   ClientId next_client = 1;
   std::uint64_t dropped = 0;
   bool stopped = false;
@@ -126,12 +99,12 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   DashboardServer::ClientId id() const { return id_; }
   bool open() const { return open_; }
 
-  void accept(http::request<http::string_body> req) {
+  /// `fields`: the handshake's answer (the subprotocol chosen).
+  void accept(http::request<http::string_body> req, std::vector<std::pair<std::string, std::string>> fields) {
     beast::get_lowest_layer(ws_).expires_never();
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
-    ws_.set_option(websocket::stream_base::decorator([](websocket::response_type& res) {
-      res.set(http::field::sec_websocket_protocol, dashboard::kSubprotocol);
-      res.set(http::field::server, "netkf");
+    ws_.set_option(websocket::stream_base::decorator([fields = std::move(fields)](websocket::response_type& res) {
+      for (const auto& [name, value] : fields) res.set(name, value);
     }));
     ws_.async_accept(req, [self = shared_from_this()](error_code ec) {
       if (ec) return;
@@ -175,10 +148,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     ws_.async_close(websocket::close_code::going_away, [self = shared_from_this()](error_code) {});
   }
 
-  // Subscriptions: subscription id -> channel id.
-  std::map<std::uint32_t, std::uint32_t> subscriptions;
-  std::set<std::string> parameter_subscriptions;
-  bool all_parameters = false;
+  dashboard::FoxgloveSession foxglove;
 
  private:
   void bound_queue() {
@@ -204,14 +174,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       const bool text = self->ws_.got_text();
       std::string message = beast::buffers_to_string(self->buffer_.data());
       self->buffer_.consume(self->buffer_.size());
-      if (auto srv = self->server_.lock()) {
-        if (text) {
-          srv->handle_client_message(*self, message);
-        } else {
-          self->send_json(dashboard::status_message(LiveEvent::Level::error,
-                                                    "binary client messages are not supported by this server"));
-        }
-      }
+      if (auto srv = self->server_.lock())
+        srv->apply(*self, text ? self->foxglove.on_text(message, srv->latched) : self->foxglove.on_binary());
       self->read();
     });
   }
@@ -233,9 +197,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   void read() {
     parser_.emplace();
-    parser_->header_limit(kHttpLimit);
-    parser_->body_limit(kHttpLimit);
-    stream_.expires_after(kHttpTimeout);
+    parser_->header_limit(dashboard::kHttpRequestLimit);
+    parser_->body_limit(dashboard::kHttpRequestLimit);
+    stream_.expires_after(dashboard::kHttpTimeout);
     http::async_read(stream_, buffer_, *parser_, [self = shared_from_this()](error_code ec, std::size_t) {
       self->on_read(ec);
     });
@@ -250,34 +214,23 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     if (!srv) return;
     if (ec) {
       // Oversized or malformed request: answer once, then close.
-      http::response<http::string_body> res{ec == http::error::header_limit || ec == http::error::body_limit
-                                                ? http::status::payload_too_large
-                                                : http::status::bad_request,
-                                            11};
-      res.set(http::field::content_type, "text/plain; charset=utf-8");
-      res.body() = "bad request: " + ec.message() + "\n";
-      res.keep_alive(false);
-      return write(std::move(res));
+      const bool too_large = ec == http::error::header_limit || ec == http::error::body_limit;
+      const auto decision = dashboard::unreadable_request(too_large, ec.message());
+      return write(make_response(decision, 11, decision.body));
     }
     auto req = parser_->release();
-    if (websocket::is_upgrade(req)) {
-      if (auto refusal = srv->check_request(req, true)) {
-        http::response<http::string_body> res{refusal->first, req.version()};
-        res.set(http::field::content_type, "text/plain; charset=utf-8");
-        res.body() = refusal->second + "\n";
-        res.keep_alive(false);
-        return write(std::move(res));
-      }
-      srv->upgrade(std::move(stream_), std::move(req));
-      return;
-    }
-    write(srv->respond(req));
+    const auto decision = srv->policy->decide(request_facts(req));
+    using Action = dashboard::RequestDecision::Action;
+    if (decision.action == Action::websocket) return srv->upgrade(std::move(stream_), std::move(req), decision);
+    const bool metrics = decision.action == Action::metrics;
+    write(make_response(decision, req.version(),
+                        metrics ? (srv->hooks.metrics ? srv->hooks.metrics() : std::string()) : decision.body));
   }
 
   void write(http::response<http::string_body> response) {
     response.prepare_payload();
     auto res = std::make_shared<http::response<http::string_body>>(std::move(response));
-    stream_.expires_after(kHttpTimeout);
+    stream_.expires_after(dashboard::kHttpTimeout);
     http::async_write(stream_, *res, [self = shared_from_this(), res](error_code ec, std::size_t) {
       if (ec || !res->keep_alive()) return self->close();
       self->read();
@@ -314,13 +267,10 @@ void DashboardServer::Impl::listen() {
                                   ? " (another program uses the port: choose one with --dashboard PORT, or "
                                     "--dashboard off)"
                                   : ""));
-  const auto port = std::to_string(acceptor.local_endpoint().port());
-  own_origins = {"http://127.0.0.1:" + port, "http://localhost:" + port, "http://[::1]:" + port};
-  if (!address.is_unspecified()) {
-    const std::string host = address.is_v6() ? "[" + options.bind + "]" : options.bind;
-    own_origins.insert("http://" + host + ":" + port);
-  }
-  for (const auto& o : options.allowed_origins) own_origins.insert(o);
+  policy.emplace(options.token,
+                 dashboard::own_origins(options.bind, address.is_v6(), address.is_unspecified(),
+                                        acceptor.local_endpoint().port(), options.allowed_origins),
+                 dashboard::find_asset);
   accept_next();
   schedule_flush();
 }
@@ -363,122 +313,26 @@ std::vector<std::shared_ptr<WsSession>> DashboardServer::Impl::live_sessions() {
   return out;
 }
 
-std::optional<std::pair<http::status, std::string>> DashboardServer::Impl::check_request(
-    const http::request<http::string_body>& req, bool websocket_upgrade) const {
-  if (!options.token.empty()) {
-    const auto target = split_target(req.target());
-    std::string given;
-    if (auto it = target.query.find("token"); it != target.query.end()) given = it->second;
-    const std::string auth(req[http::field::authorization]);
-    if (given.empty() && auth.rfind("Bearer ", 0) == 0) given = auth.substr(7);
-    if (!same_secret(given, options.token))
-      return std::make_pair(http::status::unauthorized,
-                            "this dashboard needs the token printed by netkf launch (?token=... in the URL)");
-  }
-  if (websocket_upgrade) {
-    // A web page of another site open in the same browser must not retune links: only
-    // the dashboard's own origin (and those allowed on the command line) may connect.
-    // Clients that send no Origin (desktop apps, scripts) are served.
-    const std::string origin(req[http::field::origin]);
-    if (!origin.empty() && !own_origins.count(origin))
-      return std::make_pair(http::status::forbidden,
-                            "origin '" + origin.substr(0, 200) +
-                                "' is not allowed (netkf launch --dashboard-allow-origin ORIGIN allows it)");
-    if (!offers_subprotocol(req[http::field::sec_websocket_protocol], dashboard::kSubprotocol))
-      return std::make_pair(http::status::bad_request,
-                            std::string("this WebSocket speaks the subprotocol ") + dashboard::kSubprotocol);
-  }
-  return std::nullopt;
-}
-
-http::response<http::string_body> DashboardServer::Impl::respond(const http::request<http::string_body>& req) {
-  http::response<http::string_body> res{http::status::ok, req.version()};
-  res.set(http::field::server, "netkf");
-  res.set("X-Content-Type-Options", "nosniff");
-  res.keep_alive(req.keep_alive());
-  auto text = [&](http::status status, std::string body) {
-    res.result(status);
-    res.set(http::field::content_type, "text/plain; charset=utf-8");
-    res.body() = std::move(body);
-  };
-  if (auto refusal = check_request(req, false)) {
-    text(refusal->first, refusal->second + "\n");
-    return res;
-  }
-  if (req.method() != http::verb::get && req.method() != http::verb::head) {
-    text(http::status::method_not_allowed, "only GET is served here\n");
-    res.set(http::field::allow, "GET, HEAD");
-    return res;
-  }
-  const auto target = split_target(req.target());
-  if (target.path == "/metrics") {
-    res.set(http::field::content_type, "text/plain; version=0.0.4; charset=utf-8");
-    res.body() = hooks.metrics ? hooks.metrics() : std::string();
-  } else if (const auto* asset = dashboard::find_asset(target.path == "/" ? "/index.html" : target.path)) {
-    res.set(http::field::content_type, std::string(asset->content_type));
-    // The page must not be framed by another site (it has link controls).
-    res.set("X-Frame-Options", "DENY");
-    res.set(http::field::cache_control, "no-cache");
-    res.body() = std::string(asset->body);
-  } else {
-    text(http::status::not_found, "not found\n");
-  }
-  if (req.method() == http::verb::head) {
-    res.content_length(res.body().size());
-    res.body().clear();
-  }
-  return res;
-}
-
-void DashboardServer::Impl::upgrade(beast::tcp_stream stream, http::request<http::string_body> req) {
+void DashboardServer::Impl::upgrade(beast::tcp_stream stream, http::request<http::string_body> req,
+                                    const dashboard::RequestDecision& decision) {
   auto session = std::make_shared<WsSession>(std::move(stream), weak_from_this(), next_client++,
                                              options.max_message_bytes, options.max_queued_frames);
   sessions.push_back(session);
-  session->accept(std::move(req));
+  session->accept(std::move(req), decision.fields);
 }
 
-void DashboardServer::Impl::handle_client_message(WsSession& session, const std::string& text) {
-  using namespace dashboard;
-  auto refuse = [&](const std::string& why) { session.send_json(status_message(LiveEvent::Level::error, why)); };
-  ClientMessage message;
-  try {
-    message = parse_client_message(text);
-  } catch (const ProtocolError& e) {
-    return refuse(std::string("message refused: ") + e.what());
-  }
-  if (auto* sub = std::get_if<Subscribe>(&message)) {
-    for (const auto& [subscription, channel] : sub->subscriptions) {
-      if (!catalogue::find_channel(channel)) {
-        refuse("subscribe: unknown channel " + std::to_string(channel));
-        continue;
-      }
-      if (session.subscriptions.count(subscription)) {
-        refuse("subscribe: subscription id " + std::to_string(subscription) + " is already in use");
-        continue;
-      }
-      session.subscriptions[subscription] = channel;
-      // The channel's latest values at once, so a page opened mid-run shows the state.
-      for (const auto& [key, value] : latched)
-        if (key.first == channel) session.queue_data(message_data_frame(subscription, value.second, value.first));
-    }
-    session.pump();
-  } else if (auto* unsub = std::get_if<Unsubscribe>(&message)) {
-    for (auto id : unsub->subscription_ids) session.subscriptions.erase(id);
-  } else if (auto* get = std::get_if<GetParameters>(&message)) {
-    session.send_json(hooks.get_parameters ? hooks.get_parameters(*get) : parameter_values({}, {}, get->id));
-  } else if (auto* set = std::get_if<SetParameters>(&message)) {
-    if (hooks.set_parameters) hooks.set_parameters(session.id(), *set);
-  } else if (auto* updates = std::get_if<ParameterUpdates>(&message)) {
-    if (updates->subscribe) {
-      if (updates->names.empty()) session.all_parameters = true;
-      session.parameter_subscriptions.insert(updates->names.begin(), updates->names.end());
-    } else if (updates->names.empty()) {
-      session.all_parameters = false;
-      session.parameter_subscriptions.clear();
+void DashboardServer::Impl::apply(WsSession& session, dashboard::SessionActions actions) {
+  for (auto& out : actions.send) {
+    if (out.binary) {
+      session.queue_data(std::move(out.frame));
     } else {
-      for (const auto& n : updates->names) session.parameter_subscriptions.erase(n);
+      session.send_json(out.message);
     }
   }
+  if (actions.send_data_now) session.pump();
+  if (const auto& get = actions.get_parameters)
+    session.send_json(hooks.get_parameters ? hooks.get_parameters(*get) : dashboard::parameter_values({}, {}, get->id));
+  if (actions.set_parameters && hooks.set_parameters) hooks.set_parameters(session.id(), *actions.set_parameters);
 }
 
 // ---------------------------------------------------------------- DashboardServer
@@ -517,8 +371,7 @@ void DashboardServer::publish(catalogue::ChannelId channel, const nlohmann::json
   for (const auto& weak : impl_->sessions) {
     const auto s = weak.lock();
     if (!s || !s->open()) continue;
-    for (const auto& [subscription, ch] : s->subscriptions)
-      if (ch == channel_id) s->queue_data(dashboard::message_data_frame(subscription, timestamp_ns, payload));
+    for (auto& frame : s->foxglove.message_frames(channel_id, timestamp_ns, payload)) s->queue_data(std::move(frame));
   }
   impl_->latched[{channel_id, latch_key}] = {std::move(payload), timestamp_ns};
 }
@@ -535,12 +388,8 @@ void DashboardServer::send_to(ClientId client, const nlohmann::json& message) {
 }
 
 void DashboardServer::broadcast_parameter_values(const nlohmann::json& values) {
-  for (auto& s : impl_->live_sessions()) {
-    nlohmann::json mine = nlohmann::json::array();
-    for (const auto& p : values["parameters"])
-      if (s->all_parameters || s->parameter_subscriptions.count(p["name"].get<std::string>())) mine.push_back(p);
-    if (!mine.empty()) s->send_json({{"op", "parameterValues"}, {"parameters", std::move(mine)}});
-  }
+  for (auto& s : impl_->live_sessions())
+    if (auto mine = s->foxglove.parameter_update(values)) s->send_json(*mine);
 }
 
 std::size_t DashboardServer::client_count() const { return impl_->live_sessions().size(); }

@@ -3,7 +3,8 @@
 // and its assets (embedded at build time), GET /metrics the Prometheus text, and a
 // WebSocket upgrade speaks foxglove.websocket.v1 (dashboard_protocol.hpp). Runs on the
 // caller's io_context (one thread: no locks); nothing here blocks. docs/dashboard.md
-// describes what users see; the safety rules (bind, token, Origin, sizes) are enforced here.
+// describes what users see; the safety rules (bind, token, Origin, sizes) are enforced here,
+// as request_policy.hpp decides them; each client's protocol state is a FoxgloveSession.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
 
 #include <boost/asio/io_context.hpp>
