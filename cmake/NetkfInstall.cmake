@@ -7,7 +7,7 @@
 #   P/share/netkf/systemd/*.env         example environment files (deploy/systemd)
 #   P/lib/systemd/system/netkf@.service the unit template, its ExecStart pointing at P/bin/netkf
 #   P/lib/sysusers.d/netkf.conf         the service's system user (systemd-sysusers)
-# The CLI finds its node executables from its own resolved path (cli/launch_supervisor.cpp,
+# The CLI finds its node executables from its own resolved path (cli/launch/launch_supervisor.cpp,
 # node_binary_root: the directory above the CLI's, then <root>/<node>), so the real CLI sits
 # one directory below the nodes, as in the build tree; the symlink in bin/ resolves to it.
 include(GNUInstallDirs)

@@ -119,7 +119,7 @@ void Launch::read_inputs() {
   if (scenario_.sensors.size() > kMaxLiveSensors)
     fail(ExitCode::bad_usage, "the scenario has " + std::to_string(scenario_.sensors.size()) +
                                   " sensors; a live network runs at most " + std::to_string(kMaxLiveSensors) +
-                                  " (the largest measured to run; README, \"Failure behaviour\")");
+                                  " (the largest measured to run; docs/operations.md, \"Failure behaviour\")");
   std::vector<int> sensor_ids;
   for (const auto& sensor : scenario_.sensors) sensor_ids.push_back(sensor.id);
   roles_ = or_bad_usage([&] { return parse_launch_roles(o_.only, sensor_ids); });

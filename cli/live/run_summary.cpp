@@ -366,7 +366,7 @@ std::string render_check_table(const std::vector<CheckResult>& results) {
 }
 
 nlohmann::ordered_json summary_json(const RunSummary& summary, const std::vector<CheckResult>& results) {
-  // Insertion order: the file reads in the order of the README's definitions.
+  // Insertion order: the file reads in the order of docs/experiments.md's definitions.
   nlohmann::ordered_json j;
   for (const auto& q : kRunQuantities) j[q.name] = json_value(q.measure(summary));
   j["link"] = nlohmann::ordered_json::object();

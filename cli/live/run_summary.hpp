@@ -4,7 +4,7 @@
 // launch already gathers (truth, estimates, link status). No DDS, no clock: the tests feed it
 // hand-made records.
 //
-// The quantities (also README, "Pass/fail checks in your CI"); a check names one of them,
+// The quantities (also docs/experiments.md, "Pass/fail checks in your CI"); a check names one of them,
 // per link as `link.ID.NAME`, and the summary's JSON uses the same names:
 //   periods              estimates received, one per period the estimator fused
 //   rms_error            sqrt(mean over periods with both truth and estimate of |x_k − x̂_{k|k}|²)

@@ -21,6 +21,7 @@ json report_json(const analysis::AnalysisReport& r) {
   json j;
   j["spectral_radius"] = number_or_null(r.spectral_radius);
   j["stable"] = analysis::to_string(r.stable);
+  j["stable_reason"] = r.stable_reason;
   j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
                               {"upper_trace", number_or_null(r.upper_trace)}};
   if (r.critical_rate) {
@@ -56,7 +57,9 @@ std::string show(const std::optional<double>& v, const char* missing = "unbounde
 void print_analysis(std::ostream& out, const Scenario& s, const analysis::AnalysisReport& r) {
   out << "scenario " << s.name << " (" << s.state_dim() << " states, " << s.sensors.size() << " sensors)\n";
   out << "  spectral radius alpha      " << std::setprecision(6) << r.spectral_radius << "\n";
-  out << "  stable                     " << analysis::to_string(r.stable) << "\n";
+  out << "  stable                     " << analysis::to_string(r.stable);
+  if (!r.stable_reason.empty()) out << " (" << r.stable_reason << ")";
+  out << "\n";
   const char* missing = r.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
   out << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
   out << "  Tr V-bar (upper bound)     " << show(r.upper_trace, missing) << "\n";

@@ -15,13 +15,6 @@
 namespace netkf::analysis {
 namespace {
 
-// Six significant digits, or enough to tell the number from 1 next to a "< 1" verdict.
-std::string fmt(double v) {
-  std::ostringstream os;
-  os.precision(std::abs(v - 1.0) < 1e-4 ? 12 : 6);
-  os << v;
-  return os.str();
-}
 
 Matrix stacked_C(const Scenario& s) {
   Eigen::Index m = 0;
@@ -148,9 +141,9 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     if (thm12) {
       report.second_order_criterion = *thm12;
       std::string line = "Thm 12 closed form (period tau = " + (tau > 0 ? std::to_string(tau) : std::string("inf")) +
-                         "): " + fmt(*thm12);
+                         "): " + verdict_number(*thm12);
       if (markov.applies && std::abs(*thm12 - markov.value) > 1e-6 * std::max(1.0, markov.value))
-        line += " DISAGREES with the transition matrix " + fmt(markov.value);
+        line += " DISAGREES with the transition matrix " + verdict_number(markov.value);
       else if (markov.applies)
         line += ", agrees with the transition matrix";
       report.notes.push_back(line);
@@ -188,9 +181,9 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     if (lmi && cr.upper && cr.upper_iteration) {
       const bool agree = std::abs(*cr.upper - *cr.upper_iteration) <= 1e-3;
       report.notes.push_back(agree ? "critical_rate.upper: LMI (CSDP) and g-iteration bisection agree (" +
-                                         fmt(*cr.upper_iteration) + ")"
-                                   : "critical_rate.upper: LMI (CSDP) " + fmt(*cr.upper) +
-                                         " and g-iteration bisection " + fmt(*cr.upper_iteration) + " disagree");
+                                         verdict_number(*cr.upper_iteration) + ")"
+                                   : "critical_rate.upper: LMI (CSDP) " + verdict_number(*cr.upper) +
+                                         " and g-iteration bisection " + verdict_number(*cr.upper_iteration) + " disagree");
     }
     report.critical_rate = cr;
   } else if (d > 0) {

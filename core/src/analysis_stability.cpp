@@ -10,14 +10,6 @@
 namespace netkf::analysis {
 namespace {
 
-// Six significant digits, or enough to tell the number from 1 next to a "< 1" verdict.
-std::string fmt(double v) {
-  std::ostringstream os;
-  os.precision(std::abs(v - 1.0) < 1e-4 ? 12 : 6);
-  os << v;
-  return os.str();
-}
-
 // Why the Markov criterion does not apply, on one line.
 std::string why_not(const MarkovCriterion& markov) {
   std::string out;
@@ -26,6 +18,13 @@ std::string why_not(const MarkovCriterion& markov) {
 }
 
 }  // namespace
+
+std::string verdict_number(double v) {
+  std::ostringstream os;
+  os.precision(std::abs(v - 1.0) < 1e-4 ? 12 : 6);
+  os << v;
+  return os.str();
+}
 
 const char* to_string(Verdict verdict) {
   switch (verdict) {
@@ -48,7 +47,7 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
     const double alpha = spectral_radius(A);
     out.stable = alpha < 1.0 ? Verdict::yes : Verdict::no;
     out.reason = std::string(alpha < 1.0 ? "stable" : "unstable") +
-                 " decided by open-loop prediction (no sensors): alpha " + fmt(alpha) + (alpha < 1.0 ? " < 1" : " >= 1");
+                 " decided by open-loop prediction (no sensors): alpha " + verdict_number(alpha) + (alpha < 1.0 ? " < 1" : " >= 1");
     return out;
   }
 
@@ -72,9 +71,9 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
   if (out.markov.applies) {
     const bool stable = out.markov.stable();
     out.stable = stable ? Verdict::yes : Verdict::no;
-    out.reason = stable ? "stable decided by the Markov criterion " + fmt(out.markov.value) +
+    out.reason = stable ? "stable decided by the Markov criterion " + verdict_number(out.markov.value) +
                               " < 1 (multi-sensor paper Thm 7)"
-                        : "unstable decided by the Markov criterion " + fmt(out.markov.value) +
+                        : "unstable decided by the Markov criterion " + verdict_number(out.markov.value) +
                               " >= 1 (multi-sensor paper Thm 7): below the critical boundary";
   } else if (!out.iid_bounds) {
     out.reason = "stable unknown: Gilbert-Elliott links are decided only by the Markov criterion, which does not "
@@ -86,7 +85,7 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
     const double alpha = spectral_radius(A);
     out.stable = Verdict::no;
     out.reason = "unstable decided by the lower bound: S-bar does not exist (q alpha^2 = " +
-                 fmt(all_lost * alpha * alpha) + " >= 1, Sinopoli Thm 3): below the critical rate";
+                 verdict_number(all_lost * alpha * alpha) + " >= 1, Sinopoli Thm 3): below the critical rate";
   } else {
     out.reason = std::string("stable unknown: S-bar exists but V-bar ") +
                  (out.upper.status == BoundStatus::unbounded

@@ -2,7 +2,7 @@
 
 1. `cmake --install` of the build tree into a temporary prefix lays out what the unit runs:
    bin/netkf resolves to libexec/netkf/cli/netkf, and the node executables sit where the CLI
-   looks for them (cli/launch_supervisor.cpp: the directory above the CLI's, then <node>);
+   looks for them (cli/launch/launch_supervisor.cpp: the directory above the CLI's, then <node>);
    scenarios, DDS profiles, example environment files, the unit and its sysusers entry.
 2. The installed netkf@.service runs that prefix's netkf.
 3. `systemd-analyze verify` (and `security --offline`, exposure below 4) on the template instantiated as netkf@test.service (a copy whose

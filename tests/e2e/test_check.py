@@ -1,4 +1,4 @@
-"""Pass/fail checks and the run summary for users' CI (README, "Pass/fail checks in your CI"):
+"""Pass/fail checks and the run summary for users' CI (docs/experiments.md, "Pass/fail checks in your CI"):
 `netkf launch --check 'NAME<VALUE' --summary FILE.json`.
 
 - A check that must hold (Bernoulli loss 0.3: link 1's observed loss below 0.6) -> exit 0, the

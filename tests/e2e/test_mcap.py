@@ -1,4 +1,4 @@
-"""MCAP recordings (README, "Recordings"): `netkf launch --record run.mcap` and
+"""MCAP recordings (docs/recording.md): `netkf launch --record run.mcap` and
 `netkf record --out x.mcap`, read back with an independent reader (@mcap/core's
 McapStreamReader, tests/e2e/mcap_read.mjs).
 

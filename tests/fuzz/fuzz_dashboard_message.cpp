@@ -1,4 +1,4 @@
-// Fuzzes the dashboard's parser of client messages (cli/dashboard_protocol.cpp) on
+// Fuzzes the dashboard's parser of client messages (cli/dashboard/dashboard_protocol.cpp) on
 // arbitrary text, as a WebSocket client can send: it must return a message or throw
 // ProtocolError. A setParameters it accepts is then judged against two links as the
 // server does (link_changes), which must refuse or yield a valid link, never throw.

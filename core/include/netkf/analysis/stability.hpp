@@ -45,4 +45,8 @@ struct StabilityDecision {
 /// and the bounds enumerate the 2^d arrival patterns).
 StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors);
 
+/// A number in a verdict's text: six significant digits, or enough to tell it from 1 next
+/// to a "< 1" verdict.
+std::string verdict_number(double v);
+
 }  // namespace netkf::analysis
