@@ -60,7 +60,7 @@ void LiveModel::add_estimate(const Estimate& e) {
     s.estimator_restarts = e.restarts;
     restart_gap_from_ = e.k;
     raise(LiveEvent::Level::warning, "estimator restarted (restart " + std::to_string(e.restarts) +
-                                         "): resumed from its estimate of period " + std::to_string(e.k - 1) +
+                                         "): resumed from its estimate of period " + std::to_string(e.k > 0 ? e.k - 1 : 0) +
                                          "; the periods it missed are predicted open-loop");
   }
   if (restart_gap_from_ && !e.fused.empty() && e.k >= *restart_gap_from_) {

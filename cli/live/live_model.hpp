@@ -70,7 +70,7 @@ class LiveModel {
   double sum_sq_error_ = 0.0;
   std::uint64_t scored_ = 0;
   bool saw_non_finite_ = false;
-  std::optional<std::int64_t> restart_gap_from_;  // first period after a restart, until fusion resumes
+  std::optional<std::uint64_t> restart_gap_from_;  // first period after a restart, until fusion resumes
   // The current late-share window (kLateWindow estimates) and whether the last one warned.
   std::uint64_t window_estimates_ = 0, window_fused_ = 0, window_late_ = 0;
   bool late_warned_ = false;
