@@ -22,6 +22,49 @@ std::string window_label() { return "last_" + std::to_string(kWindowSamples) + "
 LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>()) {
   using namespace prometheus;
   auto& r = *registry_;
+  register_link_metrics();
+  restarts_ = &BuildCounter()
+                   .Name("netkf_process_restarts_total")
+                   .Help("Restarts of a node process by the launch's supervisor")
+                   .Register(r);
+  period_ = &BuildGauge().Name("netkf_estimator_period").Help("Newest period k fused by the estimator").Register(r).Add({});
+  trace_P_ = &BuildGauge()
+                  .Name("netkf_estimator_trace_p")
+                  .Help("Tr P_{k|k} of the newest estimate")
+                  .Register(r)
+                  .Add({});
+  diverging_ = &BuildGauge()
+                    .Name("netkf_estimator_diverging")
+                    .Help("1 while the estimator's filter state is 'diverging', else 0")
+                    .Register(r)
+                    .Add({});
+  fused_sensors_ = &BuildGauge()
+                        .Name("netkf_estimator_fused_sensors")
+                        .Help("Sensors fused in the newest period")
+                        .Register(r)
+                        .Add({});
+  late_ = &BuildCounter()
+               .Name("netkf_samples_late_total")
+               .Help("Samples that arrived after their period was fused (counted, never fused)")
+               .Register(r)
+               .Add({});
+  rejected_ = &BuildCounter()
+                   .Name("netkf_samples_rejected_total")
+                   .Help("Samples the estimator rejected (unknown id, wrong size, NaN, duplicate)")
+                   .Register(r)
+                   .Add({});
+  // 50 µs .. ~100 ms: the measured pipeline runs from a few hundred µs to a few ms.
+  latency_ = &BuildHistogram()
+                  .Name("netkf_pipeline_latency_seconds")
+                  .Help("Sample publish to estimate publish (newest sample fused in the period)")
+                  .Register(r)
+                  .Add({}, Histogram::BucketBoundaries{5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 1e-1});
+}
+
+// Per link (label link="ID"): the channel's counts, the link's configuration, the observed rates.
+void LiveMetrics::register_link_metrics() {
+  using namespace prometheus;
+  auto& r = *registry_;
   link_samples_ = &BuildCounter()
                        .Name("netkf_link_samples_total")
                        .Help("Samples that entered the link's channel emulator")
@@ -74,42 +117,6 @@ LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>())
                               .Help("Samples the window of netkf_link_observed_arrival_rate{window=\"" + window +
                                     "\"} spans")
                               .Register(r);
-  restarts_ = &BuildCounter()
-                   .Name("netkf_process_restarts_total")
-                   .Help("Restarts of a node process by the launch's supervisor")
-                   .Register(r);
-  period_ = &BuildGauge().Name("netkf_estimator_period").Help("Newest period k fused by the estimator").Register(r).Add({});
-  trace_P_ = &BuildGauge()
-                  .Name("netkf_estimator_trace_p")
-                  .Help("Tr P_{k|k} of the newest estimate")
-                  .Register(r)
-                  .Add({});
-  diverging_ = &BuildGauge()
-                    .Name("netkf_estimator_diverging")
-                    .Help("1 while the estimator's filter state is 'diverging', else 0")
-                    .Register(r)
-                    .Add({});
-  fused_sensors_ = &BuildGauge()
-                        .Name("netkf_estimator_fused_sensors")
-                        .Help("Sensors fused in the newest period")
-                        .Register(r)
-                        .Add({});
-  late_ = &BuildCounter()
-               .Name("netkf_samples_late_total")
-               .Help("Samples that arrived after their period was fused (counted, never fused)")
-               .Register(r)
-               .Add({});
-  rejected_ = &BuildCounter()
-                   .Name("netkf_samples_rejected_total")
-                   .Help("Samples the estimator rejected (unknown id, wrong size, NaN, duplicate)")
-                   .Register(r)
-                   .Add({});
-  // 50 µs .. ~100 ms: the measured pipeline runs from a few hundred µs to a few ms.
-  latency_ = &BuildHistogram()
-                  .Name("netkf_pipeline_latency_seconds")
-                  .Help("Sample publish to estimate publish (newest sample fused in the period)")
-                  .Register(r)
-                  .Add({}, Histogram::BucketBoundaries{5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 1e-1});
 }
 
 LiveMetrics::~LiveMetrics() = default;

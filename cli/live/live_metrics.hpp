@@ -40,6 +40,7 @@ class LiveMetrics {
 
  private:
   void advance(prometheus::Counter& counter, std::uint64_t total, std::uint64_t& last_total);
+  void register_link_metrics();
   void set_observed_rates(const LinkView& link);
 
   std::shared_ptr<prometheus::Registry> registry_;
