@@ -169,7 +169,7 @@ void LiveConsole::on_set_parameters(DashboardServer::ClientId client, const dash
 void LiveConsole::request_theory(bool with_region) {
   TheoryRequest r;
   r.configured = model_.configured_scenario();
-  r.observed_rates = model_.observed_rates();
+  r.observed_rates = model_.observed_rates_since_change();
   r.k = model_.snapshot().period ? static_cast<std::int64_t>(model_.snapshot().period->estimate.k) : -1;
   r.with_region = with_region;
   theory_->request(std::move(r));

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "netkf/analysis/report.hpp"
+#include "observed_rate.hpp"
 
 namespace netkf::cli::catalogue {
 
@@ -49,6 +50,7 @@ json link_status_schema_properties(json status_props) {
     status_props[counter] = {{"type", "integer"}};
   status_props["held"] = {{"type", "integer"}};
   status_props["past_deadline"] = {{"type", "integer"}};
+  status_props["delivered_in_time"] = {{"type", "integer"}};
   status_props["late_total"] = {{"type", "integer"}};
   status_props["late_fraction"] = nullable_number();
   status_props["stationary_loss"] = {{"type", "number"}};
@@ -56,7 +58,9 @@ json link_status_schema_properties(json status_props) {
   status_props["observed_loss"] = {{"type", "number"}};
   status_props["mean_burst_length"] = nullable_number();
   status_props["configured_arrival_rate"] = {{"type", "number"}};
-  status_props["observed_arrival_rate"] = nullable_number();
+  status_props["observed_arrival_rate_since_change"] = nullable_number();
+  status_props["observed_arrival_rate_window"] = nullable_number();
+  status_props["observed_window_samples"] = {{"type", "integer"}};
   status_props["last_request_rejected"] = {{"type", "boolean"}};
   status_props["reject_reason"] = {{"type", "string"}};
   return status_props;
@@ -100,6 +104,7 @@ std::vector<Channel> make_channels() {
                schema_object({{"k", {{"type", "integer"}}},
                               {"configured", assessment_schema()},
                               {"observed", assessment_schema()},
+                              {"observed_rates_from", {{"type", "string"}}},
                               {"region",
                                {{"type", json::array({"array", "null"})},
                                 {"items", schema_object({{"lambda1", {{"type", "number"}}},
@@ -251,7 +256,9 @@ json link_status_json(const LinkStatusRecord& l) {
   j["past_deadline"] = l.past_deadline;
   j["samples_in"] = l.samples_in;
   j["delivered"] = l.delivered;
+  j["delivered_in_time"] = delivered_in_time(l);
   j["dropped"] = l.dropped;
+  j["observed_arrival_rate_since_change"] = optional_number(observed_rate_since_change(l));
   j["observed_loss"] = number_or_null(l.observed_loss);
   j["mean_burst_length"] = number_or_null(l.mean_burst_length);
   j["samples_total"] = l.samples_total;
@@ -268,7 +275,9 @@ json link_status_message(const LinkView& l) {
   j["late_total"] = l.late_total;
   j["late_fraction"] = l.delivered_total > 0 ? json(static_cast<double>(l.late_total) / static_cast<double>(l.delivered_total))
                                              : json(nullptr);
-  j["observed_arrival_rate"] = optional_number(l.observed_arrival_rate);
+  // The window needs the reports before this one: the live model's, not one report's.
+  j["observed_arrival_rate_window"] = optional_number(l.observed_rate_window);
+  j["observed_window_samples"] = l.observed_window_samples;
   return j;
 }
 
@@ -311,6 +320,8 @@ json theory_message(const TheoryView& t) {
   return json{{"k", t.k},
               {"configured", assessment_json(t.configured)},
               {"observed", t.observed ? assessment_json(*t.observed) : json(nullptr)},
+              // The theory's observed operating point: which link-status rate it assesses.
+              {"observed_rates_from", "observed_arrival_rate_since_change"},
               {"region", std::move(region)}};
 }
 

@@ -41,8 +41,9 @@ nlohmann::json scenario_message(const Scenario& scenario);
 nlohmann::json estimate_message(const Estimate& estimate);
 nlohmann::json truth_message(const TruthRecord& truth);
 /// The one link-status JSON shape (docs/cli.md, "Link status keys"): a link as its channel
-/// reported it; `netkf ctl status --json` prints it. The dashboard's and the recording's
-/// message adds what the estimator side knows (late_total, late_fraction, observed_arrival_rate).
+/// reported it, with the observed arrival rate since change; `netkf ctl status --json` prints
+/// it. The dashboard's and the recording's message adds what needs the earlier reports or the
+/// estimator side (late_total, late_fraction, the observed arrival rate over the window).
 nlohmann::json link_status_json(const LinkStatusRecord& link);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the

@@ -10,9 +10,59 @@
 #include <cmath>
 #include <sstream>
 
+#include "observed_rate.hpp"
+
 namespace netkf::cli {
 
+namespace {
+// The window label's value: "last_1000_samples".
+std::string window_label() { return "last_" + std::to_string(kWindowSamples) + "_samples"; }
+}  // namespace
+
 LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>()) {
+  using namespace prometheus;
+  auto& r = *registry_;
+  register_link_metrics();
+  restarts_ = &BuildCounter()
+                   .Name("netkf_process_restarts_total")
+                   .Help("Restarts of a node process by the launch's supervisor")
+                   .Register(r);
+  period_ = &BuildGauge().Name("netkf_estimator_period").Help("Newest period k fused by the estimator").Register(r).Add({});
+  trace_P_ = &BuildGauge()
+                  .Name("netkf_estimator_trace_p")
+                  .Help("Tr P_{k|k} of the newest estimate")
+                  .Register(r)
+                  .Add({});
+  diverging_ = &BuildGauge()
+                    .Name("netkf_estimator_diverging")
+                    .Help("1 while the estimator's filter state is 'diverging', else 0")
+                    .Register(r)
+                    .Add({});
+  fused_sensors_ = &BuildGauge()
+                        .Name("netkf_estimator_fused_sensors")
+                        .Help("Sensors fused in the newest period")
+                        .Register(r)
+                        .Add({});
+  late_ = &BuildCounter()
+               .Name("netkf_samples_late_total")
+               .Help("Samples that arrived after their period was fused (counted, never fused)")
+               .Register(r)
+               .Add({});
+  rejected_ = &BuildCounter()
+                   .Name("netkf_samples_rejected_total")
+                   .Help("Samples the estimator rejected (unknown id, wrong size, NaN, duplicate)")
+                   .Register(r)
+                   .Add({});
+  // 50 µs .. ~100 ms: the measured pipeline runs from a few hundred µs to a few ms.
+  latency_ = &BuildHistogram()
+                  .Name("netkf_pipeline_latency_seconds")
+                  .Help("Sample publish to estimate publish (newest sample fused in the period)")
+                  .Register(r)
+                  .Add({}, Histogram::BucketBoundaries{5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 1e-1});
+}
+
+// Per link (label link="ID"): the channel's counts, the link's configuration, the observed rates.
+void LiveMetrics::register_link_metrics() {
   using namespace prometheus;
   auto& r = *registry_;
   link_samples_ = &BuildCounter()
@@ -53,42 +103,20 @@ LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>())
                              .Name("netkf_link_observed_loss")
                              .Help("Fraction of samples dropped since the link's model was set")
                              .Register(r);
-  restarts_ = &BuildCounter()
-                   .Name("netkf_process_restarts_total")
-                   .Help("Restarts of a node process by the launch's supervisor")
-                   .Register(r);
-  period_ = &BuildGauge().Name("netkf_estimator_period").Help("Newest period k fused by the estimator").Register(r).Add({});
-  trace_P_ = &BuildGauge()
-                  .Name("netkf_estimator_trace_p")
-                  .Help("Tr P_{k|k} of the newest estimate")
-                  .Register(r)
-                  .Add({});
-  diverging_ = &BuildGauge()
-                    .Name("netkf_estimator_diverging")
-                    .Help("1 while the estimator's filter state is 'diverging', else 0")
-                    .Register(r)
-                    .Add({});
-  fused_sensors_ = &BuildGauge()
-                        .Name("netkf_estimator_fused_sensors")
-                        .Help("Sensors fused in the newest period")
-                        .Register(r)
-                        .Add({});
-  late_ = &BuildCounter()
-               .Name("netkf_samples_late_total")
-               .Help("Samples that arrived after their period was fused (counted, never fused)")
-               .Register(r)
-               .Add({});
-  rejected_ = &BuildCounter()
-                   .Name("netkf_samples_rejected_total")
-                   .Help("Samples the estimator rejected (unknown id, wrong size, NaN, duplicate)")
-                   .Register(r)
-                   .Add({});
-  // 50 µs .. ~100 ms: the measured pipeline runs from a few hundred µs to a few ms.
-  latency_ = &BuildHistogram()
-                  .Name("netkf_pipeline_latency_seconds")
-                  .Help("Sample publish to estimate publish (newest sample fused in the period)")
-                  .Register(r)
-                  .Add({}, Histogram::BucketBoundaries{5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2, 2e-2, 5e-2, 1e-1});
+  // One name, the window as a label: both are the same ratio (observed_rate.hpp).
+  const std::string window = window_label();
+  link_observed_rate_ = &BuildGauge()
+                             .Name("netkf_link_observed_arrival_rate")
+                             .Help("Samples delivered within the estimator's deadline per sample that entered the "
+                                   "link; window=since_change: since the link's model was set; window=" + window +
+                                   ": over the latest reports holding at least " + std::to_string(kWindowSamples) +
+                                   " samples since then (span: netkf_link_observed_window_samples)")
+                             .Register(r);
+  link_window_samples_ = &BuildGauge()
+                              .Name("netkf_link_observed_window_samples")
+                              .Help("Samples the window of netkf_link_observed_arrival_rate{window=\"" + window +
+                                    "\"} spans")
+                              .Register(r);
 }
 
 LiveMetrics::~LiveMetrics() = default;
@@ -113,6 +141,7 @@ void LiveMetrics::update(const LiveSnapshot& s) {
     link_in_time_->Add(labels).Set(l.in_time);
     link_held_->Add(labels).Set(static_cast<double>(l.held));
     link_observed_loss_->Add(labels).Set(l.observed_loss);
+    set_observed_rates(l);
   }
   if (s.period) {
     const Estimate& e = s.period->estimate;
@@ -124,6 +153,21 @@ void LiveMetrics::update(const LiveSnapshot& s) {
   advance(*late_, s.late_total, late_total_);
   advance(*rejected_, s.rejected_total, rejected_total_);
   for (const auto& p : s.processes) restarts_->Add({{"process", p.name}});
+}
+
+void LiveMetrics::set_observed_rates(const LinkView& l) {
+  const std::string link = std::to_string(l.sensor_id);
+  // A rate not known (no sample since the change) is no series rather than a made-up 0.
+  const auto set = [&](prometheus::Family<prometheus::Gauge>& family, const prometheus::Labels& labels,
+                       std::optional<double> value) {
+    if (value) family.Add(labels).Set(*value);
+    else if (family.Has(labels)) family.Remove(&family.Add(labels));
+  };
+  set(*link_observed_rate_, {{"link", link}, {"window", "since_change"}}, l.observed_rate_since_change);
+  set(*link_observed_rate_, {{"link", link}, {"window", window_label()}},
+      l.observed_rate_window);
+  set(*link_window_samples_, {{"link", link}},
+      l.observed_rate_window ? std::optional<double>(static_cast<double>(l.observed_window_samples)) : std::nullopt);
 }
 
 void LiveMetrics::observe_pipeline_latency(double seconds) {

@@ -40,6 +40,8 @@ class LiveMetrics {
 
  private:
   void advance(prometheus::Counter& counter, std::uint64_t total, std::uint64_t& last_total);
+  void register_link_metrics();
+  void set_observed_rates(const LinkView& link);
 
   std::shared_ptr<prometheus::Registry> registry_;
   prometheus::Family<prometheus::Counter>* link_samples_;
@@ -52,6 +54,8 @@ class LiveMetrics {
   prometheus::Family<prometheus::Gauge>* link_in_time_;
   prometheus::Family<prometheus::Gauge>* link_held_;
   prometheus::Family<prometheus::Gauge>* link_observed_loss_;
+  prometheus::Family<prometheus::Gauge>* link_observed_rate_;
+  prometheus::Family<prometheus::Gauge>* link_window_samples_;
   prometheus::Family<prometheus::Counter>* restarts_;
   prometheus::Gauge* period_;
   prometheus::Gauge* trace_P_;

@@ -135,21 +135,11 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
       raise(LiveEvent::Level::error, "link " + std::to_string(status.sensor_id) + ": change refused by the channel (" +
                                          status.rejection_reason + ", from " + source + ")");
   }
-  // Observed arrival rate: what reached the estimator in time, i.e. delivered and not delayed
-  // beyond the deadline (the channel's past_deadline), per sample that entered the link.
-  const auto in_time = [](const LinkStatusRecord& r) {
-    return r.delivered >= r.past_deadline ? r.delivered - r.past_deadline : 0;
-  };
-  const std::uint64_t in_time_now = in_time(status);
-  const bool same_model = view->reported && status.last_request_id == view->last_request_id;
-  if (same_model && status.samples_in > view->samples_in && in_time_now >= view->delivered_in_time) {
-    // Rate over the last report interval: follows a runtime change within one report.
-    view->observed_arrival_rate = static_cast<double>(in_time_now - view->delivered_in_time) /
-                                  static_cast<double>(status.samples_in - view->samples_in);
-  } else if (status.samples_in > 0 && (!same_model || !view->observed_arrival_rate)) {
-    view->observed_arrival_rate = static_cast<double>(in_time_now) / static_cast<double>(status.samples_in);
-  }
-  view->delivered_in_time = in_time_now;
+  ObservedRateWindow& window = windows_[status.sensor_id];
+  window.add(status);
+  view->observed_rate_since_change = observed_rate_since_change(status);
+  view->observed_rate_window = window.rate();
+  view->observed_window_samples = window.samples();
   static_cast<LinkStatusRecord&>(*view) = status;
   view->reported = true;
 }
@@ -169,11 +159,11 @@ Scenario LiveModel::configured_scenario() const {
   return s;
 }
 
-std::optional<std::vector<double>> LiveModel::observed_rates() const {
+std::optional<std::vector<double>> LiveModel::observed_rates_since_change() const {
   std::vector<double> rates;
   for (const auto& l : snapshot_.links) {
-    if (!l.observed_arrival_rate) return std::nullopt;
-    rates.push_back(*l.observed_arrival_rate);
+    if (!l.observed_rate_since_change) return std::nullopt;
+    rates.push_back(*l.observed_rate_since_change);
   }
   if (rates.empty()) return std::nullopt;
   return rates;

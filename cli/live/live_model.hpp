@@ -11,6 +11,7 @@
 
 #include "live_records.hpp"
 #include "live_snapshot.hpp"
+#include "observed_rate.hpp"
 #include "period_join.hpp"
 #include "netkf/scenario.hpp"
 
@@ -41,8 +42,9 @@ class LiveModel {
 
   /// The scenario with each link as the channel last reported it.
   Scenario configured_scenario() const;
-  /// Observed arrival rates per sensor (scenario order), once every link has one.
-  std::optional<std::vector<double>> observed_rates() const;
+  /// The theory's observed operating point: each link's observed arrival rate since change
+  /// (observed_rate.hpp), scenario order, once every link has one.
+  std::optional<std::vector<double>> observed_rates_since_change() const;
 
   /// A finished theory computation; raises a warning when the configured verdict crosses
   /// the critical boundary.
@@ -75,6 +77,7 @@ class LiveModel {
   std::uint64_t window_estimates_ = 0, window_fused_ = 0, window_late_ = 0;
   bool late_warned_ = false;
   std::map<std::uint64_t, std::string> own_requests_;  // request id -> source ("dashboard")
+  std::map<int, ObservedRateWindow> windows_;           // per sensor id
   std::vector<LiveEvent> events_;
 };
 

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "live_records.hpp"
+#include "observed_rate.hpp"
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/operating_point.hpp"
 #include "netkf/estimate.hpp"
@@ -21,12 +22,14 @@ struct PeriodView {
 };
 
 /// One link as the channel last reported it (the scenario's link until then), with what the
-/// estimator side adds: its late count and the arrival rate observed.
+/// estimator side adds: its late count, and the observed arrival rate over its two windows
+/// (observed_rate.hpp defines them; null until the link's first sample since the change).
 struct LinkView : LinkStatusRecord {
-  bool reported = false;                         // a status from the channel has arrived
-  std::uint64_t late_total = 0;                  // delivered but after the estimator fused their period (the estimator's count)
-  std::optional<double> observed_arrival_rate;   // in time / samples over the last report interval
-  std::uint64_t delivered_in_time = 0;           // delivered and not delayed past the deadline (since the model was set)
+  bool reported = false;                          // a status from the channel has arrived
+  std::uint64_t late_total = 0;                   // delivered but after the estimator fused their period (the estimator's count)
+  std::optional<double> observed_rate_since_change;
+  std::optional<double> observed_rate_window;
+  std::uint64_t observed_window_samples = 0;      // the window's span
 };
 
 /// The theory for one set of arrival rates.
@@ -39,7 +42,7 @@ struct TheoryView {
   bool ready = false;                        // false until the first assessment is computed
   std::int64_t k = -1;                       // newest period when it was requested
   AssessmentView configured;                 // the links as configured (Markov criterion for GE links)
-  std::optional<AssessmentView> observed;    // i.i.d. at the observed rates, once every link reported
+  std::optional<AssessmentView> observed;    // i.i.d. at the observed rates since change, once every link has one
   std::vector<analysis::RegionPoint> region; // two-sensor scenarios: Liu-Goldsmith (λ1, λ2) region
 };
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "netkf/analysis/report.hpp"
+#include "observed_rate.hpp"
 
 namespace netkf::cli {
 
@@ -22,6 +23,12 @@ std::string fmt(double v, bool fixed3 = false) {
   char buf[48];
   if (fixed3) std::snprintf(buf, sizeof buf, "%.3f", v);
   else std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+std::string rate4(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.4f", v);
   return buf;
 }
 
@@ -40,27 +47,98 @@ void render_assessment(std::ostringstream& out, const char* label, const Assessm
   out << "\n";
 }
 
+// An observed rate as the status shows it: "0.702 = 740/1054" (since change, with its counts),
+// "0.690 over 1043" (the window, with its span), "-" before the first sample.
+std::string since_change_text(const LinkView& l) {
+  if (!l.observed_rate_since_change) return "-";
+  return fmt(*l.observed_rate_since_change, true) + " = " + std::to_string(delivered_in_time(l)) + "/" +
+         std::to_string(l.samples_in);
+}
+std::string window_text(const LinkView& l) {
+  if (!l.observed_rate_window) return "-";
+  return fmt(*l.observed_rate_window, true) + " over " + std::to_string(l.observed_window_samples);
+}
+
+// One line over every link of a large network: the since-change rates' mean and minimum.
+void render_all_links(std::ostringstream& out, const LiveSnapshot& s) {
+  double observed_sum = 0.0, observed_min = std::numeric_limits<double>::infinity();
+  std::size_t observed = 0;
+  std::uint64_t late_total = 0, delivered_total = 0;
+  for (const auto& l : s.links) {
+    late_total += l.late_total;
+    delivered_total += l.delivered_total;
+    if (!l.observed_rate_since_change) continue;
+    ++observed;
+    observed_sum += *l.observed_rate_since_change;
+    observed_min = std::min(observed_min, *l.observed_rate_since_change);
+  }
+  out << "  all " << s.links.size() << " links: λ since change mean "
+      << (observed ? fmt(observed_sum / static_cast<double>(observed), true) : std::string("-")) << ", min "
+      << (observed ? fmt(observed_min, true) : std::string("-")) << "; late " << late_share_text(late_total, delivered_total);
+  const std::size_t without_rate = s.links.size() - observed;
+  if (without_rate) out << "; " << without_rate << " without a rate yet";
+  out << "\n";
+}
+
+// Per link: the configured arrival rate (1 − loss) · P(delay <= deadline) and the observed one
+// over both windows (observed_rate.hpp). late: the share of the link's delivered samples that
+// came after their period was fused. A large network shows the links furthest below their
+// configured rate since change (no rate yet counts as furthest) and one line over all;
+// `netkf ctl status` and the dashboard list every link.
+void render_links(std::ostringstream& out, const LiveSnapshot& s) {
+  std::vector<const LinkView*> shown;
+  for (const auto& l : s.links) shown.push_back(&l);
+  const auto shortfall = [](const LinkView* l) {
+    return l->observed_rate_since_change ? l->arrival_rate() - *l->observed_rate_since_change
+                                         : std::numeric_limits<double>::infinity();
+  };
+  const bool shortlisted = shown.size() > kStatusLinksListed;
+  if (shortlisted) {
+    std::stable_sort(shown.begin(), shown.end(),
+                     [&](const LinkView* a, const LinkView* b) { return shortfall(a) > shortfall(b); });
+    shown.resize(kStatusLinksShortlist);
+  }
+  // The window's header names its least span; each row gives the span it covers.
+  out << "  link   λ cfg  λ since change (in time/samples)  λ last ≥" << kWindowSamples << " samples   late  configured";
+  if (shortlisted)
+    out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
+  out << "\n";
+  for (const LinkView* l : shown) {
+    char line[320];
+    const std::string late = late_share_text(l->late_total, l->delivered_total);
+    std::snprintf(line, sizeof line, "  %-5d %6.3f  %-32s  %-20s %6s  %s\n", l->sensor_id, l->arrival_rate(),
+                  since_change_text(*l).c_str(), window_text(*l).c_str(), late.c_str(), describe_link(l->link).c_str());
+    out << line;
+  }
+  if (shortlisted) render_all_links(out, s);
+}
+
 }  // namespace
 
 std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
   std::ostringstream out;
-  char line[256];
-  // late: the share of delivered samples the channel delayed beyond the estimator's deadline.
-  std::snprintf(line, sizeof line, "%-6s %8s %8s %10s %10s %10s %9s %7s %7s %6s  %s\n", "link", "in time", "eff λ",
-                "samples", "delivered", "dropped", "obs loss", "burst", "late", "held", "link");
+  char line[320];
+  // printf pads bytes, not glyphs: a header with "λ" (2 bytes) gets one more byte of width.
+  std::snprintf(line, sizeof line, "%-6s %10s %8s %17s %10s %10s %10s %10s %9s %7s %7s %6s  %s\n", "link", "P(in time)",
+                "λ cfg", "λ since change", "samples", "delivered", "in time", "dropped", "obs loss", "burst", "late",
+                "held", "link");
   out << line;
   for (const auto& l : links) {
-    // eff λ: the arrival rate the estimator gets, (1 − loss) · P(delay <= deadline).
+    // late: the share of delivered samples the channel delayed beyond the estimator's deadline.
     const double late = l.delivered > 0 ? static_cast<double>(l.past_deadline) / static_cast<double>(l.delivered) : 0.0;
-    std::snprintf(line, sizeof line, "%-6d %8.4f %8.4f %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n", l.sensor_id,
-                  l.in_time, l.arrival_rate(),
+    const auto since_change = observed_rate_since_change(l);
+    std::snprintf(line, sizeof line, "%-6d %10.4f %7.4f %16s %10llu %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n",
+                  l.sensor_id, l.in_time, l.arrival_rate(), since_change ? rate4(*since_change).c_str() : "-",
                   static_cast<unsigned long long>(l.samples_in), static_cast<unsigned long long>(l.delivered),
-                  static_cast<unsigned long long>(l.dropped), l.observed_loss, l.mean_burst_length, late,
-                  static_cast<unsigned long long>(l.held), describe_link(l.link).c_str());
+                  static_cast<unsigned long long>(delivered_in_time(l)), static_cast<unsigned long long>(l.dropped),
+                  l.observed_loss, l.mean_burst_length, late, static_cast<unsigned long long>(l.held),
+                  describe_link(l.link).c_str());
     out << line;
     if (!l.rejection_reason.empty())
       out << "       last request " << l.last_request_id << " rejected: " << l.rejection_reason << "\n";
   }
+  out << "samples to late: since the link's model was set; λ since change = in time / samples (the observed arrival "
+         "rate); λ cfg = (1 − loss) · P(in time)\n";
   return out.str();
 }
 
@@ -85,59 +163,12 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   } else {
     out << "waiting for the first estimate...\n";
   }
-  // Per link: configured (effective: (1 − loss) · P(delay <= deadline)) and observed arrival rate.
-  // late: the share of the link's delivered samples that came after their period was fused.
-  // A large network shows the links furthest below their configured rate (no rate yet counts
-  // as furthest) and one line over all; `netkf ctl status` and the dashboard list every link.
-  std::vector<const LinkView*> shown;
-  for (const auto& l : s.links) shown.push_back(&l);
-  const auto shortfall = [](const LinkView* l) {
-    return l->observed_arrival_rate ? l->arrival_rate() - *l->observed_arrival_rate
-                                    : std::numeric_limits<double>::infinity();
-  };
-  const bool shortlisted = shown.size() > kStatusLinksListed;
-  if (shortlisted) {
-    std::stable_sort(shown.begin(), shown.end(),
-                     [&](const LinkView* a, const LinkView* b) { return shortfall(a) > shortfall(b); });
-    shown.resize(kStatusLinksShortlist);
-  }
-  out << "  link   λ cfg   λ obs    late  configured";
-  if (shortlisted)
-    out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
-  out << "\n";
-  for (const LinkView* l : shown) {
-    char line[256];
-    const std::string late = late_share_text(l->late_total, l->delivered_total);
-    std::snprintf(line, sizeof line, "  %-5d %6.3f  %6s  %6s  %s\n", l->sensor_id, l->arrival_rate(),
-                  l->observed_arrival_rate ? fmt(*l->observed_arrival_rate, true).c_str() : "-", late.c_str(),
-                  describe_link(l->link).c_str());
-    out << line;
-  }
-  if (shortlisted) {
-    double observed_sum = 0.0, observed_min = std::numeric_limits<double>::infinity();
-    std::size_t observed = 0;
-    std::uint64_t late_total = 0, delivered_total = 0;
-    for (const auto& l : s.links) {
-      late_total += l.late_total;
-      delivered_total += l.delivered_total;
-      if (!l.observed_arrival_rate) continue;
-      ++observed;
-      observed_sum += *l.observed_arrival_rate;
-      observed_min = std::min(observed_min, *l.observed_arrival_rate);
-    }
-    out << "  all " << s.links.size() << " links: λ obs mean "
-        << (observed ? fmt(observed_sum / static_cast<double>(observed), true) : std::string("-")) << ", min "
-        << (observed ? fmt(observed_min, true) : std::string("-")) << "; late "
-        << late_share_text(late_total, delivered_total);
-    const std::size_t without_rate = s.links.size() - observed;
-    if (without_rate) out << "; " << without_rate << " without a rate yet";
-    out << "\n";
-  }
+  render_links(out, s);
   if (!s.theory.ready) {
     out << "  theory: pending (being computed)\n";
   } else {
     render_assessment(out, "configured links", s.theory.configured);
-    if (s.theory.observed) render_assessment(out, "observed rates, i.i.d.", *s.theory.observed);
+    if (s.theory.observed) render_assessment(out, "observed rates since change, i.i.d.", *s.theory.observed);
     out << "  (S̄, V̄ bound E[P_k|k-1], Sinopoli Thm 4/6" << (theory_pending ? "; update pending" : "") << ")\n";
   }
   return out.str();

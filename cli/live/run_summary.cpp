@@ -55,6 +55,12 @@ std::string never_reported(const LinkSummary& l) {
   return "the channel never reported link " + std::to_string(l.id);
 }
 
+Measured observed_rate(const LinkSummary& l, const std::optional<double>& rate) {
+  if (!l.reported) return missing(never_reported(l));
+  if (!rate) return missing("link " + std::to_string(l.id) + " carried no sample since its model was last set");
+  return value(*rate);
+}
+
 const RunQuantity kRunQuantities[] = {
     {"periods", [](const RunSummary& s) { return count(s.periods); }},
     {"rms_error",
@@ -113,6 +119,14 @@ const LinkQuantity kLinkQuantities[] = {
        if (!l.reported) return missing(never_reported(l));
        if (l.samples == 0) return missing("link " + std::to_string(l.id) + " carried no sample");
        return value(static_cast<double>(l.dropped) / static_cast<double>(l.samples));
+     }},
+    {"observed_arrival_rate_since_change",
+     [](const RunSummary&, const LinkSummary& l) { return observed_rate(l, l.observed_rate_since_change); }},
+    {"observed_arrival_rate_window",
+     [](const RunSummary&, const LinkSummary& l) { return observed_rate(l, l.observed_rate_window); }},
+    {"observed_window_samples",
+     [](const RunSummary&, const LinkSummary& l) {
+       return l.reported ? count(l.observed_window_samples) : missing(never_reported(l), true);
      }},
     {"late",
      [](const RunSummary& s, const LinkSummary& l) {
@@ -266,6 +280,11 @@ void RunSummaryBuilder::add_link_status(const LinkStatusRecord& status) {
   l->samples = before.samples + last.samples;
   l->delivered = before.delivered + last.delivered;
   l->dropped = before.dropped + last.dropped;
+  ObservedRateWindow& window = windows_[status.sensor_id];
+  window.add(status);
+  l->observed_rate_since_change = observed_rate_since_change(status);
+  l->observed_rate_window = window.rate();
+  l->observed_window_samples = window.samples();
 }
 
 // ---------------------------------------------------------------- checks

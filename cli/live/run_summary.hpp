@@ -21,6 +21,11 @@
 //                        the channel's lifetime counters of link ID as it last reported them
 //                        (never reset by a link change; summed over restarts of the channel)
 //   link.ID.observed_loss  link.ID.dropped / link.ID.samples
+//   link.ID.observed_arrival_rate_since_change, link.ID.observed_arrival_rate_window,
+//   link.ID.observed_window_samples
+//                        the observed arrival rate (observed_rate.hpp) as the channel last reported
+//                        it: since the link's model was last set, and over the window of at least
+//                        1000 samples, with the window's span
 //   link.ID.late         late samples of sensor ID (its entries in the estimates' late_sensors)
 //   link.ID.fused        periods in which sensor ID was fused
 // A quantity with nothing to measure (no estimate received, a link the channel never
@@ -28,11 +33,13 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "live_records.hpp"
+#include "observed_rate.hpp"
 #include "period_join.hpp"
 #include "netkf/scenario.hpp"
 
@@ -47,6 +54,9 @@ struct LinkSummary {
   std::uint64_t dropped = 0;
   std::uint64_t late = 0;      // from the estimates' late_sensors
   std::uint64_t fused = 0;     // periods with this sensor fused
+  std::optional<double> observed_rate_since_change;  // at the last report (observed_rate.hpp)
+  std::optional<double> observed_rate_window;
+  std::uint64_t observed_window_samples = 0;
 };
 
 struct RunSummary {
@@ -102,6 +112,7 @@ class RunSummaryBuilder {
   };
   std::map<int, Counters> before_restarts_;
   std::map<int, Counters> last_;
+  std::map<int, ObservedRateWindow> windows_;
   RunSummary summary_;
   PeriodJoin join_;
   void score(std::optional<double> squared_error);

@@ -19,7 +19,7 @@ namespace netkf::cli {
 
 struct TheoryRequest {
   Scenario configured;                        // the scenario with the links as configured now
-  std::optional<std::vector<double>> observed_rates;
+  std::optional<std::vector<double>> observed_rates;  // per sensor: the observed arrival rate since change
   std::int64_t k = -1;
   bool with_region = false;                   // two sensors: compute the (λ1, λ2) region too
 };

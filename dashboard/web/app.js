@@ -17,6 +17,8 @@
   const LINK_REDRAW_MS = 500;       // link panels (fed ~1/s) at most twice a second
   const TEXT_REDRAW_MS = 100;       // header and stability texts at most 10 times a second
   const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
+  const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/observed_rate.hpp)
+  const WINDOW_KEY = 'λ last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples';
   const RESTART_GAP = 50;           // k going back by more than this: the run restarted
   const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
   const DISTRIBUTIONS = ['uniform', 'normal', 'pareto', 'paretonormal'];
@@ -60,6 +62,7 @@
     configured: '#1e8a4c',
     configuredBand: 'rgba(30, 138, 76, 0.12)',
     observed: '#d9731a',
+    observedWindow: '#8a4b12',
     observedBand: 'rgba(217, 115, 26, 0.08)',
     diverging: 'rgba(214, 48, 49, 0.10)',
     axis: '#4a5563',
@@ -106,6 +109,8 @@
     if (a !== 0 && (a >= 1e5 || a < 1e-3)) return v.toExponential(2);
     return v.toFixed(digits === undefined ? 3 : digits);
   }
+  // An arrival rate: always three decimals (a rate near 0 is no exponent); 'not yet' when unknown.
+  function rateText(v) { return isNum(v) ? v.toFixed(3) : 'not yet'; }
   function fmtTrace(v, unboundedText) { return v === null || v === undefined ? unboundedText : fmt(v, 3); }
   function clockTime(date) {
     return date.toTimeString().slice(0, 8);
@@ -573,7 +578,7 @@
       this.takeValues(link);
       this.fromParameters = false;   // true once parameterValues told the current values
       this.status = null;
-      this.rates = new RecordRing(LINK_SAMPLES);   // {t, configured, observed}
+      this.rates = new RecordRing(LINK_SAMPLES);   // {t, configured, sinceChange, window}
       this.pending = null;
       this.dragging = new Set();      // parameter names whose slider is held
       this.build();
@@ -638,7 +643,8 @@
         this.statsLine,
         el('div', { class: 'subhead' }, [document.createTextNode('arrival rate λ: '),
           el('span', { class: 'key-configured', text: '━ configured' }), document.createTextNode(' '),
-          el('span', { class: 'key-observed', text: '●━ observed' })]),
+          el('span', { class: 'key-observed', text: '●━ observed since change' }), document.createTextNode(' '),
+          el('span', { class: 'key-observed-window', text: '┅ observed, last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples' })]),
         this.chartBox,
         el('div', { class: 'subhead', text: 'burst length (periods not fused in a row, window)' }),
         this.histCanvas,
@@ -793,7 +799,8 @@
         this.rates.push({
           t,
           configured: isNum(st.configured_arrival_rate) ? st.configured_arrival_rate : null,
-          observed: isNum(st.observed_arrival_rate) ? st.observed_arrival_rate : null,
+          sinceChange: isNum(st.observed_arrival_rate_since_change) ? st.observed_arrival_rate_since_change : null,
+          window: isNum(st.observed_arrival_rate_window) ? st.observed_arrival_rate_window : null,
         });
       }
     }
@@ -838,10 +845,17 @@
         ['delay', describeDelay(st)],
         ['P(in time)', fmt(st.in_time, 3), 'P(delay ≤ the estimator\'s deadline)'],
         ['λ configured', fmt(st.configured_arrival_rate, 3), '(1 − loss) · P(in time)'],
-        ['λ observed', st.observed_arrival_rate === null || st.observed_arrival_rate === undefined ? 'not yet' : fmt(st.observed_arrival_rate, 3)],
-        ['loss observed', fmt(st.observed_loss, 3)],
+        // The observed arrival rate, each with its window (docs/dashboard.md, "Observed arrival rates").
+        ['λ since change', rateText(st.observed_arrival_rate_since_change),
+          'observed arrival rate since the link\'s model was set: in time / samples (the theory\'s observed point)'],
+        ['in time / samples', st.delivered_in_time + ' / ' + st.samples_in,
+          'since the link\'s model was set: samples delivered within the estimator\'s deadline / samples that entered the link'],
+        [WINDOW_KEY, isNum(st.observed_arrival_rate_window)
+          ? rateText(st.observed_arrival_rate_window) + ' over ' + st.observed_window_samples : 'not yet',
+          'observed arrival rate, in time / samples, over the latest link reports since the change that hold at least ' +
+          OBSERVED_WINDOW_SAMPLES + ' samples'],
+        ['loss since change', fmt(st.observed_loss, 3), 'dropped / samples since the link\'s model was set'],
         ['mean burst', fmt(st.mean_burst_length, 2)],
-        ['delivered', st.delivered + ' / ' + st.samples_in],
         ['held', isNum(st.held) ? String(st.held) : '—', 'samples the channel holds now (delayed)'],
       ];
       if (st.last_request_rejected && st.reject_reason) items.push(['last request refused', st.reject_reason]);
@@ -864,7 +878,8 @@
       box.appendChild(link.root);
       link.chart = timeChart(link.chartBox, 84, [
         { label: 'configured', stroke: COLOR.configured, width: 2, paths: uPlot.paths.stepped({ align: 1 }), points: { show: false } },
-        { label: 'observed', stroke: COLOR.observed, width: 1.5, points: { show: true, size: 4 } },
+        { label: 'observed since change', stroke: COLOR.observed, width: 1.5, points: { show: true, size: 4 } },
+        { label: 'observed, last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples', stroke: COLOR.observedWindow, width: 1.25, dash: [3, 3], points: { show: false } },
       ], { y: { range: [0, 1.05] } }, null, { legend: false, yValues: (u, splits) => splits.map((v) => v.toFixed(1)) });
       link.renderStats();
     }
@@ -961,8 +976,8 @@
       { label: 'Tr P k|k', stroke: COLOR.traceFiltered, width: 1, points: { show: false } },
       { label: 'Tr S̄ configured', stroke: COLOR.configured, width: 1.5, points: { show: false } },
       { label: 'Tr V̄ configured', stroke: COLOR.configured, width: 1.5, dash: [6, 4], points: { show: false } },
-      { label: 'Tr S̄ observed', stroke: COLOR.observed, width: 1.25, points: { show: false } },
-      { label: 'Tr V̄ observed', stroke: COLOR.observed, width: 1.25, dash: [6, 4], points: { show: false } },
+      { label: 'Tr S̄ observed (since change)', stroke: COLOR.observed, width: 1.25, points: { show: false } },
+      { label: 'Tr V̄ observed (since change)', stroke: COLOR.observed, width: 1.25, dash: [6, 4], points: { show: false } },
     ], { y: { distr: 3, log: 10 } }, { drawClear: [drawTraceBackground] }, {
       yValues: (u, splits) => splits.map((v) => (v === null ? '' : fmtTick(v))),
     });
@@ -1274,7 +1289,8 @@
       return chip(cls, label + ': ' + fmt(a.lower_trace, 3) + ' … ' + upper);
     };
     const estimate = store.latestEstimate;
-    const items = [describe(th.configured, 'configured', 'configured'), describe(th.observed, 'observed', 'observed')];
+    const items = [describe(th.configured, 'configured', 'configured'),
+      describe(th.observed, 'observed (since change)', 'observed')];
     if (estimate && isNum(estimate.trace_P_pred)) items.unshift(chip('pred', 'Tr P k|k−1 = ' + fmt(estimate.trace_P_pred, 3)));
     box.replaceChildren(...items);
   }
@@ -1288,16 +1304,17 @@
       // Arrival rates over the same time window as the other charts.
       const xs = [];
       const configured = [];
-      const observed = [];
+      const sinceChange = [];
+      const windowed = [];
       link.rates.forEach((r) => {
         if (r.t < tLo || r.t > view.tHi + 1) return;
-        xs.push(r.t); configured.push(r.configured); observed.push(r.observed);
+        xs.push(r.t); configured.push(r.configured); sinceChange.push(r.sinceChange); windowed.push(r.window);
       });
       // Carry the configured rate to "now" so the step reaches the right edge.
       if (xs.length && view.tHi > xs[xs.length - 1]) {
-        xs.push(view.tHi); configured.push(configured[configured.length - 1]); observed.push(null);
+        xs.push(view.tHi); configured.push(configured[configured.length - 1]); sinceChange.push(null); windowed.push(null);
       }
-      link.chart.setData([xs, configured, observed]);
+      link.chart.setData([xs, configured, sinceChange, windowed]);
       dash.plotLengths['link' + link.id] = link.chart.data[0].length;
       drawBurstHistogram(link, w ? burstHistogram(ring, store.sensorIndex.get(link.id), w.kLo, w.kHi) : null);
     }
@@ -1487,7 +1504,7 @@
     legend(swatch(COLOR.undecided), 'undecided');
     legend(swatch(COLOR.unstable), 'unstable');
     legend((x, y) => { ctx.beginPath(); ctx.arc(x + 6, y, 5, 0, 2 * Math.PI); ctx.fillStyle = COLOR.truth; ctx.fill(); }, 'configured');
-    legend((x, y) => { ctx.beginPath(); ctx.arc(x + 6, y, 5, 0, 2 * Math.PI); ctx.strokeStyle = COLOR.observed; ctx.lineWidth = 2.5; ctx.stroke(); }, 'observed');
+    legend((x, y) => { ctx.beginPath(); ctx.arc(x + 6, y, 5, 0, 2 * Math.PI); ctx.strokeStyle = COLOR.observed; ctx.lineWidth = 2.5; ctx.stroke(); }, 'observed (since change)');
     ly += 6;
     const fmtPoint = (p) => (p ? '(' + p[0].toFixed(2) + ', ' + p[1].toFixed(2) + ')' : '—');
     ctx.fillStyle = COLOR.axis;
@@ -1496,7 +1513,7 @@
   }
 
   // Arrival rates of the two links: from the link status (updated right after a change),
-  // else from the last theory assessment.
+  // else from the last theory assessment. Observed: since change, the rate the theory assesses.
   function operatingPoints() {
     const ids = store.sensorIds;
     const pick = (field, assessment) => {
@@ -1511,7 +1528,7 @@
     const th = store.latestTheory || {};
     return {
       configured: pick('configured_arrival_rate', th.configured),
-      observed: pick('observed_arrival_rate', th.observed),
+      observed: pick('observed_arrival_rate_since_change', th.observed),
     };
   }
 
@@ -1549,7 +1566,7 @@
       el('span', { class: 'verdict-main', 'data-stable': confStable, text: STABLE_TEXT[confStable] || confStable }),
       document.createTextNode(' '),
       el('span', { class: 'verdict-detail', text: 'configured: ' + (STABLE_TEXT[confStable] || confStable) +
-        ' · observed: ' + (obs ? (STABLE_TEXT[obsStable] || obsStable) : 'not yet known') }),
+        ' · observed (since change): ' + (obs ? (STABLE_TEXT[obsStable] || obsStable) : 'not yet known') }),
       document.createTextNode(' '),
       el('span', { class: 'verdict-k muted small', text: '(at k ' + th.k + ')' }));
     const set = (field, text, cls) => {
@@ -1568,13 +1585,14 @@
         isNum(markov) ? (markov < 1 ? 'stable-yes' : 'stable-no') : 'muted');
       set(prefix + '-lower', fmtTrace(a.lower_trace, '∞ (unbounded)'), isNum(a.lower_trace) ? '' : 'stable-no');
       set(prefix + '-upper', fmtTrace(a.upper_trace, a.stable === 'no' ? '∞ (unbounded)' : '∞ / undecided'), isNum(a.upper_trace) ? '' : 'muted');
-      set(prefix + '-rates', Array.isArray(a.arrival_rates) ? a.arrival_rates.map((v) => fmt(v, 2)).join(', ') : '—');
+      // Three decimals, as the link cards show the same rates.
+      set(prefix + '-rates', Array.isArray(a.arrival_rates) ? a.arrival_rates.map(rateText).join(', ') : '—');
     };
     fill('conf', conf);
     fill('obs', obs);
     const reasons = [];
     if (conf && conf.reason) reasons.push('configured: ' + conf.reason);
-    if (obs && obs.reason) reasons.push('observed: ' + obs.reason);
+    if (obs && obs.reason) reasons.push('observed (since change): ' + obs.reason);
     $('assessment-reason').textContent = reasons.join(' · ');
   }
 

@@ -13,12 +13,17 @@
 // Each of these is a step in "steps": the setParameters frames the page sent for it, the
 // event-log entry that showed it applied, the field's value after.
 // --seconds: how long the page keeps running after the change before the screenshot.
+// --compare-ctl NETKF: meanwhile, read every link card and the stability panel every 100 ms
+//   ("readings": the distinct ones, each with its Date.now() time) and, 2 s in, run
+//   `NETKF ctl status --json` once ("ctl": its output, start and end times), reading on until
+//   1.5 s after it ended: the page and ctl at nearly the same time (the test compares them).
 // Exit status: 0 when it ran (whatever it observed); 2 usage error; 1 harness error
 // (no browser, page not reachable, overall timeout), with "error" set in the JSON.
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
 import { parseArgs } from 'node:util';
+import { execFile } from 'node:child_process';
 import { chromium } from 'playwright-core';
 
 const CHROMIUM_ARGS = [
@@ -29,7 +34,7 @@ const CHROMIUM_ARGS = [
 function usage(message) {
   process.stderr.write(`${message}\nusage: node dashboard_browser.mjs --url URL --screenshot PNG ` +
     '[--link ID] [--loss VALUE] [--no-set] [--delay ID=MS] [--gilbert ID=LOSS,BURST] [--seconds N] [--timeout S] ' +
-    '[--chromium PATH]\n');
+    '[--chromium PATH] [--compare-ctl NETKF]\n');
   process.exit(2);
 }
 
@@ -47,6 +52,7 @@ try {
       seconds: { type: 'string', default: '2' },
       timeout: { type: 'string', default: '60' },
       chromium: { type: 'string', default: '/usr/bin/chromium' },
+      'compare-ctl': { type: 'string' },
     },
   }));
 } catch (err) {
@@ -91,6 +97,8 @@ const result = {
   control_value_after: null,      // the number field after the answer
   steps: [],                      // --delay, --gilbert: {link, param, value, sent, applied, applied_entry, ...}
   link_stats: {},                 // per link id: the card's stats line at the screenshot {key: text}
+  readings: [],                   // --compare-ctl: {ms, links: {id: {key: text}}, theory: {header, rates}}
+  ctl: null,                      // --compare-ctl: {start_ms, end_ms, status (parsed), error}
   final: null,                    // counters and header at the screenshot
   verdict: null,
   event_log: [],                  // status messages as shown, oldest first
@@ -178,6 +186,51 @@ async function setField(page, link, param, value, expect) {
   step.sent = result.set_requests_sent.slice(sentBefore);
   step.control_value_after = await page.evaluate((sel) => document.querySelector(sel)?.value ?? null, selector);
   return step;
+}
+
+// Every link card's stats line {id: {key: text}}, and the stability panel's observed column.
+function readLinkStats(page) {
+  return page.evaluate(() => {
+    const links = {};
+    for (const card of document.querySelectorAll('article.link-card')) {
+      const stats = {};
+      for (const stat of card.querySelectorAll('.link-stats .stat')) {
+        stats[stat.querySelector('.stat-key')?.textContent ?? ''] = stat.querySelector('.stat-value')?.textContent ?? '';
+      }
+      links[card.dataset.link] = stats;
+    }
+    const header = document.querySelectorAll('#assessment thead th')[2]?.textContent ?? '';
+    const rates = document.querySelector('#assessment [data-field="obs-rates"]')?.textContent ?? '';
+    return { links, theory: { header, rates } };
+  });
+}
+
+function runCtlStatus(netkf) {
+  return new Promise((resolve) => {
+    const start = Date.now();
+    execFile(netkf, ['ctl', 'status', '--json'], { timeout: 30000 }, (err, stdout) => {
+      const out = { start_ms: start, end_ms: Date.now(), status: null, error: err ? err.message.split('\n')[0] : null };
+      try { out.status = JSON.parse(stdout); } catch { out.error = out.error || 'ctl printed no JSON'; }
+      resolve(out);
+    });
+  });
+}
+
+// The page and `netkf ctl status --json` at nearly the same time (--compare-ctl).
+async function compareWithCtl(page, netkf) {
+  const begin = Date.now();
+  let ctlRun = null;
+  let last = '';
+  while (Date.now() < deadline - 5000) {
+    const reading = await readLinkStats(page);
+    const text = JSON.stringify(reading);
+    if (text !== last) result.readings.push({ ms: Date.now(), ...reading });
+    last = text;
+    if (!ctlRun && Date.now() - begin >= 2000) ctlRun = runCtlStatus(netkf).then((r) => { result.ctl = r; });
+    if (result.ctl && Date.now() - result.ctl.end_ms >= 1500) return;
+    await page.waitForTimeout(100);
+  }
+  if (ctlRun) await ctlRun;
 }
 
 async function readEventLog(page) {
@@ -308,6 +361,7 @@ async function main() {
   }
 
   if (settleSeconds > 0) await page.waitForTimeout(remaining(settleSeconds * 1000));
+  if (options['compare-ctl']) await compareWithCtl(page, options['compare-ctl']);
   await page.screenshot({ path: result.screenshot, fullPage: true, timeout: remaining(15000) });
 
   const after = await page.evaluate(() => {
@@ -320,17 +374,7 @@ async function main() {
     };
   });
   result.final = { ...(after.dash || {}), conn_state: after.conn_state, period_text: after.period_text };
-  result.link_stats = await page.evaluate(() => {
-    const out = {};
-    for (const card of document.querySelectorAll('article.link-card')) {
-      const stats = {};
-      for (const stat of card.querySelectorAll('.link-stats .stat')) {
-        stats[stat.querySelector('.stat-key')?.textContent ?? ''] = stat.querySelector('.stat-value')?.textContent ?? '';
-      }
-      out[card.dataset.link] = stats;
-    }
-    return out;
-  });
+  result.link_stats = (await readLinkStats(page)).links;
   result.verdict = after.verdict;
   result.event_log_entries = await readEventLog(page);
   result.event_log = result.event_log_entries.map((e) => e.message);

@@ -30,12 +30,13 @@ _workdirs = []
 
 
 def check(condition, message):
-    """Record a failed expectation (the test continues to report all of them)."""
+    """Record a failed expectation (the test continues to report all of them); returns whether it held."""
     if condition:
         print("  ok:", message, flush=True)
     else:
         print("  FAILED:", message, flush=True)
         _failures.append(message)
+    return bool(condition)
 
 
 def finish():

@@ -11,7 +11,13 @@
 - @foxglove/ws-protocol's client (an independent implementation of the protocol) receives
   estimates equal to the --record CSV rows of the same periods, and sets a link parameter;
 - /metrics passes `promtool check metrics`, and its link counters agree with
-  `netkf ctl status --json`.
+  `netkf ctl status --json`;
+- the page's observed arrival rates follow their stated definitions (docs/dashboard.md,
+  "Observed arrival rates") and agree with `netkf ctl status --json` run while the page is
+  read: each card's "λ since change" is its "in time / samples", and those counts are ctl's
+  `delivered_in_time` / `samples_in` within one report interval; the window's rate and span
+  follow from the same counts; the stability panel's observed rates are the cards'
+  since-change rates.
 """
 import json
 import os
@@ -20,12 +26,18 @@ import subprocess
 import time
 import urllib.request
 
-from e2e_common import (Launch, node, check, finish, netkf, read_periods, read_samples, require_netns, wait_for,
-                        workdir)
+from e2e_common import (NETKF, Launch, node, check, finish, netkf, read_periods, read_samples, require_netns,
+                        wait_for, workdir)
 
 PORT = 8470  # the default; the test's network namespace has it to itself
 DELAY_MS = 3.0                  # link 2's delay, set from the page (below the 8 ms deadline)
 GE_LOSS, GE_BURST = 0.2, 4.0    # link 3 (Gilbert-Elliott) in the user's form, set from the page
+PERIOD_MS = 10                  # the default scenario's period
+WINDOW_SAMPLES = 1000           # the observed rate window's least span (cli/live/observed_rate.hpp)
+# The channel reports each link once a second: a report adds 1000 / PERIOD_MS = 100 samples
+# per link. The page and ctl each show the newest report they have, so read within a second of
+# each other they are at most one report apart; 10 % more for the timers' jitter.
+REPORT_SAMPLES = 1.1 * 1000 / PERIOD_MS
 ARTEFACTS = os.environ.get("NETKF_ARTEFACT_DIR", os.path.join(os.environ.get("NETKF_BIN_DIR", "/tmp"), "artefacts"))
 
 
@@ -39,6 +51,98 @@ def scrape():
 def series(text, name, labels=""):
     m = re.search(r"^%s%s (\S+)$" % (re.escape(name), re.escape(labels)), text, re.M)
     return float(m.group(1)) if m else None
+
+
+def page_counts(stats):
+    """(in time, samples, λ since change) of a card's stats, None when it shows none."""
+    m = re.fullmatch(r"(\d+) / (\d+)", stats.get("in time / samples", ""))
+    rate = stats.get("λ since change", "")
+    if not m or not re.fullmatch(r"\d\.\d{3}", rate):
+        return None
+    return int(m.group(1)), int(m.group(2)), float(rate)
+
+
+def window_problem(stats, samples, since_change):
+    """Why the card's window rate and span do not follow from its since-change counts
+    (observed_rate.hpp), or None."""
+    m = re.fullmatch(r"(\d\.\d{3}) over (\d+)", stats.get("λ last ≥%d samples" % WINDOW_SAMPLES, ""))
+    if m is None:
+        return "no window rate and span shown: %s" % stats
+    rate, span = float(m.group(1)), int(m.group(2))
+    if samples < WINDOW_SAMPLES:  # not yet full: the window is everything since the change
+        if span != samples or rate != since_change:
+            return "%s over %d, but %d samples since the change at %.3f" % (rate, span, samples, since_change)
+    elif not WINDOW_SAMPLES <= span <= min(samples, WINDOW_SAMPLES + REPORT_SAMPLES):
+        # whole reports: at least WINDOW_SAMPLES, at most one report more, never past the change
+        return "spans %d samples of %d since the change" % (span, samples)
+    return None
+
+
+def check_against_ctl(link, readings, ctl):
+    """One link of `netkf ctl status --json` against the page's readings around the ctl run."""
+    lid, n, in_time = str(link["sensor_id"]), link["samples_in"], link["delivered_in_time"]
+    check(in_time == link["delivered"] - link["past_deadline"],
+          "link %s: ctl's delivered_in_time = delivered − past_deadline" % lid)
+    want = in_time / n if n else None
+    check(link.get("observed_arrival_rate_since_change") == want,
+          "link %s: ctl's observed_arrival_rate_since_change = %s / %s" % (lid, in_time, n))
+    # Readings within a second of the ctl run (it reads the channel's newest report while it
+    # runs); the one nearest in samples is compared.
+    near = [page_counts(r["links"].get(lid, {})) for r in readings
+            if ctl["start_ms"] - 1000 <= r["ms"] <= ctl["end_ms"] + 1000]
+    near = [c for c in near if c is not None]
+    if not check(near and n > 0, "link %s: the page showed counts around the ctl run" % lid):
+        return
+    x, y, rate = min(near, key=lambda c: abs(c[1] - n))
+    bound = REPORT_SAMPLES / min(y, n) + 0.0005  # one report's samples move the ratio this much; 3 decimals shown
+    check(abs(y - n) <= REPORT_SAMPLES and abs(x - in_time) <= REPORT_SAMPLES and abs(rate - want) <= bound,
+          "link %s: the page's λ since change %.3f (%d / %d) agrees with ctl's %d / %d = %.4f within one report "
+          "(%.4f)" % (lid, rate, x, y, in_time, n, want, bound))
+
+
+def check_observed_rates(page):
+    """The page's observed arrival rates against their definitions and `netkf ctl status --json`."""
+    readings, ctl = page.get("readings", []), page.get("ctl") or {}
+    status = ctl.get("status") or {}
+    if not check(len(readings) >= 3 and status.get("links"), "the page was read around a ctl status (%d readings; "
+                 "ctl error: %s)" % (len(readings), ctl.get("error"))):
+        return
+    for link in status["links"]:
+        check_against_ctl(link, readings, ctl)
+    # Every reading of every card: the rate is its counts' ratio, the window follows from them.
+    shown, wrong = 0, []
+    for r in readings:
+        for lid, stats in r["links"].items():
+            counts = page_counts(stats)
+            if counts is None:
+                continue
+            shown += 1
+            x, y, rate = counts
+            if not (y > 0 and abs(rate - x / y) <= 0.0005 + 1e-12):
+                wrong.append("link %s: %.3f ≠ %d / %d" % (lid, rate, x, y))
+            problem = window_problem(stats, y, rate)
+            if problem:
+                wrong.append("link %s window: %s" % (lid, problem))
+    check(shown > 0 and not wrong, "in %d card readings, λ since change = in time / samples and the window follows "
+          "from the same counts: %s" % (shown, wrong[:5]))
+    # The stability panel's observed column names its rates and shows the cards' since-change
+    # rates. The theory is requested once a second from the rates then reported and shown when
+    # computed, so it may lag the cards by a refresh, the computation and a redraw: three reports.
+    panel = [r for r in readings if re.fullmatch(r"\d\.\d{3}(, \d\.\d{3})*", r["theory"]["rates"])]
+    check(panel and all("since change" in r["theory"]["header"] for r in panel),
+          "the stability panel's observed column says 'since change': %s" % (panel[-1]["theory"] if panel else None))
+    compared, apart = 0, []
+    for r in panel:
+        for lid, th in zip(sorted(r["links"], key=int), (float(v) for v in r["theory"]["rates"].split(", "))):
+            counts = page_counts(r["links"][lid])
+            if counts is None:
+                continue
+            compared += 1
+            bound = 3 * REPORT_SAMPLES / counts[1] + 0.001
+            if abs(th - counts[2]) > bound:
+                apart.append("link %s: %.3f vs %.3f (bound %.4f)" % (lid, th, counts[2], bound))
+    check(compared > 0 and not apart, "in %d panel readings, the panel's observed rates are the cards' since-change "
+          "rates within three reports: %s" % (compared, apart[:5]))
 
 
 require_netns()
@@ -64,7 +168,8 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     print(lint.stdout, lint.stderr, flush=True)
     check(lint.returncode == 0, "promtool check metrics accepts /metrics")
     for name in ("netkf_link_samples_total", "netkf_link_delivered_total", "netkf_link_dropped_total",
-                 "netkf_link_configured_loss", "netkf_link_observed_loss", "netkf_estimator_period",
+                 "netkf_link_configured_loss", "netkf_link_observed_loss", "netkf_link_observed_arrival_rate",
+                 "netkf_link_observed_window_samples", "netkf_estimator_period",
                  "netkf_estimator_trace_p", "netkf_estimator_diverging", "netkf_estimator_fused_sensors",
                  "netkf_samples_late_total", "netkf_samples_rejected_total", "netkf_pipeline_latency_seconds_bucket",
                  "netkf_process_restarts_total"):
@@ -81,6 +186,10 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
                       % (link["sensor_id"], key, link[key], lo, hi))
             check(abs(series(after, "netkf_link_configured_loss", lab) - link["stationary_loss"]) < 1e-12,
                   "link %d: configured loss agrees" % link["sensor_id"])
+            for window in ("since_change", "last_%d_samples" % WINDOW_SAMPLES):
+                rate = series(after, "netkf_link_observed_arrival_rate", '{link="%d",window="%s"}' % (link["sensor_id"], window))
+                check(rate is not None and 0.0 <= rate <= 1.0,
+                      "link %d: /metrics has its observed arrival rate, window=%s (%s)" % (link["sensor_id"], window, rate))
     else:
         check(False, "ctl status works")
     check(series(after, "netkf_pipeline_latency_seconds_count") > 0, "pipeline latency observed")
@@ -111,7 +220,7 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     shot = os.path.join(ARTEFACTS, "dashboard.png")
     page = node("dashboard_browser.mjs", "--url", "http://127.0.0.1:%d/" % PORT, "--screenshot", shot,
                 "--link", 2, "--loss", "1.0", "--delay", "2=%g" % DELAY_MS,
-                "--gilbert", "3=%g,%g" % (GE_LOSS, GE_BURST), timeout=150)
+                "--gilbert", "3=%g,%g" % (GE_LOSS, GE_BURST), "--compare-ctl", NETKF, "--timeout", 100, timeout=150)
     t_applied = time.monotonic()
     check(page.get("estimates_received", 0) > 50, "the page received estimates (%s)" % page.get("estimates_received"))
     check(page.get("points_plotted", 0) > 50, "the page's plots hold points (%s)" % page.get("points_plotted"))
@@ -148,6 +257,8 @@ with Launch(None, 120, out, samples=True) as run:  # the built-in default scenar
     check(stats2.get("delay") == "%g ms" % DELAY_MS and stats2.get("P(in time)") == "1.000" and
           re.fullmatch(r"\d+", stats2.get("held", "")) is not None,
           "link 2's card shows the delay, P(in time) and held samples: %s" % stats2)
+
+    check_observed_rates(page)
 
     # Independent paths: the channel's own link status, through netkf ctl and a Foxglove client.
     r_expected = 1.0 / GE_BURST

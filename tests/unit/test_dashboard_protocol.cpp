@@ -69,7 +69,8 @@ TEST(DashboardProtocol, EstimateKeepsTheIdlFieldNamesAndNeverSendsNaN) {
   const json s = catalogue::link_status_message(l);
   EXPECT_TRUE(s["mean_burst_length"].is_null());
   EXPECT_EQ(s["loss"], 1.0);
-  EXPECT_NE(s.dump().find("\"observed_arrival_rate\":null"), std::string::npos);
+  EXPECT_NE(s.dump().find("\"observed_arrival_rate_since_change\":null"), std::string::npos);
+  EXPECT_NE(s.dump().find("\"observed_arrival_rate_window\":null"), std::string::npos);
 }
 
 TEST(DashboardProtocol, ParsesTheClientMessagesItSupports) {

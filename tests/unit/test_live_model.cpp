@@ -148,18 +148,20 @@ TEST(LiveModel, NonFiniteEstimateIsCountedNeverShown) {
   EXPECT_TRUE(model.saw_non_finite());
 }
 
-TEST(LiveModel, ObservedRateFollowsTheLastReportInterval) {
+TEST(LiveModel, TheTheorysObservedRatesAreTheRatesSinceChange) {
   LiveModel model(default_scenario());
-  EXPECT_FALSE(model.observed_rates());
+  EXPECT_FALSE(model.observed_rates_since_change());
   model.add_link_status(link_status(1, BernoulliLink{0.1}, 100, 90));
   model.add_link_status(link_status(2, BernoulliLink{0.2}, 100, 80));
+  EXPECT_FALSE(model.observed_rates_since_change()) << "link 3 not reported yet";
   model.add_link_status(link_status(3, GilbertElliottLink{0.05, 0.5, 0.0, 1.0}, 100, 91));
-  auto rates = model.observed_rates();
+  auto rates = model.observed_rates_since_change();
   ASSERT_TRUE(rates);
-  EXPECT_DOUBLE_EQ((*rates)[0], 0.9);
-  // Next report of link 2: 100 more samples, 50 more delivered -> 0.5 over the interval.
+  EXPECT_EQ(*rates, (std::vector<double>{0.9, 0.8, 0.91}));
+  // Next report of link 2: 100 more samples, 50 more delivered: 130/200 since the change
+  // (0.5 over the last 100 alone: that is no window of the views).
   model.add_link_status(link_status(2, BernoulliLink{0.2}, 200, 130));
-  EXPECT_DOUBLE_EQ((*model.observed_rates())[1], 0.5);
+  EXPECT_DOUBLE_EQ((*model.observed_rates_since_change())[1], 0.65);
   // The configured rate is the channel's model, not the scenario's.
   EXPECT_DOUBLE_EQ(model.snapshot().links[1].arrival_rate(), 0.8);
   EXPECT_EQ(model.configured_scenario().sensors[1].link, LinkSpec(BernoulliLink{0.2}));
@@ -178,7 +180,8 @@ TEST(LiveModel, ALinkChangeNamesItsSource) {
   EXPECT_TRUE(model.take_events().empty());
   // The counts restarted with the change: the rate is taken afresh, not as a difference.
   model.add_link_status(link_status(2, BernoulliLink{0.5}, 10, 4, 78));
-  EXPECT_DOUBLE_EQ(*model.snapshot().links[1].observed_arrival_rate, 0.4);
+  EXPECT_DOUBLE_EQ(*model.snapshot().links[1].observed_rate_since_change, 0.4);
+  EXPECT_DOUBLE_EQ(*model.snapshot().links[1].observed_rate_window, 0.4);
 }
 
 TEST(LiveModel, CrossingTheCriticalBoundaryRaisesAWarning) {
@@ -317,7 +320,7 @@ TEST(LiveStatusText, ALargeNetworkShowsTheLinksFurthestBelowTheirRate) {
   EXPECT_LT(row(17), row(33));
   EXPECT_EQ(row(25), std::string::npos) << text;  // one of the 34 on target: not listed
   // Mean over the 39 reported: (37 * 0.9 + 0.5 + 0.8) / 39 = 0.8872 (printed 0.887).
-  EXPECT_NE(text.find("all 40 links: λ obs mean 0.887, min 0.500; late 0.000; 1 without a rate yet"),
+  EXPECT_NE(text.find("all 40 links: λ since change mean 0.887, min 0.500; late 0.000; 1 without a rate yet"),
             std::string::npos)
       << text;
   // The theory has no answer for 40 sensors: the status says why, not only "unknown".
@@ -371,11 +374,11 @@ TEST(LiveModel, ObservedArrivalRateCountsOnlySamplesInTime) {
   auto status = link_status(1, BernoulliLink{0.0}, 100, 100);
   status.past_deadline = 40;
   model.add_link_status(status);
-  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_arrival_rate.value(), 0.6);
+  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_rate_since_change.value(), 0.6);
   status = link_status(1, BernoulliLink{0.0}, 200, 200);
-  status.past_deadline = 50;  // 10 of the last 100 late
+  status.past_deadline = 50;  // 10 of the last 100 late: 150 of 200 in time
   model.add_link_status(status);
-  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_arrival_rate.value(), 0.9);
+  EXPECT_DOUBLE_EQ(model.snapshot().links[0].observed_rate_since_change.value(), 0.75);
 }
 
 }  // namespace netkf::cli

@@ -114,8 +114,12 @@ TEST(CheckParsing, NamesAreTheSummarysPerLinkForTheScenariosIds) {
   const std::vector<std::string> expected{
       "periods", "rms_error", "mean_trace_P", "late_fraction", "fused_fraction", "periods_diverging",
       "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
-      "link.4.samples", "link.4.delivered", "link.4.dropped", "link.4.observed_loss", "link.4.late", "link.4.fused",
-      "link.9.samples", "link.9.delivered", "link.9.dropped", "link.9.observed_loss", "link.9.late", "link.9.fused"};
+      "link.4.samples", "link.4.delivered", "link.4.dropped", "link.4.observed_loss",
+      "link.4.observed_arrival_rate_since_change", "link.4.observed_arrival_rate_window", "link.4.observed_window_samples",
+      "link.4.late", "link.4.fused",
+      "link.9.samples", "link.9.delivered", "link.9.dropped", "link.9.observed_loss",
+      "link.9.observed_arrival_rate_since_change", "link.9.observed_arrival_rate_window", "link.9.observed_window_samples",
+      "link.9.late", "link.9.fused"};
   EXPECT_EQ(names, expected);
 }
 
@@ -156,7 +160,10 @@ TEST(CheckParsing, RefusesUnknownNamesAndLinksNotInTheScenario) {
   std::string m = parse_error("rms<0.8");
   EXPECT_NE(m.find("unknown name 'rms'"), std::string::npos) << m;
   EXPECT_NE(m.find("rms_error"), std::string::npos) << m;  // lists the names there are
-  EXPECT_NE(m.find("link.ID.{samples, delivered, dropped, observed_loss, late, fused}"), std::string::npos) << m;
+  EXPECT_NE(m.find("link.ID.{samples, delivered, dropped, observed_loss, observed_arrival_rate_since_change, "
+                   "observed_arrival_rate_window, observed_window_samples, late, fused}"),
+            std::string::npos)
+      << m;
   EXPECT_NE(m.find("1, 2, 3"), std::string::npos) << m;
   EXPECT_NE(parse_error("RMS_ERROR<0.8").find("unknown name"), std::string::npos);  // names are case-sensitive
   EXPECT_NE(parse_error("link.2.loss<0.3").find("unknown name 'link.2.loss'"), std::string::npos);
