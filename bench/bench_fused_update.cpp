@@ -3,7 +3,7 @@
 // of the (2d x 2d) innovation covariance, and the sequential Joseph-form reference,
 // for n in {2, 6, 12} states and d in {1, 4, 16, 64} received sensors of size 2.
 // The "per_sensor" counter is time per update / d: flat in d means linear cost.
-// Results and the command: bench/RESULTS-fused-update.md.
+// Results and the command: BENCHMARKS.md, "Fused update" (scripts/bench.sh fused-update).
 #include <benchmark/benchmark.h>
 
 #include <vector>

@@ -1,6 +1,6 @@
 // Monte Carlo throughput (filter steps per second) of netkf::run_monte_carlo for the scalar
 // Sinopoli scenario and a 6-state, 4-sensor scenario; compare with bench/numpy_monte_carlo.py
-// (the same simulation vectorised in NumPy). Results: bench/RESULTS-theory.md.
+// (the same simulation vectorised in NumPy). Results: BENCHMARKS.md, "Monte Carlo throughput".
 #include <benchmark/benchmark.h>
 
 #include "netkf/monte_carlo.hpp"

@@ -21,7 +21,7 @@ namespace netkf::dds {
 /// sample. Hence a heartbeat every 250 ms and histories that hold a few heartbeat periods at
 /// the writer's rate (history_depth_for_rate) — but no deeper: a writer re-sends what a
 /// lagging reader reports missing, and a deep history made 64 sensor processes swamp the
-/// channel with repairs (BENCHMARKS.md, 2026-12-01 evening).
+/// channel with repairs (BENCHMARKS.md, "Heartbeats and NACK suppression").
 inline constexpr std::chrono::milliseconds kHeartbeatPeriod{250};
 
 /// How long a reliable writer ignores requests to re-send a sample it has just sent (Fast DDS
