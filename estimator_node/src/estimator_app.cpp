@@ -31,7 +31,7 @@ class EstimatorApp::Impl {
       core_.resume(*options.resume);
       spdlog::info("restart {}: resuming after period {} (Tr P = {:.4g}); the periods missed since are fused "
                    "with nothing, predicted with the inputs the plant acknowledged",
-                   options.resume->restarts, options.resume->k, options.resume->P.trace());
+                   options.resume->restarts + 1, options.resume->k, options.resume->P.trace());
     }
     // The readers last: their callbacks use everything above. The tick topic is transient-local,
     // so a restarted estimator receives the recent ticks (and the inputs they acknowledge).
@@ -106,6 +106,10 @@ class EstimatorApp::Impl {
                  s.last_fused_period ? std::to_string(*s.last_fused_period) : std::string("none"), s.late_total,
                  s.rejected_total, reasons, netkf::to_string(s.state),
                  s.restarts ? ", restarts " + std::to_string(s.restarts) : std::string());
+  }
+
+  bool wait_for_estimate_readers(int n, std::chrono::milliseconds timeout) const {
+    return estimate_.wait_for_matched(n, timeout);
   }
 
  private:
@@ -225,6 +229,10 @@ void EstimatorApp::run() { impl_->run(); }
 void EstimatorApp::stop() { impl_->stop(); }
 boost::asio::io_context& EstimatorApp::io() { return impl_->io(); }
 EstimatorAppStats EstimatorApp::stats() const { return impl_->stats(); }
+
+bool EstimatorApp::wait_for_estimate_readers(int n, std::chrono::milliseconds timeout) const {
+  return impl_->wait_for_estimate_readers(n, timeout);
+}
 void EstimatorApp::log_summary() const { impl_->log_summary(); }
 
 }  // namespace netkf::nodes

@@ -65,6 +65,9 @@ class RunningEstimator {
     thread_.join();
   }
   netkf::nodes::EstimatorAppStats stats() const { return app_.stats(); }
+  bool wait_for_estimate_readers(int n, std::chrono::milliseconds timeout) const {
+    return app_.wait_for_estimate_readers(n, timeout);
+  }
 
  private:
   dds::Participant participant_;
@@ -114,6 +117,7 @@ TEST(EstimatorApp, ResumesExactlyFromItsLastEstimate) {
     ASSERT_TRUE(ticks.wait_for_matched(1, 10s));
     ASSERT_TRUE(delivered.wait_for_matched(1, 10s));
     ASSERT_TRUE(estimates.wait_for_matched(1, 10s));
+    ASSERT_TRUE(estimator.wait_for_estimate_readers(1, 10s));  // both sides: period 0's estimate is not lost
     for (std::uint64_t k = 0; k < first_life; ++k) run_period(k);
     ASSERT_TRUE(got.wait_for(first_life - 1, 5s));
     EXPECT_EQ(estimator.stats().restarts, 0u);

@@ -12,6 +12,7 @@
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -56,6 +57,9 @@ class EstimatorApp {
   boost::asio::io_context& io();
 
   EstimatorAppStats stats() const;
+  /// Whether the estimate writer has matched n readers: the topic keeps nothing for late
+  /// joiners, so a test that must see the first estimate waits on this first.
+  bool wait_for_estimate_readers(int n, std::chrono::milliseconds timeout) const;
   /// One line: estimates published, last period, late, rejected, state.
   void log_summary() const;
 
