@@ -19,7 +19,7 @@ void add_launch_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
   cmd->add_option("--record", o->record,
-                  "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state; and the live link changes "
+                  "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state,late_samples; and the live link changes "
                   "to FILE.events.yaml (replay with --events). FILE.mcap: an MCAP file instead (truth, estimates, "
                   "link status and changes, delivered samples with --record-samples; JSON, for Foxglove/PlotJuggler)");
   cmd->add_option("--events", o->events,

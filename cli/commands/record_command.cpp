@@ -87,7 +87,7 @@ void add_record_command(CLI::App& app) {
   cmd->add_option("scenario", o->scenario, "Scenario the network runs (for the state size; default: built-in)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--out", o->out,
-                  "CSV file: k,t,x..,xhat..,trace_P,fused,late,state; or FILE.mcap: an MCAP file (truth, estimates, "
+                  "CSV file: k,t,x..,xhat..,trace_P,fused,late,state,late_samples; or FILE.mcap: an MCAP file (truth, estimates, "
                   "link status and changes; delivered samples with --samples)")
       ->required();
   cmd->add_option("--samples", o->samples, "Also write every delivered measurement to this CSV");

@@ -88,6 +88,11 @@ std::vector<Channel> make_channels() {
                               {"P", number_array()},
                               {"fused", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
                               {"late", {{"type", "integer"}}},
+                              {"late_samples",
+                               {{"type", "array"},
+                                {"items", schema_object({{"k", {{"type", "integer"}}},
+                                                         {"sensor_id", {{"type", "integer"}}}},
+                                                        {"k", "sensor_id"})}}},
                               {"late_total", {{"type", "integer"}}},
                               {"rejected_total", {{"type", "integer"}}},
                               {"state", {{"type", "string"}, {"enum", {"ok", "diverging"}}}},
@@ -231,12 +236,16 @@ json estimate_message(const Estimate& e) {
   P.reserve(static_cast<std::size_t>(e.P.size()));
   for (Eigen::Index r = 0; r < e.P.rows(); ++r)
     for (Eigen::Index c = 0; c < e.P.cols(); ++c) P.push_back(e.P(r, c));
+  json late_samples = json::array();  // each late sample counted here, with the period it was for
+  for (std::size_t i = 0; i < e.late_sensors.size() && i < e.late_periods.size(); ++i)
+    late_samples.push_back({{"k", e.late_periods[i]}, {"sensor_id", e.late_sensors[i]}});
   return json{{"k", e.k},
               {"t", e.t},
               {"x_hat", std::vector<double>(e.x_hat.begin(), e.x_hat.end())},
               {"P", std::move(P)},
               {"fused", e.fused},
               {"late", e.late},
+              {"late_samples", late_samples},
               {"late_total", e.late_total},
               {"rejected_total", e.rejected_total},
               {"state", to_string(e.state)},

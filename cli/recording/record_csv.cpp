@@ -28,7 +28,7 @@ std::string PeriodCsvRecorder::header(int state_dim) {
   std::string h = "k,t";
   for (int i = 0; i < state_dim; ++i) h += ",x" + std::to_string(i);
   for (int i = 0; i < state_dim; ++i) h += ",xhat" + std::to_string(i);
-  h += ",trace_P,fused,late,state";
+  h += ",trace_P,fused,late,state,late_samples";
   return h;
 }
 
@@ -62,7 +62,13 @@ void PeriodCsvRecorder::try_complete(std::int64_t k) {
     for (double v : e->second.x_hat) row << ',' << format_double(v);
     row << ',' << format_double(e->second.trace_P()) << ',';
     for (std::size_t i = 0; i < e->second.fused.size(); ++i) row << (i ? ";" : "") << e->second.fused[i];
-    row << ',' << e->second.late << ',' << to_string(e->second.state) << '\n';
+    row << ',' << e->second.late << ',' << to_string(e->second.state) << ',';
+    // Which samples `late` counts: each is for an earlier period, so a reader can tell which
+    // periods lost a sample to its deadline (docs/recording.md).
+    const auto& late = e->second;
+    for (std::size_t i = 0; i < late.late_sensors.size() && i < late.late_periods.size(); ++i)
+      row << (i ? ";" : "") << late.late_periods[i] << ':' << late.late_sensors[i];
+    row << '\n';
     ready_[k] = row.str();
     truth_.erase(t);
     estimates_.erase(e);

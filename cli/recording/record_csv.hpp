@@ -16,7 +16,7 @@ namespace netkf::cli {
 /// Doubles with 17 significant digits: a reader gets back the exact double.
 std::string format_double(double value);
 
-/// `k,t,x0..x{n-1},xhat0..xhat{n-1},trace_P,fused,late,state`, one row per period,
+/// `k,t,x0..x{n-1},xhat0..xhat{n-1},trace_P,fused,late,state,late_samples`, one row per period,
 /// written when both the truth and the estimate of k are known.
 class PeriodCsvRecorder {
  public:

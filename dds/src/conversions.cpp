@@ -121,8 +121,12 @@ wire::Estimate to_wire(const Estimate& e) {
   if (e.late != e.late_sensors.size())
     throw ConversionError("estimate: late (" + std::to_string(e.late) + ") is not the number of late_sensors (" +
                           std::to_string(e.late_sensors.size()) + ")");
+  if (e.late_periods.size() != e.late_sensors.size())
+    throw ConversionError("estimate: " + std::to_string(e.late_periods.size()) + " late_periods for " +
+                          std::to_string(e.late_sensors.size()) + " late_sensors");
   w.late(e.late);
   w.late_sensors(std::vector<int32_t>(e.late_sensors.begin(), e.late_sensors.end()));
+  w.late_periods(std::vector<uint64_t>(e.late_periods.begin(), e.late_periods.end()));
   w.late_total(e.late_total);
   w.rejected_total(e.rejected_total);
   w.state(to_string(e.state));
@@ -150,8 +154,12 @@ Estimate from_wire(const wire::Estimate& e, int state_dim) {
   if (e.late() != e.late_sensors().size())
     throw ConversionError("estimate: late (" + std::to_string(e.late()) + ") is not the number of late_sensors (" +
                           std::to_string(e.late_sensors().size()) + ")");
+  if (e.late_periods().size() != e.late_sensors().size())
+    throw ConversionError("estimate: " + std::to_string(e.late_periods().size()) + " late_periods for " +
+                          std::to_string(e.late_sensors().size()) + " late_sensors");
   r.late = e.late();
   r.late_sensors.assign(e.late_sensors().begin(), e.late_sensors().end());
+  r.late_periods.assign(e.late_periods().begin(), e.late_periods().end());
   r.late_total = e.late_total();
   r.rejected_total = e.rejected_total();
   r.state = filter_state_from_string(e.state());

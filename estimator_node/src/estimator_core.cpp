@@ -94,9 +94,10 @@ void EstimatorCore::resume(const Estimate& last_published) {
 
 void EstimatorCore::count_rejection(SampleRejection reason) { reject(reason); }
 
-void EstimatorCore::count_late(int sensor_id) {
+void EstimatorCore::count_late(int sensor_id, std::uint64_t k) {
   ++late_total_;
   late_since_publish_.push_back(sensor_id);
+  late_periods_since_publish_.push_back(k);
 }
 
 void EstimatorCore::predict_with(const Vector& applied_input) {
@@ -123,7 +124,7 @@ void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
   }
   // Buffered samples of periods before k can no longer be fused: they count as late.
   for (auto it = future_.begin(); it != future_.end() && it->first < k;) {
-    for (const auto& [id, b] : it->second) count_late(id);
+    for (const auto& [id, b] : it->second) count_late(id, it->first);
     it = future_.erase(it);
   }
   open_ = std::move(p);
@@ -155,6 +156,8 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   // One list is the count and the ids: `late` can never disagree with `late_sensors`.
   e.late_sensors = std::move(late_since_publish_);
   late_since_publish_.clear();
+  e.late_periods = std::move(late_periods_since_publish_);
+  late_periods_since_publish_.clear();
   e.late = static_cast<std::uint32_t>(e.late_sensors.size());
   e.late_total = late_total_;
   e.rejected_total = rejected_total();
@@ -221,7 +224,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
   }
   // A sample for a fused period (or one before the first tick seen) is late: lost.
   if ((last_fused_ && k <= *last_fused_) || (open_ && k < open_->k)) {
-    count_late(sensor_id);
+    count_late(sensor_id, k);
     return out;
   }
   if (open_ && k == open_->k) {

@@ -221,7 +221,7 @@ def read_periods(path, n):
         reader = csv.reader(f)
         header = next(reader)
         expected = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + \
-            ["trace_P", "fused", "late", "state"]
+            ["trace_P", "fused", "late", "state", "late_samples"]
         check(header == expected, "record header is exactly %s" % ",".join(expected))
         rows = []
         for c in reader:
@@ -233,6 +233,8 @@ def read_periods(path, n):
                 "fused": [int(v) for v in c[3 + 2 * n].split(";") if v],
                 "late": int(c[4 + 2 * n]),
                 "state": c[5 + 2 * n],
+                # (k, sensor id) of each sample counted in `late`: each for an earlier period
+                "late_samples": [tuple(int(v) for v in s.split(":")) for s in c[6 + 2 * n].split(";") if s],
                 "raw": c,
             })
     return rows

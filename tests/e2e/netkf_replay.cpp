@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
     if (!std::getline(in, line)) return fail("empty periods file");
     while (std::getline(in, line)) {
       const auto c = split(line, ',');
-      if (static_cast<int>(c.size()) != 2 + 2 * n + 4) return fail("bad periods row: " + line);
+      if (static_cast<int>(c.size()) != 2 + 2 * n + 5) return fail("bad periods row: " + line);
       Row r;
       for (int i = 0; i < n; ++i) r.xhat.push_back(std::stod(c[2 + n + i]));
       r.trace_P = std::stod(c[2 + 2 * n]);

@@ -199,6 +199,9 @@ for k in common:
         diffs.append("fused %s vs %s" % (e["fused"], c[col["fused"]]))
     if str(e["late"]) != c[col["late"]] or e["state"] != c[col["state"]]:
         diffs.append("late/state %s/%s vs %s/%s" % (e["late"], e["state"], c[col["late"]], c[col["state"]]))
+    late_samples = ";".join("%d:%d" % (k_, s) for k_, s in zip(e["late_periods"], e["late_sensors"]))
+    if late_samples != c[col["late_samples"]]:
+        diffs.append("late_samples %s vs %s" % (late_samples, c[col["late_samples"]]))
     if str(e["t"]) != c[col["t"]]:
         diffs.append("t %s vs %s" % (e["t"], c[col["t"]]))
     # P itself is not in the CSV: its trace is, and the estimator's Tr P is P(0,0) + P(1,1).
@@ -208,7 +211,7 @@ for k in common:
     if diffs:
         bad.append("k=%d: %s" % (k, "; ".join(diffs)))
 check(len(common) >= 250 and not bad,
-      "each of the %d received estimates equals its CSV row bit for bit (x̂, Tr P = trace of P, fused, late, state, t)"
+      "each of the %d received estimates equals its CSV row bit for bit (x̂, Tr P = trace of P, fused, late, state, late samples, t)"
       "%s" % (len(common), "".join("\n    " + b for b in bad[:5])))
 runs = {e["run"] for e in estimates.values()}
 check(len(runs) == 1 and 0 not in runs, "every estimate carries the launch's one run id (%s)" % runs)

@@ -109,11 +109,12 @@ void fuzz_estimate(eprosima::fastrtps::rtps::SerializedPayload_t& payload) {
       check(state_dim < 0 || n == state_dim, "estimate: wrong state dimension accepted");
       check(r.P.rows() == n && r.P.cols() == n, "estimate: P is not n x n");
       check(r.x_hat.allFinite() && r.P.allFinite() && std::isfinite(r.trace_P_pred), "estimate: non-finite value accepted");
-      check(r.late == r.late_sensors.size(), "estimate: late disagrees with late_sensors");
+      check(r.late == r.late_sensors.size() && r.late_periods.size() == r.late_sensors.size(),
+            "estimate: late disagrees with late_sensors or late_periods");
       // What a recorder or the dashboard republishes must convert back to the same record.
       const netkf::Estimate again = from_wire(to_wire(r), state_dim);
       check(again.x_hat == r.x_hat && again.P == r.P && again.fused == r.fused &&
-                again.late_sensors == r.late_sensors && again.state == r.state,
+                again.late_sensors == r.late_sensors && again.late_periods == r.late_periods && again.state == r.state,
             "estimate: changed on a round trip over the wire");
     } catch (const ConversionError&) {
     }

@@ -63,6 +63,7 @@ int main(int argc, char** argv) {
   e.fused = {1, 3};
   e.late = 1;
   e.late_sensors = {2};
+  e.late_periods = {40};
   e.late_total = 7;
   e.state = FilterState::ok;
   write<wire::EstimatePubSubType>("estimate", WireKind::estimate, to_wire(e));

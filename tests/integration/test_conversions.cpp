@@ -85,10 +85,17 @@ TEST(Conversions, EstimateLateCountIsItsListOfSensors) {
   r.late_sensors = {2};  // one id for two late samples: inconsistent
   EXPECT_THROW(dds::to_wire(r), dds::ConversionError);
   r.late_sensors = {2, 2};  // the same sensor late twice
+  r.late_periods = {7};     // ... but one period for two samples: inconsistent
+  EXPECT_THROW(dds::to_wire(r), dds::ConversionError);
+  r.late_periods = {7, 6};  // for two periods
   auto w = dds::to_wire(r);
   EXPECT_EQ(w.late(), 2u);
   EXPECT_EQ(w.late_sensors(), (std::vector<int32_t>{2, 2}));
   EXPECT_EQ(dds::from_wire(w).late_sensors, (std::vector<int>{2, 2}));
+  EXPECT_EQ(dds::from_wire(w).late_periods, (std::vector<std::uint64_t>{7, 6}));
+  w.late_periods({7});  // a sender whose periods disagree with its sensors
+  EXPECT_THROW(dds::from_wire(w), dds::ConversionError);
+  w.late_periods({7, 6});
   w.late(3);  // a sender whose count disagrees with its list
   EXPECT_THROW(dds::from_wire(w), dds::ConversionError);
 }

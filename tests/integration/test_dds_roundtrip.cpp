@@ -105,6 +105,7 @@ TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
   r.fused = {1, 3};
   r.late = 2;
   r.late_sensors = {3, 1};  // in order of arrival, not sorted
+  r.late_periods = {40, 38};
   r.late_total = 10;
   r.rejected_total = 4;
   r.state = netkf::FilterState::diverging;
@@ -118,6 +119,7 @@ TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
   EXPECT_EQ(got.fused, r.fused);
   EXPECT_EQ(got.late, r.late);
   EXPECT_EQ(got.late_sensors, r.late_sensors);
+  EXPECT_EQ(got.late_periods, r.late_periods);
   EXPECT_EQ(got.late_total, r.late_total);
   EXPECT_EQ(got.rejected_total, r.rejected_total);
   EXPECT_EQ(got.state, r.state);

@@ -78,6 +78,12 @@ static void print_longs(const dds_sequence_long *seq) {
   putchar(']');
 }
 
+static void print_periods(const dds_sequence_unsigned_long_long *seq) {
+  putchar('[');
+  for (uint32_t i = 0; i < seq->_length; ++i) printf(i ? ",%" PRIu64 : "%" PRIu64, seq->_buffer[i]);
+  putchar(']');
+}
+
 static void print_estimate(const netkf_wire_Estimate *e) {
   printf("{\"topic\":\"netkf/estimate\",\"k\":%" PRIu64 ",\"t\":", e->k);
   print_double(e->t);
@@ -96,6 +102,8 @@ static void print_estimate(const netkf_wire_Estimate *e) {
   print_double(e->trace_P_pred);
   printf(",\"late_sensors\":");
   print_longs(&e->late_sensors);
+  printf(",\"late_periods\":");
+  print_periods(&e->late_periods);
   printf(",\"restarts\":%" PRIu32 ",\"run\":%" PRIu64 "}\n", e->restarts, e->run);
 }
 

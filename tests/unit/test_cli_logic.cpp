@@ -246,7 +246,7 @@ TEST(Supervisor, NodeExecutableHonoursBinDirOverride) {
 }
 
 TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
-  EXPECT_EQ(PeriodCsvRecorder::header(2), "k,t,x0,x1,xhat0,xhat1,trace_P,fused,late,state");
+  EXPECT_EQ(PeriodCsvRecorder::header(2), "k,t,x0,x1,xhat0,xhat1,trace_P,fused,late,state,late_samples");
   PeriodCsvRecorder r(2);
   Estimate e;
   e.k = 5;
@@ -255,13 +255,14 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
   e.fused = {1, 3};
   e.late = 2;
   e.late_sensors = {1, 1};
+  e.late_periods = {3, 4};
   r.add_estimate(e);
   std::ostringstream out;
   EXPECT_EQ(r.flush(out), 0u);  // no truth for k = 5 yet
   r.add_truth({4, 0.04, {9.0, 9.0}});
   r.add_truth({5, 0.05, {1.0, -2.0}});
   EXPECT_EQ(r.flush(out), 1u);
-  EXPECT_EQ(out.str(), "5,0.050000000000000003,1,-2,0.10000000000000001,0.33333333333333331,2.5,1;3,2,ok\n");
+  EXPECT_EQ(out.str(), "5,0.050000000000000003,1,-2,0.10000000000000001,0.33333333333333331,2.5,1;3,2,ok,3:1;4:1\n");
   // 17 significant digits give back the exact double.
   EXPECT_EQ(std::strtod("0.33333333333333331", nullptr), 1.0 / 3.0);
   // Wrong sizes are counted, not written.
@@ -280,7 +281,7 @@ TEST(PeriodCsv, EmptyFusedSetIsAnEmptyCell) {
   r.add_estimate(e);
   std::ostringstream out;
   r.flush(out);
-  EXPECT_EQ(out.str(), "0,0,1,0.5,1,,0,diverging\n");
+  EXPECT_EQ(out.str(), "0,0,1,0.5,1,,0,diverging,\n");
 }
 
 TEST(SampleCsv, MarksFusedAndUnfusedSamples) {

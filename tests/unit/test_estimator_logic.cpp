@@ -105,6 +105,7 @@ TEST(EstimatorLogic, LateSamplesAreCountedNotFused) {
   ASSERT_EQ(second.size(), 1u);
   EXPECT_EQ(second[0].late, 1u);
   EXPECT_EQ(second[0].late_sensors, std::vector<int>{2});
+  EXPECT_EQ(second[0].late_periods, std::vector<std::uint64_t>{0});  // published with period 1, but for 0
   EXPECT_EQ(second[0].late_total, 1u);
   EXPECT_TRUE(second[0].fused.empty());
   // The late sample did not enter period 1: pure open-loop prediction of period 0's posterior.
@@ -124,6 +125,7 @@ TEST(EstimatorLogic, LateSamplesNameTheirSensorsOncePerSample) {
   auto first = core.on_sample(2, 5, v1(0.9), 0, 3 * kMs);
   ASSERT_EQ(first.size(), 1u);
   EXPECT_EQ(first[0].late_sensors, std::vector<int>{2});
+  EXPECT_EQ(first[0].late_periods, std::vector<std::uint64_t>{3});
   EXPECT_EQ(first[0].late, 1u);
   // Period 5 is fused: sensor 1 twice (a duplicate of a late sample is still late), then 2.
   core.on_sample(1, 5, v1(0.8), 0, 4 * kMs);
@@ -133,6 +135,7 @@ TEST(EstimatorLogic, LateSamplesNameTheirSensorsOncePerSample) {
   auto second = core.on_deadline(18 * kMs);
   ASSERT_EQ(second.size(), 1u);
   EXPECT_EQ(second[0].late_sensors, (std::vector<int>{1, 1, 2}));
+  EXPECT_EQ(second[0].late_periods, (std::vector<std::uint64_t>{5, 4, 5}));  // each its own period
   EXPECT_EQ(second[0].late, 3u);
   EXPECT_EQ(second[0].late_total, 4u);
   // Nothing late since: the next estimate lists nobody.
@@ -140,6 +143,7 @@ TEST(EstimatorLogic, LateSamplesNameTheirSensorsOncePerSample) {
   auto third = core.on_deadline(28 * kMs);
   ASSERT_EQ(third.size(), 1u);
   EXPECT_TRUE(third[0].late_sensors.empty());
+  EXPECT_TRUE(third[0].late_periods.empty());
   EXPECT_EQ(third[0].late, 0u);
 }
 

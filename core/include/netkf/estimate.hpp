@@ -19,6 +19,7 @@ struct Estimate {
   std::vector<int> fused;         // sensor ids fused for k (sorted)
   std::uint32_t late = 0;         // late samples counted since the previous published estimate
   std::vector<int> late_sensors;  // their sensor ids, one entry per late sample (late == its size)
+  std::vector<std::uint64_t> late_periods;  // the period each of them was for (same order and size)
   std::uint64_t late_total = 0;   // running totals of the run
   std::uint64_t rejected_total = 0;
   FilterState state = FilterState::ok;

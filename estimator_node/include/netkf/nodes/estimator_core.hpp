@@ -101,7 +101,7 @@ class EstimatorCore {
   void predict_with(const Vector& applied_input);
   bool complete() const;
   void reject(SampleRejection r) { ++rejected_[static_cast<int>(r)]; }
-  void count_late(int sensor_id);
+  void count_late(int sensor_id, std::uint64_t k);
 
   IntermittentKalmanFilter filter_;
   std::map<int, int> sensor_dims_;   // id -> m_i
@@ -115,6 +115,7 @@ class EstimatorCore {
   std::map<std::uint64_t, std::map<int, Buffered>> future_;
   std::uint64_t late_total_ = 0;
   std::vector<int> late_since_publish_;  // sensor id of each late sample since the previous estimate
+  std::vector<std::uint64_t> late_periods_since_publish_;  // ... and the period it was for
   std::uint64_t rejected_[static_cast<int>(SampleRejection::count_)] = {};
   std::uint64_t rejected_before_restart_ = 0;  // the previous lives' total (from the checkpoint)
   std::optional<std::uint64_t> resumed_after_;  // ticks up to this period are history: ignored
