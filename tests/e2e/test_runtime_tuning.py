@@ -6,13 +6,15 @@ import json
 import os
 import time
 
-from e2e_common import DATA, Launch, check, finish, netkf, read_periods, read_samples, require_netns, workdir
+from e2e_common import (DATA, Launch, check, finish, last_period, netkf, read_periods, read_samples, require_netns,
+                        wait_for, workdir)
 
 PERIOD = 0.020
 require_netns()
 out = workdir("tuning")
 with Launch(os.path.join(DATA, "tuning.yaml"), 120, out, samples=True) as run:
-    time.sleep(4)
+    # Progress, not the clock: a loaded machine can take seconds to start the run.
+    check(wait_for(lambda: last_period(run.record) >= 100, 60), "the run recorded 100 periods before the change")
     bad = netkf("ctl", "set-link", "2", "--bernoulli", "1.5")
     check(bad.returncode != 0 and "loss" in bad.stderr, "an invalid loss is rejected locally with a clear error")
     unknown = netkf("ctl", "set-link", "9", "--bernoulli", "0.5")
@@ -51,17 +53,22 @@ if k_off is not None and k_on is not None:
     fused2 = [r["k"] for r in window if 2 in r["fused"]]
     check(len(window) > 50 and not fused2, "sensor 2 never fused from 2 periods after the change (%d periods, %d fused)"
           % (len(window), len(fused2)))
-    # Periods where nothing at all was fused are deadline misses of a loaded machine
-    # (counted by the estimator as late), not the link: judge the link on the others.
-    before = [r for r in rows if r["fused"] and
-              r["k"] < min((k for k, t in stamp_of_k.items() if t >= t_off_sent), default=0)]
-    # "Every" allows 2 % of the periods: a sensor process the 2-core machine holds back for a
-    # few periods makes its samples late (seen with compilers running next to the test).
+    # A sample that missed its deadline (a 2-core machine that holds a process back for a few
+    # periods) is the estimator's lateness, not the link: the recording names each late sample
+    # with its period (late_samples), and the link is judged on the other periods, all of them.
+    late2 = {k for r in rows for (k, sensor) in r["late_samples"] if sensor == 2}
+    k_change = min((k for k, t in stamp_of_k.items() if t >= t_off_sent), default=0)
+    before = [r for r in rows if r["k"] < k_change and r["k"] not in late2]
     fused_before = sum(2 in r["fused"] for r in before)
-    check(before and fused_before >= 0.98 * len(before),
-          "sensor 2 fused in every period before the change (%d of %d periods)" % (fused_before, len(before)))
+    check(len(before) > 50 and fused_before == len(before),
+          "sensor 2 fused in every period before the change in which its sample was not late (%d of %d periods; "
+          "%d late)" % (fused_before, len(before), len([k for k in late2 if k < k_change])))
     k_on_ack = min((k for k, t in stamp_of_k.items() if t >= t_on), default=10 ** 9)
-    after = [r for r in rows if r["fused"] and r["k"] >= k_on_ack + 2]
-    check(after and sum(2 in r["fused"] for r in after) >= 0.98 * len(after),
-          "sensor 2 fused again after the reset (%d of %d periods)" % (sum(2 in r["fused"] for r in after), len(after)))
+    # The last periods are left out: Ctrl-C stops the sensors before the estimator's last deadline.
+    last_k = rows[-1]["k"] if rows else 0
+    after = [r for r in rows if k_on_ack + 2 <= r["k"] < last_k - 2 and r["k"] not in late2]
+    fused_after = sum(2 in r["fused"] for r in after)
+    check(len(after) > 50 and fused_after == len(after),
+          "sensor 2 fused again after the reset in every period in which its sample was not late (%d of %d periods)"
+          % (fused_after, len(after)))
 finish()
