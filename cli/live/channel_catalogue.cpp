@@ -83,6 +83,7 @@ std::vector<Channel> make_channels() {
                              {"name", "period_ms", "state_dim", "sensors"})});
   c.push_back({ChannelId::estimate, "netkf/estimate", "netkf.wire.Estimate",
                schema_object({{"k", {{"type", "integer"}}},
+                              {"revision", {{"type", "integer"}}},
                               {"t", {{"type", "number"}}},
                               {"x_hat", number_array()},
                               {"P", number_array()},
@@ -232,6 +233,7 @@ json estimate_message(const Estimate& e) {
   for (Eigen::Index r = 0; r < e.P.rows(); ++r)
     for (Eigen::Index c = 0; c < e.P.cols(); ++c) P.push_back(e.P(r, c));
   return json{{"k", e.k},
+              {"revision", e.revision},
               {"t", e.t},
               {"x_hat", std::vector<double>(e.x_hat.begin(), e.x_hat.end())},
               {"P", std::move(P)},

@@ -324,8 +324,12 @@ void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
 }  // namespace
 
 Scenario with_effective_links(const Scenario& scenario) {
+  return with_effective_links(scenario, scenario.deadline_ms());
+}
+
+Scenario with_effective_links(const Scenario& scenario, double horizon_ms) {
   Scenario out = scenario;
-  for (auto& sensor : out.sensors) sensor.link = LinkSpec(effective_loss_model(sensor.link, scenario.deadline_ms()));
+  for (auto& sensor : out.sensors) sensor.link = LinkSpec(effective_loss_model(sensor.link, horizon_ms));
   return out;
 }
 

@@ -90,6 +90,11 @@ struct Scenario {
   double period_s() const { return period_ms / 1000.0; }
   const SensorSpec* find_sensor(int id) const;
   int deadline_ms() const;
+  /// How long after its period's tick a sample can still reach the final estimate: the
+  /// deadline plus D periods with late_policy fuse_within, the deadline with drop.
+  double final_horizon_ms() const {
+    return deadline_ms() + static_cast<double>(estimator.fusable_delay_periods()) * period_ms;
+  }
 };
 
 class ScenarioError : public std::runtime_error {
@@ -102,6 +107,9 @@ class ScenarioError : public std::runtime_error {
 /// so it counts as lost; netkf/link.hpp, effective_loss_model). The theory and the offline
 /// simulation take this; their link analyses read `link.loss` only.
 Scenario with_effective_links(const Scenario& scenario);
+/// The same for a sample that counts when its delay is at most `horizon_ms` (the final
+/// estimate with late_policy fuse_within: horizon final_horizon_ms()).
+Scenario with_effective_links(const Scenario& scenario, double horizon_ms);
 
 /// Indexes of `events` in the order they apply: by at_period, ties in list order.
 std::vector<std::size_t> event_application_order(const std::vector<LinkEvent>& events);
