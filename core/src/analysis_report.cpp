@@ -182,10 +182,14 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     report.final_estimate = final_estimate_report(configured);
     report.notes.push_back(
         "late_policy fuse_within (D = " + std::to_string(report.final_estimate->max_delay_periods) +
-        "): the verdict and bounds above are the in-time estimate's (arrival rates at the deadline); the final "
-        "estimate, after every revision, fuses the samples delayed at most deadline + D periods = " +
-        verdict_number(report.final_estimate->horizon_ms) + " ms: final_estimate is its verdict at those rates "
-        "(the same criteria; exact for i.i.d. delays as above)");
+        "): the verdict and bounds above are at the in-time arrival rates (delay <= deadline), i.e. those of the "
+        "estimator without the buffer (late_policy drop); the final estimate, after every revision, fuses the "
+        "samples delayed at most deadline + D periods = " +
+        verdict_number(report.final_estimate->horizon_ms) +
+        " ms: final_estimate is its verdict at those rates (the same criteria; exact for i.i.d. delays as above). "
+        "With the buffer the in-time estimate of k already knows every sample the final estimate of k - D "
+        "fuses, so its error is at most that of a D-step prediction from it: it stays bounded whenever the final "
+        "one does");
   }
   if (markov.applies && !markov.stable() && upper.status == BoundStatus::bounded)
     report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");

@@ -134,7 +134,7 @@ def numpy_final_worst(periods, samples):
 
 
 worst = numpy_final_worst(fuse["periods"], fuse["samples"])
-check(worst <= 1e-9, "fuse_within: the final estimates equal a NumPy filter over their samples (worst %.3g)" % worst)
+check(worst <= 1e-12, "fuse_within: the final estimates equal a NumPy filter over their samples to 1e-12 (worst %.3g)" % worst)
 
 
 # 5. rms_error and rms_error_final against a tally of the recording.
