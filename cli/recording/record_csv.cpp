@@ -103,8 +103,10 @@ bool PeriodCsvRecorder::write_row(std::int64_t k) {
 
 void PeriodCsvRecorder::complete_final() {
   if (!newest_in_time_) return;
-  // Period k is final once the in-time estimate of k + D is out: later revisions start after k.
-  const std::int64_t last_final = *newest_in_time_ - max_delay_periods_;
+  // Period k is final once the in-time estimate of k + D + 1 is out: k's late samples are taken
+  // until k + D is fused or its deadline passes, whichever is later (estimator_core.hpp), and
+  // k + D + 1 is fused after that (its tick comes a period after k + D's).
+  const std::int64_t last_final = *newest_in_time_ - max_delay_periods_ - 1;
   for (auto it = estimates_.begin(); it != estimates_.end() && it->first <= last_final;) {
     const std::int64_t k = (it++)->first;
     write_row(k);
@@ -179,8 +181,8 @@ void SampleCsvRecorder::add_estimate(const Estimate& estimate) {
   if (max_delay_periods_ > 0) {
     if (estimate.revision == 0) {
       fused_in_time_[k].insert(estimate.fused.begin(), estimate.fused.end());
-      // k - D is final now (see PeriodCsvRecorder), and so is everything before it.
-      while (!pending_.empty() && pending_.begin()->first <= k - max_delay_periods_)
+      // k - D - 1 is final now (see PeriodCsvRecorder), and so is everything before it.
+      while (!pending_.empty() && pending_.begin()->first <= k - max_delay_periods_ - 1)
         write_final(pending_.begin()->first);
     }
   } else {

@@ -22,7 +22,7 @@ std::string format_double(double value);
 /// With late_policy fuse_within (max_delay_periods D > 0) the row keeps the first (in-time,
 /// revision 0) estimate in those columns and appends the final one:
 /// `...,state,revisions,xhat_final0..xhat_final{n-1},trace_P_final,fused_final`; the row then
-/// waits until k is final (the in-time estimate of k + D has arrived, after which k is never
+/// waits until k is final (the in-time estimate of k + D + 1 has arrived, after which k is not
 /// revised) or the run ends (finish_pending()).
 class PeriodCsvRecorder {
  public:

@@ -71,7 +71,8 @@ void McapRecorder::truth(const TruthRecord& t) {
 
 // late_policy fuse_within: the estimate channel keeps the first (revision 0, written at once)
 // and the final estimate of each period (its newest revision, held until the in-time estimate
-// of k + D is out: k is never revised after that), so a period has one or two messages.
+// of k + D + 1 is out: k is not revised after that, see record_csv.hpp), so a period has one or
+// two messages.
 void McapRecorder::estimate(const Estimate& e) {
   if (finished()) return;
   if (e.revision > 0) {
@@ -84,7 +85,7 @@ void McapRecorder::estimate(const Estimate& e) {
   note_time(e.t);
   write_estimate(e);
   ++estimates_;
-  if (max_delay_periods_ > 0) write_finals(static_cast<std::int64_t>(e.k) - max_delay_periods_);
+  if (max_delay_periods_ > 0) write_finals(static_cast<std::int64_t>(e.k) - max_delay_periods_ - 1);
   write_events();
 }
 

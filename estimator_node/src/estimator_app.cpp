@@ -150,7 +150,7 @@ class EstimatorApp::Impl {
     const auto rejected_before = core_.rejected_total();
     const auto late_before = core_.late_total();
     publish(core_.on_sample(s.sensor_id, m.k(), s.y, m.stamp_ns(), dds::steady_now_ns()));
-    // late_policy fuse_within: a late sample was kept; the re-run (up to D fused updates) runs
+    // late_policy fuse_within: a late sample was kept; the re-run (up to D + 1 fused updates) runs
     // on the io thread, not here, and one re-run serves every late sample that came meanwhile.
     if (core_.revision_pending() && !revise_posted_) {
       revise_posted_ = true;

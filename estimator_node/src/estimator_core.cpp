@@ -185,13 +185,12 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   e.restarts = restarts_;
   e.last_sample_stamp_ns = open_->last_stamp_ns;
   last_fused_ = open_->k;
-  if (max_delay_periods_ > 0) remember(e, *x_prior, *P_prior, open_->last_stamp_ns);
+  if (max_delay_periods_ > 0) remember(e, *x_prior, *P_prior);
   open_.reset();
   return e;
 }
 
-void EstimatorCore::remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior,
-                             std::int64_t last_stamp_ns) {
+void EstimatorCore::remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior) {
   FusedPeriod f;
   f.k = e.k;
   f.t = e.t;
@@ -199,15 +198,21 @@ void EstimatorCore::remember(const PeriodEstimate& e, const Vector& x_prior, con
   f.P_prior = P_prior;
   // Only the samples the update fused: a rejected one must not be fused by a re-run either.
   for (const int id : e.fused) f.samples.emplace(id, open_->samples.at(id));
-  f.last_stamp_ns = last_stamp_ns;
+  f.last_stamp_ns = open_->last_stamp_ns;
+  f.deadline_ns = open_->deadline_ns;
   history_.push_back(std::move(f));
-  // The ring: a sample for j is fusable while j >= next - D, next = k + 1 (the period after
-  // the last fused), so the last D fused periods are all a re-run can start from.
-  while (history_.size() > static_cast<std::size_t>(max_delay_periods_)) history_.pop_front();
+  // The ring: the oldest period a sample can still be fused into is last fused - D (until the
+  // last fused period's deadline, see keep_late), so D + 1 fused periods.
+  while (history_.size() > static_cast<std::size_t>(max_delay_periods_) + 1) history_.pop_front();
 }
 
-bool EstimatorCore::keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns) {
+bool EstimatorCore::keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns,
+                              std::int64_t now_ns) {
   if (max_delay_periods_ == 0 || history_.empty() || k < history_.front().k || k > history_.back().k) return false;
+  // k's window closes when period k + D is fused, or at k + D's deadline if it was fused before.
+  const std::uint64_t closing = k + static_cast<std::uint64_t>(max_delay_periods_);
+  if (closing <= history_.back().k && now_ns >= history_[static_cast<std::size_t>(closing - history_.front().k)].deadline_ns)
+    return false;
   FusedPeriod& f = history_[static_cast<std::size_t>(k - history_.front().k)];  // consecutive periods
   if (!f.samples.emplace(sensor_id, SensorSample{sensor_id, y}).second) {
     reject(SampleRejection::duplicate);
@@ -315,7 +320,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
   // A sample for a fused period (or one before the first tick seen) is late: lost, unless
   // fuse_within keeps it for a re-run.
   if ((last_fused_ && k <= *last_fused_) || (open_ && k < open_->k)) {
-    if (!keep_late(sensor_id, k, y, stamp_ns)) count_late(sensor_id);
+    if (!keep_late(sensor_id, k, y, stamp_ns, now_ns)) count_late(sensor_id);
     return out;
   }
   if (open_ && k == open_->k) {

@@ -417,7 +417,7 @@ Estimate revision_of(std::uint64_t k, std::uint32_t revision, double x, std::vec
 }
 
 // late_policy fuse_within, D = 1: a row keeps the in-time and the final estimate and waits
-// until the in-time estimate of k + 1 is out; the last rows are written by finish_pending().
+// until the in-time estimate of k + 2 is out; the last rows are written by finish_pending().
 TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
   EXPECT_EQ(PeriodCsvRecorder::header(1, 1), "k,t,x0,xhat0,trace_P,fused,late,state,revisions,xhat_final0,trace_P_final,fused_final");
   PeriodCsvRecorder r(1, 1);
@@ -427,8 +427,10 @@ TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
   r.add_estimate(revision_of(0, 0, 0.5, {1}));
   r.add_estimate(revision_of(0, 1, 0.75, {1, 2}));
   EXPECT_EQ(r.flush(out), 0u);  // k = 0 may still be revised
-  r.add_estimate(revision_of(0, 2, 0.875, {1, 2, 3}));
   r.add_estimate(revision_of(1, 0, 1.5, {}));
+  EXPECT_EQ(r.flush(out), 0u);  // k = 0's window is open until k = 1's deadline
+  r.add_estimate(revision_of(0, 2, 0.875, {1, 2, 3}));
+  r.add_estimate(revision_of(2, 0, 9.0, {}));
   EXPECT_EQ(r.flush(out), 1u);
   r.finish_pending();
   EXPECT_EQ(r.flush(out), 1u);
@@ -446,8 +448,9 @@ TEST(SampleCsv, FuseWithinMarksFinalAndInTimeFusion) {
   r.add_delivered({2, 0, 0.5, {0.75}});  // late for the in-time estimate, fused in revision 1
   r.add_estimate(revision_of(0, 1, 0.0, {1, 2}));
   r.add_estimate(revision_of(1, 0, 0.0, {}));
-  EXPECT_EQ(r.flush(out), 0u);  // k = 0 is final once the in-time estimate of k = 2 is out
   r.add_estimate(revision_of(2, 0, 0.0, {}));
+  EXPECT_EQ(r.flush(out), 0u);  // k = 0 is final once the in-time estimate of k = 3 is out
+  r.add_estimate(revision_of(3, 0, 0.0, {}));
   EXPECT_EQ(r.flush(out), 2u);
   EXPECT_EQ(out.str(), "0,1,0.5,1,1,0.25\n0,2,0.5,1,0,0.75\n");
   r.add_delivered({1, 2, 0.7, {1.0}});

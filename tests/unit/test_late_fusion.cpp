@@ -297,4 +297,29 @@ TEST(LateFusion, SampleOlderThanDIsLateAndDuplicatesAreRejected) {
   EXPECT_TRUE(core.revise(42 * kMs).empty());
 }
 
+// A period fused before its deadline (all its samples in) does not shorten the window of the
+// period D before it: that window ends at its deadline, D periods after the period's own.
+TEST(LateFusion, EarlyFusionKeepsTheWindowOpenUntilTheDeadline) {
+  const netkf::Scenario sc = late_scenario(netkf::LatePolicy::fuse_within, 1);
+  EstimatorCore core(sc);
+  const Vector y1 = Vector::Constant(1, 0.4), y2 = Vector::Constant(2, 0.1);
+  core.on_tick(0, Vector::Zero(1), 0);
+  core.on_deadline(8 * kMs);  // period 0 fused with nothing
+  core.on_tick(1, Vector::Zero(1), 10 * kMs);
+  core.on_sample(1, 1, y1, 0, 11 * kMs);
+  core.on_sample(2, 1, y1, 0, 11 * kMs);
+  ASSERT_EQ(core.on_sample(3, 1, y2, 0, 11 * kMs).size(), 1u);  // period 1 complete: fused at 11 ms
+  EXPECT_EQ(core.last_fused_period(), 1u);
+  core.on_sample(1, 0, y1, 0, 17 * kMs);  // before period 1's deadline (18 ms): fused into 0
+  EXPECT_EQ(core.late_fused_total(), 1u);
+  EXPECT_EQ(core.late_total(), 0u);
+  core.on_sample(2, 0, y1, 0, 18 * kMs);  // at the deadline: late
+  EXPECT_EQ(core.late_fused_total(), 1u);
+  EXPECT_EQ(core.late_total(), 1u);
+  const auto revised = core.revise(19 * kMs);
+  ASSERT_EQ(revised.size(), 2u);
+  EXPECT_EQ(revised[0].fused, std::vector<int>{1});
+  EXPECT_EQ(revised[1].fused, (std::vector<int>{1, 2, 3}));
+}
+
 }  // namespace

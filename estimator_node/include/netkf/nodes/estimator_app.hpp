@@ -10,7 +10,7 @@
 // switch per sample to the latency; see endpoints.hpp). Ticks, the deadline and the status log
 // run on the io thread, which owns the timers. One mutex guards the estimator core.
 // With late_policy fuse_within a late sample is only stored on the receive thread; the re-run
-// it calls for (up to D fused updates, BENCHMARKS.md "Late-sample re-run") is posted to the io
+// it calls for (up to D + 1 fused updates, BENCHMARKS.md "Late-sample re-run") is posted to the io
 // thread, which publishes the revised estimates. (If a sample completes its period before
 // that post runs, the receive thread re-runs first: the in-time estimate must include it.)
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
