@@ -105,6 +105,7 @@ std::vector<Channel> make_channels() {
                schema_object({{"k", {{"type", "integer"}}},
                               {"configured", assessment_schema()},
                               {"observed", assessment_schema()},
+                              {"final_estimate", assessment_schema()},
                               {"observed_rates_from", {{"type", "string"}}},
                               {"region",
                                {{"type", json::array({"array", "null"})},
@@ -322,6 +323,8 @@ json theory_message(const TheoryView& t) {
   return json{{"k", t.k},
               {"configured", assessment_json(t.configured)},
               {"observed", t.observed ? assessment_json(*t.observed) : json(nullptr)},
+              // late_policy fuse_within: the final estimates' verdict and bounds (null with drop).
+              {"final_estimate", t.final_estimate ? assessment_json(*t.final_estimate) : json(nullptr)},
               // The theory's observed operating point: which link-status rate it assesses.
               {"observed_rates_from", "observed_arrival_rate_since_change"},
               {"region", std::move(region)}};
