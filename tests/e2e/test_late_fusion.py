@@ -5,7 +5,8 @@ with `fuse_within` (D = 2), link 2 delayed uniformly by 11..13 ms at a 10 ms per
 Independent expectations:
 - the channel does not know the policy: both runs deliver the same (sensor, period) set
   (compared over the periods both runs recorded, less the last few the stop cuts off);
-- drop: link 2 is never fused (the glitch allowance of test_delay.py: 2 % of the periods);
+- drop: link 2 is never fused (the glitch allowance of test_delay.py: 2 % of the periods, also
+  for the counts below; each run prints its counts);
 - fuse_within: every delivered sample of link 2 is in its period's final estimate, none in the
   in-time one; and the final estimates equal an independent NumPy Kalman filter (stacked form,
   Sinopoli eqs. 14-16 with the received rows only) over the samples the run fused in them;
@@ -90,9 +91,12 @@ check(fused2 <= glitches, "drop: link 2 is never fused (%d periods)" % fused2)
 late2 = [s for s in fuse["samples"] if s["sensor_id"] == "2" and int(s["k"]) <= last]
 final_fused = sum(s["fused"] == "1" for s in late2)
 in_time_fused = sum(s["fused_in_time"] == "1" for s in late2)
-check(len(late2) > 200 and final_fused == len(late2),
-      "fuse_within: every delivered sample of link 2 is fused in the final estimates (%d of %d)"
-      % (final_fused, len(late2)))
+# A sample can only miss its window (deadline + 2 periods = 28 ms, its delay is at most 13 ms)
+# if a process stalled for 15 ms: allowed at test_delay.py's glitch rate, and then counted late.
+missing = len(late2) - final_fused
+check(len(late2) > 200 and missing <= glitches and fuse["summary"]["link"]["2"]["late"] >= missing,
+      "fuse_within: every delivered sample of link 2 is fused in the final estimates (%d of %d; a missing one "
+      "is counted late: %d)" % (final_fused, len(late2), fuse["summary"]["link"]["2"]["late"]))
 check(in_time_fused <= glitches, "fuse_within: none in time (%d)" % in_time_fused)
 revised = sum(int(p["revisions"]) > 0 for p in fuse["periods"])
 check(revised >= final_fused - 5, "fuse_within: the periods with a late sample were revised (%d)" % revised)
