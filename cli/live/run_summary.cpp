@@ -269,7 +269,10 @@ void RunSummaryBuilder::add_estimate(const Estimate& e) {
   const auto k = static_cast<std::int64_t>(e.k);
   auto f = finals_.find(k);
   if (f == finals_.end()) f = finals_.emplace(k, Final{e.revision, e.x_hat, std::nullopt}).first;
-  else if (e.revision >= f->second.revision) f->second.revision = e.revision, f->second.x_hat = e.x_hat;
+  else if (e.revision >= f->second.revision) {
+    f->second.revision = e.revision;
+    f->second.x_hat = e.x_hat;
+  }
   while (!finals_.empty() && finals_.begin()->first < k - PeriodJoin::kWindow) finals_.erase(finals_.begin());
   if (e.revision > 0) {
     // A correction of a period already counted: only its final error changes.
