@@ -9,10 +9,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-names=(fused-update monte-carlo analyze latency hop-clock capacity dashboard security recovery multi-host
+names=(fused-update late-fusion monte-carlo analyze latency hop-clock capacity dashboard security recovery multi-host
        shutdown-aborts)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
+  [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
   [monte-carlo]="Monte Carlo filter steps per second against NumPy (bench_monte_carlo, bench/numpy_monte_carlo.py)"
   [analyze]="wall time of netkf analyze --json per scenario (bench/bench_analyze.sh)"
   [latency]="pipeline latency against one bare DDS hop, 8 sensors at 100 Hz, auto grouping and one process per sensor (bench_latency)"
@@ -111,6 +112,21 @@ if mode == "fused-update":
             marginal = "–" if prev is None else "%.3f" % ((p - prev[1]) / (d - prev[0]))
             print("| %d | %d | %.2f | %.2f | %.2f | %.1f× | %.3f | %s |" % (n, d, p, naive, seq, naive / p, p / d, marginal))
             prev = (d, p)
+
+elif mode == "late-fusion":
+    data = json.load(open(args[0]))
+    scale = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}
+    t = {}
+    for b in data["benchmarks"]:
+        if b.get("aggregate_name") != "median":
+            continue
+        name, n, D = b["run_name"].split("/")  # BM_ReRun_Worst/n:2/D:64
+        t[(name, int(n[2:]), int(D[2:]))] = b["real_time"] * scale[b["time_unit"]]
+    print("| n | D | sensors (m_i=2) | worst re-run (D periods) [µs] | per re-run period [µs] | one in-time period [µs] |")
+    print("|---|---|---|---|---|---|")
+    for n in (2, 6, 12):
+        rerun, in_time = t[("BM_ReRun_Worst", n, 64)], t[("BM_InTimePeriod", n, 64)]
+        print("| %d | 64 | 16 | %.1f | %.2f | %.2f |" % (n, rerun, rerun / 64, in_time))
 
 elif mode == "monte-carlo":
     data = json.load(open(args[0]))
@@ -240,6 +256,12 @@ bench_fused_update() {
   "$bin/bench_fused_update" --benchmark_min_time=0.2 --benchmark_repetitions=3 \
     --benchmark_report_aggregates_only=true --benchmark_format=json --benchmark_out="$out/fused-update.json" >/dev/null
   report fused-update "$out/fused-update.json"
+}
+
+bench_late_fusion() {
+  "$bin/bench_late_fusion" --benchmark_min_time=0.2 --benchmark_repetitions=3 \
+    --benchmark_report_aggregates_only=true --benchmark_format=json --benchmark_out="$out/late-fusion.json" >/dev/null
+  report late-fusion "$out/late-fusion.json"
 }
 
 bench_monte_carlo() {

@@ -62,7 +62,9 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
   };
   h.estimate = [&recording, console, summary](Estimate&& e) {
     recording.estimate(e);
-    if (console) console->estimate(e);
+    // The live view shows the in-time estimates (revision 0); the recording keeps the first and
+    // the final estimate of each period, the summary scores both.
+    if (console && e.revision == 0) console->estimate(e);
     if (summary) summary->add_estimate(e);
   };
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
@@ -209,8 +211,10 @@ void Launch::open_console() {
 void Launch::open_bus() {
   BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
   handlers.estimate = [record = std::move(handlers.estimate), this](Estimate&& e) {
-    fused_periods_ += e.fused.empty() ? 0 : 1;
-    last_estimate_ = e;
+    if (e.revision == 0) fused_periods_ += e.fused.empty() ? 0 : 1;
+    // The checkpoint: the newest period's best estimate (a revision of an older period is not it).
+    if (!last_estimate_ || e.k > last_estimate_->k || (e.k == last_estimate_->k && e.revision > last_estimate_->revision))
+      last_estimate_ = e;
     record(std::move(e));
   };
   // The dashboard retunes links: a launch serving it needs the ctl identity.

@@ -83,6 +83,7 @@ std::vector<Channel> make_channels() {
                              {"name", "period_ms", "state_dim", "sensors"})});
   c.push_back({ChannelId::estimate, "netkf/estimate", "netkf.wire.Estimate",
                schema_object({{"k", {{"type", "integer"}}},
+                              {"revision", {{"type", "integer"}}},
                               {"t", {{"type", "number"}}},
                               {"x_hat", number_array()},
                               {"P", number_array()},
@@ -109,6 +110,7 @@ std::vector<Channel> make_channels() {
                schema_object({{"k", {{"type", "integer"}}},
                               {"configured", assessment_schema()},
                               {"observed", assessment_schema()},
+                              {"final_estimate", assessment_schema()},
                               {"observed_rates_from", {{"type", "string"}}},
                               {"region",
                                {{"type", json::array({"array", "null"})},
@@ -240,6 +242,7 @@ json estimate_message(const Estimate& e) {
   for (std::size_t i = 0; i < e.late_sensors.size() && i < e.late_periods.size(); ++i)
     late_samples.push_back({{"k", e.late_periods[i]}, {"sensor_id", e.late_sensors[i]}});
   return json{{"k", e.k},
+              {"revision", e.revision},
               {"t", e.t},
               {"x_hat", std::vector<double>(e.x_hat.begin(), e.x_hat.end())},
               {"P", std::move(P)},
@@ -329,6 +332,8 @@ json theory_message(const TheoryView& t) {
   return json{{"k", t.k},
               {"configured", assessment_json(t.configured)},
               {"observed", t.observed ? assessment_json(*t.observed) : json(nullptr)},
+              // late_policy fuse_within: the final estimates' verdict and bounds (null with drop).
+              {"final_estimate", t.final_estimate ? assessment_json(*t.final_estimate) : json(nullptr)},
               // The theory's observed operating point: which link-status rate it assesses.
               {"observed_rates_from", "observed_arrival_rate_since_change"},
               {"region", std::move(region)}};

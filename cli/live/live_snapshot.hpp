@@ -43,6 +43,10 @@ struct TheoryView {
   std::int64_t k = -1;                       // newest period when it was requested
   AssessmentView configured;                 // the links as configured (Markov criterion for GE links)
   std::optional<AssessmentView> observed;    // i.i.d. at the observed rates since change, once every link has one
+  /// late_policy fuse_within: the final estimates' assessment, the links as configured at the
+  /// horizon deadline + D periods (netkf/analysis/report.hpp, FinalEstimateReport); `configured`
+  /// stays the in-time one.
+  std::optional<AssessmentView> final_estimate;
   std::vector<analysis::RegionPoint> region; // two-sensor scenarios: Liu-Goldsmith (λ1, λ2) region
 };
 

@@ -169,6 +169,7 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
   } else {
     render_assessment(out, "configured links", s.theory.configured);
     if (s.theory.observed) render_assessment(out, "observed rates since change, i.i.d.", *s.theory.observed);
+    if (s.theory.final_estimate) render_assessment(out, "final estimates, late_policy fuse_within", *s.theory.final_estimate);
     out << "  (S̄, V̄ bound E[P_k|k-1], Sinopoli Thm 4/6" << (theory_pending ? "; update pending" : "") << ")\n";
   }
   return out.str();

@@ -68,6 +68,11 @@ const RunQuantity kRunQuantities[] = {
        if (s.periods_scored == 0) return missing("no period with both truth and estimate");
        return value(std::sqrt(s.sum_squared_error / static_cast<double>(s.periods_scored)));
      }},
+    {"rms_error_final",
+     [](const RunSummary& s) {
+       if (s.periods_scored_final == 0) return missing("no period with both truth and estimate");
+       return value(std::sqrt(s.sum_squared_error_final / static_cast<double>(s.periods_scored_final)));
+     }},
     {"mean_trace_P",
      [](const RunSummary& s) {
        if (s.periods == 0) return missing(kNoEstimate);
@@ -237,10 +242,44 @@ LinkSummary* RunSummaryBuilder::link(int sensor_id) {
 
 void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
   score(join_.add_truth(truth.k, truth.x));
+  score_final(truth.k);
+}
+
+void RunSummaryBuilder::score_final(std::int64_t k) {
+  auto f = finals_.find(k);
+  const std::vector<double>* x = join_.truth(k);
+  if (f == finals_.end() || x == nullptr || static_cast<Eigen::Index>(x->size()) != f->second.x_hat.size()) return;
+  double e2 = 0.0;
+  for (std::size_t i = 0; i < x->size(); ++i) {
+    const double d = (*x)[i] - f->second.x_hat(static_cast<Eigen::Index>(i));
+    e2 += d * d;
+  }
+  auto& s = summary_;
+  if (f->second.squared_error) {
+    s.sum_squared_error_final += e2 - *f->second.squared_error;  // a revision replaces its period's term
+  } else {
+    s.sum_squared_error_final += e2;
+    ++s.periods_scored_final;
+  }
+  f->second.squared_error = e2;
 }
 
 void RunSummaryBuilder::add_estimate(const Estimate& e) {
   auto& s = summary_;
+  const auto k = static_cast<std::int64_t>(e.k);
+  auto f = finals_.find(k);
+  if (f == finals_.end()) f = finals_.emplace(k, Final{e.revision, e.x_hat, std::nullopt}).first;
+  else if (e.revision >= f->second.revision) {
+    f->second.revision = e.revision;
+    f->second.x_hat = e.x_hat;
+  }
+  while (!finals_.empty() && finals_.begin()->first < k - PeriodJoin::kWindow) finals_.erase(finals_.begin());
+  if (e.revision > 0) {
+    // A correction of a period already counted: only its final error changes.
+    ++s.revisions;
+    score_final(k);
+    return;
+  }
   ++s.periods;
   s.sum_trace_P += e.trace_P();
   s.fused += e.fused.size();
@@ -256,6 +295,7 @@ void RunSummaryBuilder::add_estimate(const Estimate& e) {
     if (ms >= 0.0) s.latencies_ms.push_back(ms);
   }
   score(join_.add_estimate(static_cast<std::int64_t>(e.k), e.x_hat));
+  score_final(k);
 }
 
 void RunSummaryBuilder::score(std::optional<double> squared_error) {

@@ -7,7 +7,10 @@
 // The quantities (also docs/experiments.md, "Pass/fail checks in your CI"); a check names one of them,
 // per link as `link.ID.NAME`, and the summary's JSON uses the same names:
 //   periods              estimates received, one per period the estimator fused
-//   rms_error            sqrt(mean over periods with both truth and estimate of |x_k − x̂_{k|k}|²)
+//   rms_error            sqrt(mean over periods with both truth and estimate of |x_k − x̂_{k|k}|²),
+//                        x̂ the in-time estimate (revision 0) the control loop used
+//   rms_error_final      the same with each period's final estimate (its last revision; with
+//                        late_policy drop there is none and it equals rms_error)
 //   mean_trace_P         mean over periods of Tr P_{k|k}
 //   late_fraction        late samples (Σ over estimates of `late`) / samples the channel delivered
 //                        (Σ over links of `delivered`)
@@ -63,6 +66,9 @@ struct RunSummary {
   std::uint64_t periods = 0;
   std::uint64_t periods_scored = 0;   // with both truth and estimate (rms_error's periods)
   double sum_squared_error = 0.0;     // Σ |x_k − x̂_{k|k}|² over the scored periods
+  std::uint64_t periods_scored_final = 0;  // the same with each period's final estimate
+  double sum_squared_error_final = 0.0;
+  std::uint64_t revisions = 0;        // revised estimates received (late_policy fuse_within)
   double sum_trace_P = 0.0;           // Σ Tr P_{k|k} over the periods
   std::uint64_t fused = 0;            // Σ over periods of the sensors fused
   std::uint64_t late = 0;             // Σ over estimates of `late`
@@ -116,6 +122,14 @@ class RunSummaryBuilder {
   RunSummary summary_;
   PeriodJoin join_;
   void score(std::optional<double> squared_error);
+  /// rms_error_final: the newest estimate of each recent period, and its term in the sum.
+  struct Final {
+    std::uint32_t revision = 0;
+    Vector x_hat;
+    std::optional<double> squared_error;  // in sum_squared_error_final
+  };
+  std::map<std::int64_t, Final> finals_;
+  void score_final(std::int64_t k);
 };
 
 // ---------------------------------------------------------------- checks

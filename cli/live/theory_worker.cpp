@@ -17,6 +17,19 @@ TheoryView compute_theory(const TheoryRequest& request) {
     view.configured.result.stable = analysis::Verdict::unknown;
     view.configured.result.reason = std::string("theory unavailable: ") + e.what();
   }
+  if (request.configured.estimator.fusable_delay_periods() > 0) {
+    // The same assessment with each link's delay folded in at the final estimates' horizon.
+    const Scenario at_horizon = with_effective_links(request.configured, request.configured.final_horizon_ms());
+    AssessmentView final_estimate;
+    final_estimate.arrival_rates = analysis::configured_arrival_rates(at_horizon);
+    try {
+      final_estimate.result = analysis::assess_configured_links(at_horizon);
+    } catch (const std::exception& e) {
+      final_estimate.result.stable = analysis::Verdict::unknown;
+      final_estimate.result.reason = std::string("theory unavailable: ") + e.what();
+    }
+    view.final_estimate = std::move(final_estimate);
+  }
   if (request.observed_rates) {
     AssessmentView observed;
     observed.arrival_rates = *request.observed_rates;

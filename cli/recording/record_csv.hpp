@@ -4,6 +4,7 @@
 // callbacks, so no file I/O ever blocks a DDS thread.
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <ostream>
 #include <set>
 #include <string>
@@ -18,15 +19,22 @@ std::string format_double(double value);
 
 /// `k,t,x0..x{n-1},xhat0..xhat{n-1},trace_P,fused,late,state,late_samples`, one row per period,
 /// written when both the truth and the estimate of k are known.
+/// With late_policy fuse_within (max_delay_periods D > 0) the row keeps the first (in-time,
+/// revision 0) estimate in those columns and appends the final one:
+/// `...,state,revisions,xhat_final0..xhat_final{n-1},trace_P_final,fused_final`; the row then
+/// waits until k is final (the in-time estimate of k + D + 1 has arrived, after which k is not
+/// revised) or the run ends (finish_pending()).
 class PeriodCsvRecorder {
  public:
-  explicit PeriodCsvRecorder(int state_dim);
-  static std::string header(int state_dim);
+  explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0);
+  static std::string header(int state_dim, int max_delay_periods = 0);
 
   void add_truth(const TruthRecord& truth);
   void add_estimate(const Estimate& estimate);
   /// Append the completed rows (in order of k) to `out` and forget them.
   std::size_t flush(std::ostream& out);
+  /// The run ended: the rows still waiting for their final estimate are complete with the last one.
+  void finish_pending();
 
   std::uint64_t rows_written() const { return rows_written_; }
   /// Records whose vectors had the wrong size (counted, not written).
@@ -34,9 +42,14 @@ class PeriodCsvRecorder {
 
  private:
   void try_complete(std::int64_t k);
+  void complete_final();  // D > 0: rows whose period is final
+  bool write_row(std::int64_t k);
   int n_;
+  int max_delay_periods_;
   std::map<std::int64_t, TruthRecord> truth_;
-  std::map<std::int64_t, Estimate> estimates_;
+  std::map<std::int64_t, Estimate> estimates_;  // the first (in-time) estimate of k
+  std::map<std::int64_t, Estimate> finals_;     // D > 0: the newest revision of k
+  std::optional<std::int64_t> newest_in_time_;  // D > 0
   std::map<std::int64_t, std::string> ready_;
   std::uint64_t rows_written_ = 0;
   std::uint64_t rejected_ = 0;
@@ -46,17 +59,25 @@ class PeriodCsvRecorder {
 /// `k,sensor_id,stamp,fused,y0..y{m-1}` (m = the largest measurement size; shorter
 /// samples leave trailing cells empty). Written when the estimate of k is known, so a
 /// test can replay the run through the core filter offline.
+/// With fuse_within (D > 0): `k,sensor_id,stamp,fused,fused_in_time,y0..`, `fused` meaning
+/// fused in k's final estimate; a row waits until k is final (as the period rows do).
 class SampleCsvRecorder {
  public:
-  explicit SampleCsvRecorder(int max_measurement_dim);
-  static std::string header(int max_measurement_dim);
+  explicit SampleCsvRecorder(int max_measurement_dim, int max_delay_periods = 0);
+  static std::string header(int max_measurement_dim, int max_delay_periods = 0);
 
   void add_delivered(const DeliveredRecord& sample);
   void add_estimate(const Estimate& estimate);
   std::size_t flush(std::ostream& out);
+  /// The run ended: write the samples still waiting for their period to be final.
+  void finish_pending();
 
  private:
+  void write_row(const DeliveredRecord& sample, bool fused, bool fused_in_time);
+  void write_final(std::int64_t k);
   int m_;
+  int max_delay_periods_;
+  std::map<std::int64_t, std::set<int>> fused_in_time_;  // D > 0: k -> ids of the in-time estimate
   std::map<std::int64_t, std::vector<DeliveredRecord>> pending_;
   std::map<std::int64_t, std::set<int>> fused_;  // k -> fused ids, once the estimate is known
   std::vector<std::string> ready_;

@@ -31,7 +31,11 @@ bool is_mcap_path(const std::string& path) {
 }
 
 McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered)
-    : writer_(out), model_(scenario), period_s_(scenario.period_ms / 1000.0), with_delivered_(with_delivered) {
+    : writer_(out),
+      model_(scenario),
+      period_s_(scenario.period_ms / 1000.0),
+      with_delivered_(with_delivered),
+      max_delay_periods_(scenario.estimator.fusable_delay_periods()) {
   using catalogue::ChannelId;
   truth_ = add_channel(writer_, ChannelId::truth);
   estimate_ = add_channel(writer_, ChannelId::estimate);
@@ -65,13 +69,41 @@ void McapRecorder::truth(const TruthRecord& t) {
   write(truth_, seconds_to_ns(t.t), catalogue::truth_message(t).dump());
 }
 
+// late_policy fuse_within: the estimate channel keeps the first (revision 0, written at once)
+// and the final estimate of each period (its newest revision, held until the in-time estimate
+// of k + D + 1 is out: k is not revised after that, see record_csv.hpp), so a period has one or
+// two messages.
 void McapRecorder::estimate(const Estimate& e) {
   if (finished()) return;
+  if (e.revision > 0) {
+    auto f = finals_.find(static_cast<std::int64_t>(e.k));
+    if (f == finals_.end()) finals_.emplace(static_cast<std::int64_t>(e.k), e);
+    else if (e.revision >= f->second.revision) f->second = e;
+    return;
+  }
   model_.add_estimate(e);  // counts late samples per link for the link status messages
   note_time(e.t);
-  write(estimate_, seconds_to_ns(e.t), catalogue::estimate_message(e).dump());
+  write_estimate(e);
   ++estimates_;
+  if (max_delay_periods_ > 0) write_finals(static_cast<std::int64_t>(e.k) - max_delay_periods_ - 1);
   write_events();
+}
+
+void McapRecorder::write_estimate(const Estimate& e) {
+  write(estimate_, seconds_to_ns(e.t), catalogue::estimate_message(e).dump());
+}
+
+void McapRecorder::write_finals(std::int64_t last_final) {
+  while (!finals_.empty() && finals_.begin()->first <= last_final) {
+    write_estimate(finals_.begin()->second);
+    finals_.erase(finals_.begin());
+  }
+}
+
+void McapRecorder::finish() {
+  if (finished()) return;
+  if (!finals_.empty()) write_finals(finals_.rbegin()->first);
+  writer_.finish();
 }
 
 void McapRecorder::delivered(const DeliveredRecord& d) {

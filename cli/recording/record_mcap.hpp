@@ -15,6 +15,7 @@
 //                                     sensors), as foxglove.Log for Foxglove's Log panel
 // Records are written as they arrive, so log times are not strictly ordered across channels.
 #include <cstdint>
+#include <map>
 #include <ostream>
 #include <set>
 #include <string>
@@ -40,8 +41,9 @@ class McapRecorder {
   void delivered(const DeliveredRecord& d);
   void link_status(const LinkStatusRecord& l);
   void link_change(const LinkChangeRecord& c);
-  /// DataEnd, Footer, closing magic (the file is complete). Idempotent.
-  void finish() { writer_.finish(); }
+  /// DataEnd, Footer, closing magic (the file is complete), after the final estimates still
+  /// held (late_policy fuse_within). Idempotent.
+  void finish();
   bool finished() const { return writer_.finished(); }
 
   std::uint64_t estimates() const { return estimates_; }
@@ -50,6 +52,9 @@ class McapRecorder {
 
  private:
   std::uint64_t period_time_ns(std::int64_t k) const;
+  void write_estimate(const Estimate& e);
+  /// fuse_within: write the held final revisions of the periods up to `last_final`.
+  void write_finals(std::int64_t last_final);
   void note_time(double t);
   void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json);
   void write_events();
@@ -58,6 +63,8 @@ class McapRecorder {
   LiveModel model_;  // the link views the dashboard sends (late counts, arrival rates)
   double period_s_;
   bool with_delivered_;
+  int max_delay_periods_ = 0;                  // D (0: late_policy drop, no revisions)
+  std::map<std::int64_t, Estimate> finals_;    // D > 0: the newest revision of k, until k is final
   std::uint16_t truth_ = 0, estimate_ = 0, delivered_ = 0, link_status_ = 0, link_change_ = 0, events_ = 0;
   std::uint64_t latest_ns_ = 0;
   std::uint64_t estimates_ = 0;

@@ -24,8 +24,8 @@ void open_or_fail(std::ofstream& out, const std::string& file, std::ios::openmod
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
                      const Scenario& scenario)
-    : periods_(scenario.state_dim()),
-      samples_(max_measurement_dim(scenario)),
+    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods()),
+      samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
       periods_file_(periods_file),
       samples_file_(samples_file) {
   if (periods_file && is_mcap_path(*periods_file)) {
@@ -34,7 +34,8 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
     mcap_out_.flush();
   } else if (periods_file) {
     open_or_fail(periods_out_, *periods_file, std::ios::trunc);
-    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim()) << "\n";
+    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods())
+                 << "\n";
   }
   if (periods_file) {
     events_file_ = *periods_file + ".events.yaml";
@@ -43,7 +44,8 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
   }
   if (samples_file) {
     open_or_fail(samples_out_, *samples_file, std::ios::trunc);
-    samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario)) << "\n";
+    samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods())
+                 << "\n";
   }
 }
 
@@ -112,6 +114,12 @@ void Recording::flush() {
 }
 
 void Recording::finish() {
+  // fuse_within: the last D periods' rows wait for a final estimate that no longer comes.
+  if (periods_out_.is_open() || samples_out_.is_open()) {
+    periods_.finish_pending();
+    samples_.finish_pending();
+    flush();
+  }
   if (mcap_ && !mcap_->finished()) {
     errno = 0;
     mcap_->finish();

@@ -41,6 +41,25 @@ json report_json(const analysis::AnalysisReport& r) {
                           {"loss", number_or_null(l.loss)},
                           {"in_time", number_or_null(l.in_time)},
                           {"effective_arrival_rate", number_or_null(l.effective_arrival_rate)}});
+  if (r.final_estimate) {
+    const auto& f = *r.final_estimate;
+    json links = json::array();
+    for (const auto& l : f.links)
+      links.push_back({{"sensor_id", l.sensor_id},
+                       {"loss", number_or_null(l.loss)},
+                       {"in_time", number_or_null(l.in_time)},
+                       {"effective_arrival_rate", number_or_null(l.effective_arrival_rate)}});
+    j["final_estimate"] = {{"max_delay_periods", f.max_delay_periods},
+                           {"horizon_ms", number_or_null(f.horizon_ms)},
+                           {"stable", analysis::to_string(f.stable)},
+                           {"stable_reason", f.stable_reason},
+                           {"expected_covariance",
+                            {{"lower_trace", number_or_null(f.lower_trace)}, {"upper_trace", number_or_null(f.upper_trace)}}},
+                           {"markov_criterion", number_or_null(f.markov_criterion)},
+                           {"links", std::move(links)}};
+  } else {
+    j["final_estimate"] = nullptr;
+  }
   j["notes"] = r.notes;
   return j;
 }
@@ -52,6 +71,24 @@ std::string show(const std::optional<double>& v, const char* missing = "unbounde
   return os.str();
 }
 
+}  // namespace
+
+namespace {
+void print_final_estimate(std::ostream& out, const analysis::FinalEstimateReport& f) {
+  out << "  final estimate (late_policy fuse_within, D = " << f.max_delay_periods << ": samples within "
+      << show(f.horizon_ms) << " ms)\n";
+  out << "    stable                   " << analysis::to_string(f.stable);
+  if (!f.stable_reason.empty()) out << " (" << f.stable_reason << ")";
+  out << "\n";
+  const char* missing = f.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
+  out << "    Tr S-bar (lower bound)   " << show(f.lower_trace, missing) << "\n";
+  out << "    Tr V-bar (upper bound)   " << show(f.upper_trace, missing) << "\n";
+  out << "    Markov criterion         " << show(f.markov_criterion, "n/a") << "\n";
+  out << "    links: id  loss  P(delay <= horizon)  final arrival rate\n";
+  for (const auto& l : f.links)
+    out << "      " << std::setw(4) << l.sensor_id << "  " << std::setw(9) << show(l.loss) << "  " << std::setw(9)
+        << show(l.in_time) << "  " << std::setw(9) << show(l.effective_arrival_rate) << "\n";
+}
 }  // namespace
 
 void print_analysis(std::ostream& out, const Scenario& s, const analysis::AnalysisReport& r) {
@@ -68,6 +105,7 @@ void print_analysis(std::ostream& out, const Scenario& s, const analysis::Analys
   for (const auto& l : r.links)
     out << "    " << std::setw(4) << l.sensor_id << "  " << std::setw(9) << show(l.loss) << "  " << std::setw(9)
               << show(l.in_time) << "  " << std::setw(9) << show(l.effective_arrival_rate) << "\n";
+  if (r.final_estimate) print_final_estimate(out, *r.final_estimate);
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
     out << "  critical arrival rate      lower " << show(cr.lower) << ", upper (LMI) " << show(cr.upper, "none")

@@ -72,9 +72,28 @@ class Validator {
                                           std::to_string(s_.period_ms) + "], got " + std::to_string(d));
     }
     positive("estimator.divergence_trace_bound", s_.estimator.divergence_trace_bound);
+    late_policy();
     plant(gain_may_be_pending);
     sensors();
     events();
+  }
+
+  void late_policy() {
+    const EstimatorSpec& e = s_.estimator;
+    if (e.late_policy == LatePolicy::drop) {
+      if (e.max_delay_periods)
+        fail("estimator.max_delay_periods",
+             "estimator.max_delay_periods needs estimator.late_policy: fuse_within (late_policy is drop)");
+      return;
+    }
+    if (!e.max_delay_periods)
+      fail("estimator.late_policy", "estimator.late_policy: fuse_within needs estimator.max_delay_periods (1.." +
+                                        std::to_string(EstimatorSpec::kMaxDelayPeriods) + ")");
+    const int d = *e.max_delay_periods;
+    if (d < 1 || d > EstimatorSpec::kMaxDelayPeriods)
+      fail("estimator.max_delay_periods", "estimator.max_delay_periods must be in [1, " +
+                                              std::to_string(EstimatorSpec::kMaxDelayPeriods) + "], got " +
+                                              std::to_string(d));
   }
 
  private:
@@ -305,8 +324,12 @@ void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
 }  // namespace
 
 Scenario with_effective_links(const Scenario& scenario) {
+  return with_effective_links(scenario, scenario.deadline_ms());
+}
+
+Scenario with_effective_links(const Scenario& scenario, double horizon_ms) {
   Scenario out = scenario;
-  for (auto& sensor : out.sensors) sensor.link = LinkSpec(effective_loss_model(sensor.link, scenario.deadline_ms()));
+  for (auto& sensor : out.sensors) sensor.link = LinkSpec(effective_loss_model(sensor.link, horizon_ms));
   return out;
 }
 
@@ -342,6 +365,10 @@ const SensorSpec* Scenario::find_sensor(int id) const {
   for (const auto& s : sensors)
     if (s.id == id) return &s;
   return nullptr;
+}
+
+const char* to_string(LatePolicy policy) {
+  return policy == LatePolicy::fuse_within ? "fuse_within" : "drop";
 }
 
 int Scenario::deadline_ms() const {
@@ -460,6 +487,10 @@ std::string scenario_to_yaml(const Scenario& s) {
   out << YAML::Key << "estimator" << YAML::Value << YAML::BeginMap;
   if (s.estimator.deadline_ms) out << YAML::Key << "deadline_ms" << YAML::Value << *s.estimator.deadline_ms;
   out << YAML::Key << "divergence_trace_bound" << YAML::Value << s.estimator.divergence_trace_bound;
+  if (s.estimator.late_policy != LatePolicy::drop)
+    out << YAML::Key << "late_policy" << YAML::Value << to_string(s.estimator.late_policy);
+  if (s.estimator.max_delay_periods)
+    out << YAML::Key << "max_delay_periods" << YAML::Value << *s.estimator.max_delay_periods;
   out << YAML::EndMap;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -472,11 +472,22 @@ class Loader {
   }
 
   void read_estimator(const YAML::Node& node, EstimatorSpec& estimator) {
-    const MapView m = open_map(node, "estimator", marks_["estimator"], {"deadline_ms", "divergence_trace_bound"});
+    const MapView m = open_map(node, "estimator", marks_["estimator"],
+                               {"deadline_ms", "divergence_trace_bound", "late_policy", "max_delay_periods"});
     if (m.has("deadline_ms")) estimator.deadline_ms = read_int(m.values.at("deadline_ms"), "estimator.deadline_ms");
     if (m.has("divergence_trace_bound"))
       estimator.divergence_trace_bound =
           read_positive(m.values.at("divergence_trace_bound"), "estimator.divergence_trace_bound");
+    if (m.has("late_policy")) {
+      const YAML::Node& v = m.values.at("late_policy");
+      const std::string word = read_string(v, "estimator.late_policy");
+      if (word == "drop") estimator.late_policy = LatePolicy::drop;
+      else if (word == "fuse_within") estimator.late_policy = LatePolicy::fuse_within;
+      else fail(v.Mark(), "estimator.late_policy must be drop or fuse_within, got '" + word + "'");
+    }
+    // The range (1..64) and the pairing with late_policy are checked by validate_scenario.
+    if (m.has("max_delay_periods"))
+      estimator.max_delay_periods = read_int(m.values.at("max_delay_periods"), "estimator.max_delay_periods");
   }
 
   std::string source_;

@@ -137,6 +137,7 @@ wire::Estimate to_wire(const Estimate& e) {
   w.stamp_ns(e.stamp_ns);
   w.last_sample_stamp_ns(e.last_sample_stamp_ns);
   w.restarts(e.restarts);
+  w.revision(e.revision);
   return w;
 }
 
@@ -167,6 +168,7 @@ Estimate from_wire(const wire::Estimate& e, int state_dim) {
   r.stamp_ns = e.stamp_ns();
   r.last_sample_stamp_ns = e.last_sample_stamp_ns();
   r.restarts = e.restarts();
+  r.revision = e.revision();
   return r;
 }
 

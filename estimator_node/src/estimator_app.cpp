@@ -6,6 +6,7 @@
 #include <mutex>
 #include <vector>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
@@ -82,6 +83,8 @@ class EstimatorApp::Impl {
     const std::lock_guard lock(mutex_);
     EstimatorAppStats s;
     s.published = published_;
+    s.revisions = revisions_;
+    s.late_fused_total = core_.late_fused_total();
     s.last_fused_period = core_.last_fused_period();
     s.late_total = core_.late_total();
     s.rejected_total = core_.rejected_total();
@@ -102,9 +105,13 @@ class EstimatorApp::Impl {
       }
       if (!reasons.empty()) reasons += ")";
     }
-    spdlog::info("published {} estimates (last period {}), late samples {}, rejected {}{}, state {}{}", s.published,
-                 s.last_fused_period ? std::to_string(*s.last_fused_period) : std::string("none"), s.late_total,
-                 s.rejected_total, reasons, netkf::to_string(s.state),
+    const std::string revised =
+        core_.max_delay_periods() > 0 ? fmt::format(" ({} of them revisions; {} late samples fused into them)",
+                                                    s.revisions, s.late_fused_total)
+                                      : std::string();
+    spdlog::info("published {} estimates{} (last period {}), late samples {}, rejected {}{}, state {}{}", s.published,
+                 revised, s.last_fused_period ? std::to_string(*s.last_fused_period) : std::string("none"),
+                 s.late_total, s.rejected_total, reasons, netkf::to_string(s.state),
                  s.restarts ? ", restarts " + std::to_string(s.restarts) : std::string());
   }
 
@@ -143,6 +150,12 @@ class EstimatorApp::Impl {
     const auto rejected_before = core_.rejected_total();
     const auto late_before = core_.late_total();
     publish(core_.on_sample(s.sensor_id, m.k(), s.y, m.stamp_ns(), dds::steady_now_ns()));
+    // late_policy fuse_within: a late sample was kept; the re-run (up to D + 1 fused updates) runs
+    // on the io thread, not here, and one re-run serves every late sample that came meanwhile.
+    if (core_.revision_pending() && !revise_posted_) {
+      revise_posted_ = true;
+      boost::asio::post(io_, [this] { revise(); });
+    }
     if (core_.rejected_total() != rejected_before) {
       if (const auto left_out = rejection_log_.allow())
         spdlog::warn("sample of sensor {} for period {} rejected ({} rejected so far){}", m.sensor_id(), m.k(),
@@ -153,6 +166,13 @@ class EstimatorApp::Impl {
     // No timer work here: a sample never opens a period (only a tick does), so the deadline
     // armed by the tick stays right; when it fires after the period was fused it finds
     // nothing to do.
+  }
+
+  // io thread
+  void revise() {
+    const std::lock_guard lock(mutex_);
+    revise_posted_ = false;
+    publish(core_.revise(dds::steady_now_ns()));  // empty when a tick or the deadline re-ran first
   }
 
   // io thread, with mutex_ held
@@ -178,11 +198,12 @@ class EstimatorApp::Impl {
         r.stamp_ns = dds::steady_now_ns();
         estimate_.write(dds::to_wire(r));  // to_wire refuses non-finite values: never NaN on the wire
         ++published_;
+        if (e.revision > 0) ++revisions_;
       } catch (const std::exception& ex) {
         spdlog::error("estimate for period {} not published: {}", e.k, ex.what());
       }
       if (e.skipped_tick) spdlog::warn("tick {} never arrived: period fused open-loop from a later tick", e.k);
-      if (e.state != last_state_) {
+      if (e.revision == 0 && e.state != last_state_) {  // the state of the newest in-time estimate
         if (e.state == FilterState::diverging) {
           spdlog::warn("period {}: filter diverging (Tr P = {:.4g}): arrival rates below critical?", e.k, e.P.trace());
         } else {
@@ -213,6 +234,8 @@ class EstimatorApp::Impl {
   std::chrono::milliseconds status_period_;
   std::optional<std::int64_t> armed_for_;
   std::uint64_t published_ = 0;
+  std::uint64_t revisions_ = 0;  // of published_
+  bool revise_posted_ = false;   // a revise() is queued on the io thread
   FilterState last_state_ = FilterState::ok;
   bool resumed_ = false;  // restarted from a checkpoint
   dds::Writer<wire::Estimate> estimate_;

@@ -1,6 +1,7 @@
 #include "netkf/nodes/estimator_core.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <stdexcept>
 
 namespace netkf::nodes {
@@ -43,7 +44,8 @@ FilterOptions filter_options(const Scenario& s) {
 EstimatorCore::EstimatorCore(const Scenario& scenario)
     : filter_(filter_model(scenario), prior_mean(scenario), prior_covariance(scenario), filter_options(scenario)),
       period_s_(scenario.period_s()),
-      deadline_ns_(static_cast<std::int64_t>(scenario.deadline_ms()) * 1000000) {
+      deadline_ns_(static_cast<std::int64_t>(scenario.deadline_ms()) * 1000000),
+      max_delay_periods_(scenario.estimator.fusable_delay_periods()) {
   for (const auto& s : scenario.sensors) sensor_dims_[s.id] = static_cast<int>(s.C.rows());
   if (scenario.plant.B) input_dim_ = static_cast<int>(scenario.plant.B->cols());
   if (scenario.plant.control) {
@@ -101,13 +103,16 @@ void EstimatorCore::count_late(int sensor_id, std::uint64_t k) {
 }
 
 void EstimatorCore::predict_with(const Vector& applied_input) {
+  Vector u;  // stays empty without B
   if (input_dim_ > 0) {
     // x̂_{k|k-1} = A x̂_{k-1|k-1} + B u_{k-1}: an absent input means the plant applied zero.
-    const Vector u = applied_input.size() == input_dim_ ? applied_input : Vector(Vector::Zero(input_dim_));
+    u = applied_input.size() == input_dim_ ? applied_input : Vector(Vector::Zero(input_dim_));
     filter_.predict(&u);
   } else {
     filter_.predict(nullptr);
   }
+  // A re-run predicts with the same input (the one applied: a re-run never changes the past).
+  if (!history_.empty() && last_fused_ && history_.back().k == *last_fused_) history_.back().input_after = std::move(u);
 }
 
 void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
@@ -132,12 +137,7 @@ void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
 
 bool EstimatorCore::complete() const { return open_ && open_->samples.size() == sensor_dims_.size(); }
 
-PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
-  std::vector<SensorSample> samples;
-  samples.reserve(open_->samples.size());
-  for (auto& [id, s] : open_->samples) samples.push_back(s);
-  const double trace_P_pred = filter_.P().trace();  // Tr P_{k|k-1}, before the fused update
-  const FusedUpdateResult result = filter_.update(samples);
+void EstimatorCore::count_fused_rejections(const FusedUpdateResult& result) {
   for (const auto& [id, reason] : result.rejected) {
     switch (reason) {
       case RejectReason::unknown_sensor: reject(SampleRejection::unknown_sensor); break;
@@ -146,6 +146,21 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
       default: reject(SampleRejection::duplicate); break;
     }
   }
+}
+
+PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
+  std::vector<SensorSample> samples;
+  samples.reserve(open_->samples.size());
+  for (auto& [id, s] : open_->samples) samples.push_back(s);
+  std::optional<Vector> x_prior;
+  std::optional<Matrix> P_prior;
+  if (max_delay_periods_ > 0) {
+    x_prior = filter_.x();
+    P_prior = filter_.P();
+  }
+  const double trace_P_pred = filter_.P().trace();  // Tr P_{k|k-1}, before the fused update
+  const FusedUpdateResult result = filter_.update(samples);
+  count_fused_rejections(result);
   PeriodEstimate e;
   e.k = open_->k;
   e.t = open_->t;
@@ -173,8 +188,90 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   e.restarts = restarts_;
   e.last_sample_stamp_ns = open_->last_stamp_ns;
   last_fused_ = open_->k;
+  if (max_delay_periods_ > 0) remember(e, *x_prior, *P_prior);
   open_.reset();
   return e;
+}
+
+void EstimatorCore::remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior) {
+  FusedPeriod f;
+  f.k = e.k;
+  f.t = e.t;
+  f.x_prior = x_prior;
+  f.P_prior = P_prior;
+  // Only the samples the update fused: a rejected one must not be fused by a re-run either.
+  for (const int id : e.fused) f.samples.emplace(id, open_->samples.at(id));
+  f.last_stamp_ns = open_->last_stamp_ns;
+  f.deadline_ns = open_->deadline_ns;
+  history_.push_back(std::move(f));
+  // The ring: the oldest period a sample can still be fused into is last fused - D (until the
+  // last fused period's deadline, see keep_late), so D + 1 fused periods.
+  while (history_.size() > static_cast<std::size_t>(max_delay_periods_) + 1) history_.pop_front();
+}
+
+bool EstimatorCore::keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns,
+                              std::int64_t now_ns) {
+  if (max_delay_periods_ == 0 || history_.empty() || k < history_.front().k || k > history_.back().k) return false;
+  // k's window closes when period k + D is fused, or at k + D's deadline if it was fused before.
+  const std::uint64_t closing = k + static_cast<std::uint64_t>(max_delay_periods_);
+  if (closing <= history_.back().k && now_ns >= history_[static_cast<std::size_t>(closing - history_.front().k)].deadline_ns)
+    return false;
+  FusedPeriod& f = history_[static_cast<std::size_t>(k - history_.front().k)];  // consecutive periods
+  if (!f.samples.emplace(sensor_id, SensorSample{sensor_id, y}).second) {
+    reject(SampleRejection::duplicate);
+    return true;
+  }
+  f.last_stamp_ns = std::max(f.last_stamp_ns, stamp_ns);
+  ++late_fused_total_;
+  rerun_from_ = std::min(rerun_from_.value_or(k), k);
+  return true;
+}
+
+void EstimatorCore::flush_revisions(std::vector<PeriodEstimate>& out, std::int64_t now_ns) {
+  if (!rerun_from_) return;
+  std::vector<PeriodEstimate> revised = revise(now_ns);
+  out.insert(out.end(), std::make_move_iterator(revised.begin()), std::make_move_iterator(revised.end()));
+}
+
+std::vector<PeriodEstimate> EstimatorCore::revise(std::int64_t now_ns) {
+  std::vector<PeriodEstimate> out;
+  if (!rerun_from_) return out;
+  const std::uint64_t from = *rerun_from_;
+  rerun_from_.reset();
+  if (history_.empty() || from < history_.front().k) return out;  // cannot happen: the ring only drops after a flush
+  // Re-run from the prior of period `from`: the same recursion as the in-time one (fuse, then
+  // predict with the applied input), with the samples that have arrived since.
+  auto i = static_cast<std::size_t>(from - history_.front().k);
+  filter_.restore(history_[i].x_prior, history_[i].P_prior);
+  out.reserve(history_.size() - i);
+  for (; i < history_.size(); ++i) {
+    FusedPeriod& f = history_[i];
+    f.x_prior = filter_.x();
+    f.P_prior = filter_.P();
+    std::vector<SensorSample> samples;
+    samples.reserve(f.samples.size());
+    for (const auto& [id, s] : f.samples) samples.push_back(s);
+    PeriodEstimate e;
+    e.trace_P_pred = filter_.P().trace();
+    const FusedUpdateResult result = filter_.update(samples);
+    count_fused_rejections(result);
+    e.k = f.k;
+    e.revision = ++f.revision;
+    e.t = f.t;
+    e.x_hat = filter_.x();
+    e.P = filter_.P();
+    e.fused = result.fused_ids;
+    e.late_total = late_total_;
+    e.rejected_total = rejected_total();
+    e.state = filter_.state();
+    e.fused_at_ns = now_ns;
+    e.restarts = restarts_;
+    e.last_sample_stamp_ns = f.last_stamp_ns;
+    out.push_back(std::move(e));
+    // Into the next period (fused, or the open one): with the input the plant applied.
+    if (f.input_after) filter_.predict(f.input_after->size() > 0 ? &*f.input_after : nullptr);
+  }
+  return out;
 }
 
 std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector& applied_input, std::int64_t now_ns) {
@@ -184,6 +281,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector
     reject(SampleRejection::stale_tick);  // duplicate or reordered tick
     return out;
   }
+  flush_revisions(out, now_ns);
   // A later tick closes the open period even before its deadline.
   if (open_) out.push_back(fuse(now_ns));
   if (last_fused_) {
@@ -222,9 +320,10 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
     reject(SampleRejection::non_finite);
     return out;
   }
-  // A sample for a fused period (or one before the first tick seen) is late: lost.
+  // A sample for a fused period (or one before the first tick seen) is late: lost, unless
+  // fuse_within keeps it for a re-run.
   if ((last_fused_ && k <= *last_fused_) || (open_ && k < open_->k)) {
-    count_late(sensor_id, k);
+    if (!keep_late(sensor_id, k, y, stamp_ns, now_ns)) count_late(sensor_id, k);
     return out;
   }
   if (open_ && k == open_->k) {
@@ -233,7 +332,10 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
       return out;
     }
     open_->last_stamp_ns = std::max(open_->last_stamp_ns, stamp_ns);
-    if (complete()) out.push_back(fuse(now_ns));
+    if (complete()) {
+      flush_revisions(out, now_ns);
+      out.push_back(fuse(now_ns));
+    }
     return out;
   }
   // A future period: keep it until its tick (bounded, so a flood cannot grow memory).
@@ -252,7 +354,10 @@ std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_
 
 std::vector<PeriodEstimate> EstimatorCore::on_deadline(std::int64_t now_ns) {
   std::vector<PeriodEstimate> out;
-  if (open_ && now_ns >= open_->deadline_ns) out.push_back(fuse(now_ns));
+  if (open_ && now_ns >= open_->deadline_ns) {
+    flush_revisions(out, now_ns);
+    out.push_back(fuse(now_ns));
+  }
   return out;
 }
 

@@ -100,6 +100,19 @@ TEST(Conversions, EstimateLateCountIsItsListOfSensors) {
   EXPECT_THROW(dds::from_wire(w), dds::ConversionError);
 }
 
+TEST(Conversions, EstimateRevisionRoundTripsAndDefaultsToInTime) {
+  netkf::Estimate r;
+  r.k = 12;
+  r.x_hat = netkf::Vector{{1.0}};
+  r.P = netkf::Matrix::Identity(1, 1);
+  EXPECT_EQ(dds::to_wire(r).revision(), 0u);  // an in-time estimate, as before revisions existed
+  r.revision = 3;
+  const auto w = dds::to_wire(r);
+  EXPECT_EQ(w.revision(), 3u);
+  EXPECT_EQ(dds::from_wire(w).revision, 3u);
+  EXPECT_EQ(dds::from_wire(w).k, 12u);
+}
+
 TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
   const netkf::LinkKeys keys{{"model", std::string("gilbert_elliott")}, {"loss", 0.2}, {"mean_burst", 5.0},
                              {"delay_ms", 6.0}, {"delay_distribution", std::string("pareto")}};

@@ -106,8 +106,15 @@ TEST(OneVerdict, EveryShippedScenarioGetsTheSameVerdictAndReasonFromAnalyzeAndTh
     EXPECT_EQ(live.stable, report.stable) << "analyze: " << report.stable_reason << "\nlive: " << live.reason;
     EXPECT_EQ(live.reason, report.stable_reason);
     EXPECT_FALSE(live.reason.empty());
-    // Only one file is built below the critical rate (its comment: λ = 0.3 < λ_c = 0.36).
-    EXPECT_EQ(report.stable, file.stem() == "below-critical" ? Verdict::no : Verdict::yes) << report.stable_reason;
+    // Built below the critical rate (their comments): below-critical (λ = 0.3 < λ_c = 0.36) and
+    // the late-fusion boundary pair in time (λ = 0.18), whose final estimate is stable.
+    const std::string stem = file.stem().string();
+    const bool below = stem == "below-critical" || stem.rfind("late-fusion-boundary", 0) == 0;
+    EXPECT_EQ(report.stable, below ? Verdict::no : Verdict::yes) << report.stable_reason;
+    EXPECT_EQ(report.final_estimate.has_value(), s.estimator.late_policy == netkf::LatePolicy::fuse_within);
+    if (report.final_estimate) {
+      EXPECT_EQ(report.final_estimate->stable, Verdict::yes) << report.final_estimate->stable_reason;
+    }
   }
 }
 
@@ -199,3 +206,39 @@ TEST(Analysis, RegionReportsItsGridPointsAsProgress) {
 
 }  // namespace
 }  // namespace netkf::analysis
+
+namespace {
+
+// late_policy fuse_within: the final estimate's verdict and bounds are those of the same plant
+// over a delay-free Bernoulli link with the arrival rate (1 - loss)·P(delay <= deadline + D·T),
+// here (1 - 0.55)·P(U[0, 20] <= 18) = 0.45·0.9 = 0.405 > λ_c = 0.36; in time 0.45·0.4 = 0.18.
+TEST(AnalyzeLateFusion, FinalEstimateUsesTheLongerHorizon) {
+  const auto dir = netkf::test::source_dir() / "deploy" / "scenarios";
+  const netkf::Scenario s = netkf::load_scenario_file(dir / "late-fusion-boundary.yaml");
+  const auto report = netkf::analysis::analyze(s);
+  ASSERT_TRUE(report.final_estimate.has_value());
+  const auto& f = *report.final_estimate;
+  EXPECT_EQ(f.max_delay_periods, 1);
+  EXPECT_DOUBLE_EQ(f.horizon_ms, 18.0);
+  ASSERT_EQ(f.links.size(), 1u);
+  EXPECT_NEAR(f.links[0].effective_arrival_rate, 0.405, 1e-12);
+  EXPECT_NEAR(report.links[0].effective_arrival_rate, 0.18, 1e-12);
+  EXPECT_EQ(report.stable, netkf::analysis::Verdict::no);
+  EXPECT_EQ(f.stable, netkf::analysis::Verdict::yes);
+
+  netkf::Scenario bernoulli = s;  // the independent equivalent: no delay, drop, loss 1 - 0.405
+  bernoulli.estimator.late_policy = netkf::LatePolicy::drop;
+  bernoulli.estimator.max_delay_periods.reset();
+  bernoulli.sensors[0].link = netkf::LinkSpec(netkf::BernoulliLink{1.0 - 0.405});
+  const auto equivalent = netkf::analysis::analyze(bernoulli);
+  EXPECT_FALSE(equivalent.final_estimate.has_value());
+  EXPECT_EQ(equivalent.stable, f.stable);
+  ASSERT_TRUE(equivalent.lower_trace && f.lower_trace);
+  EXPECT_NEAR(*f.lower_trace, *equivalent.lower_trace, 1e-9 * *equivalent.lower_trace);
+  ASSERT_TRUE(equivalent.upper_trace && f.upper_trace);
+  EXPECT_NEAR(*f.upper_trace, *equivalent.upper_trace, 1e-9 * *equivalent.upper_trace);
+  // Scalar i.i.d. closed form (Sinopoli Thm 3 with C invertible): S̄ = Q / (1 - (1-λ)α²).
+  EXPECT_NEAR(*f.lower_trace, 1.0 / (1.0 - 0.595 * 1.5625), 1e-9);
+}
+
+}  // namespace

@@ -403,3 +403,61 @@ TEST(LaunchFiles, ReadsWhatFastDdsShmCleanRemoved) {
 }
 
 }  // namespace
+
+namespace netkf::cli {
+namespace {
+
+Estimate revision_of(std::uint64_t k, std::uint32_t revision, double x, std::vector<int> fused) {
+  Estimate e;
+  e.k = k;
+  e.revision = revision;
+  e.x_hat = Vector{{x}};
+  e.P = Matrix{{1.0}};
+  e.fused = std::move(fused);
+  return e;
+}
+
+// late_policy fuse_within, D = 1: a row keeps the in-time and the final estimate and waits
+// until the in-time estimate of k + 2 is out; the last rows are written by finish_pending().
+TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
+  EXPECT_EQ(PeriodCsvRecorder::header(1, 1), "k,t,x0,xhat0,trace_P,fused,late,state,revisions,xhat_final0,trace_P_final,fused_final");
+  PeriodCsvRecorder r(1, 1);
+  std::ostringstream out;
+  r.add_truth({0, 0.0, {1.0}});
+  r.add_truth({1, 0.01, {2.0}});
+  r.add_estimate(revision_of(0, 0, 0.5, {1}));
+  r.add_estimate(revision_of(0, 1, 0.75, {1, 2}));
+  EXPECT_EQ(r.flush(out), 0u);  // k = 0 may still be revised
+  r.add_estimate(revision_of(1, 0, 1.5, {}));
+  EXPECT_EQ(r.flush(out), 0u);  // k = 0's window is open until k = 1's deadline
+  r.add_estimate(revision_of(0, 2, 0.875, {1, 2, 3}));
+  r.add_estimate(revision_of(2, 0, 9.0, {}));
+  EXPECT_EQ(r.flush(out), 1u);
+  r.finish_pending();
+  EXPECT_EQ(r.flush(out), 1u);
+  EXPECT_EQ(out.str(),
+            "0,0,1,0.5,1,1,0,ok,2,0.875,1,1;2;3\n"
+            "1,0.01,2,1.5,1,,0,ok,0,1.5,1,\n");
+}
+
+TEST(SampleCsv, FuseWithinMarksFinalAndInTimeFusion) {
+  EXPECT_EQ(SampleCsvRecorder::header(1, 2), "k,sensor_id,stamp,fused,fused_in_time,y0");
+  SampleCsvRecorder r(1, 2);
+  std::ostringstream out;
+  r.add_delivered({1, 0, 0.5, {0.25}});
+  r.add_estimate(revision_of(0, 0, 0.0, {1}));
+  r.add_delivered({2, 0, 0.5, {0.75}});  // late for the in-time estimate, fused in revision 1
+  r.add_estimate(revision_of(0, 1, 0.0, {1, 2}));
+  r.add_estimate(revision_of(1, 0, 0.0, {}));
+  r.add_estimate(revision_of(2, 0, 0.0, {}));
+  EXPECT_EQ(r.flush(out), 0u);  // k = 0 is final once the in-time estimate of k = 3 is out
+  r.add_estimate(revision_of(3, 0, 0.0, {}));
+  EXPECT_EQ(r.flush(out), 2u);
+  EXPECT_EQ(out.str(), "0,1,0.5,1,1,0.25\n0,2,0.5,1,0,0.75\n");
+  r.add_delivered({1, 2, 0.7, {1.0}});
+  r.finish_pending();
+  EXPECT_EQ(r.flush(out), 1u);
+}
+
+}  // namespace
+}  // namespace netkf::cli

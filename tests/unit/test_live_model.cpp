@@ -206,6 +206,30 @@ TEST(LiveModel, CrossingTheCriticalBoundaryRaisesAWarning) {
   EXPECT_NE(events[0].text.find("back above"), std::string::npos);
 }
 
+// late_policy fuse_within: the live theory adds the final estimates' verdict at the horizon
+// deadline + D periods; its rates are the links' (1 - loss)·P(delay <= horizon), here
+// 0.45·P(U[0, 20] <= 18) = 0.405 against 0.45·0.4 = 0.18 in time (the scenario's comment).
+TEST(LiveModel, FuseWithinShowsTheFinalEstimatesVerdictBesideTheInTimeOne) {
+  const auto dir = netkf::test::source_dir() / "deploy/scenarios";
+  Scenario s = load_scenario_file(dir / "late-fusion-boundary.yaml");
+  TheoryRequest request;
+  request.configured = s;
+  const TheoryView view = compute_theory(request);
+  EXPECT_EQ(view.configured.result.stable, analysis::Verdict::no);
+  ASSERT_TRUE(view.final_estimate.has_value());
+  EXPECT_EQ(view.final_estimate->result.stable, analysis::Verdict::yes);
+  ASSERT_EQ(view.final_estimate->arrival_rates.size(), 1u);
+  EXPECT_NEAR(view.final_estimate->arrival_rates[0], 0.405, 1e-12);
+  EXPECT_NEAR(view.configured.arrival_rates[0], 0.18, 1e-12);
+  LiveModel model(s);
+  model.set_theory(view);
+  const std::string status = render_status(model.snapshot(), false);
+  EXPECT_NE(status.find("theory (final estimates, late_policy fuse_within): stable=yes"), std::string::npos) << status;
+
+  request.configured = load_scenario_file(dir / "late-fusion-boundary-drop.yaml");
+  EXPECT_FALSE(compute_theory(request).final_estimate.has_value());
+}
+
 TEST(TheoryWorker, ComputesOffTheCallersThreadAndMatchesTheDirectAssessment) {
   const Scenario s = load_scenario_file(netkf::test::source_dir() / "deploy/scenarios/liu-goldsmith-diag.yaml");
   std::mutex m;

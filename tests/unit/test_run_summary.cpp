@@ -112,7 +112,7 @@ TEST(CheckParsing, AcceptsTheFourOperatorsWithOrWithoutSpaces) {
 TEST(CheckParsing, NamesAreTheSummarysPerLinkForTheScenariosIds) {
   const auto names = summary_names({4, 9});
   const std::vector<std::string> expected{
-      "periods", "rms_error", "mean_trace_P", "late_fraction", "fused_fraction", "periods_diverging",
+      "periods", "rms_error", "rms_error_final", "mean_trace_P", "late_fraction", "fused_fraction", "periods_diverging",
       "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
       "link.4.samples", "link.4.delivered", "link.4.dropped", "link.4.observed_loss",
       "link.4.observed_arrival_rate_since_change", "link.4.observed_arrival_rate_window", "link.4.observed_window_samples",
@@ -498,6 +498,45 @@ TEST(SummaryJson, EveryNameIsAPathWithItsValueOrNull) {
   EXPECT_FALSE(failing["passed"].get<bool>());
   // The JSON library writes NaN as null too; no value is ever NaN in the file.
   EXPECT_EQ(nlohmann::ordered_json(kNaN).dump(), "null");
+}
+
+// late_policy fuse_within: revisions change only the final error, never the in-time numbers.
+// Hand computation: truths x_0 = (1, 0), x_1 = (0, 2); in time x̂_0 = (0, 0), x̂_1 = (0, 0):
+// errors 1 and 4, rms_error = sqrt(5/2). Finals: k = 0 revised twice to (1, 0) (error 0), k = 1
+// once to (0, 1) (error 1), and a stale revision 1 of k = 0 after revision 2 is ignored:
+// rms_error_final = sqrt(1/2).
+TEST(RunSummary, RevisionsScoreTheFinalErrorOnly) {
+  RunSummaryBuilder b(scenario_with({1}));
+  b.add_truth(truth(0, {1.0, 0.0}));
+  b.add_estimate(estimate(0, {0.0, 0.0}, 2.0, {1}, {}, "ok", 1.0));
+  auto rev = [](std::uint64_t k, std::uint32_t revision, std::vector<double> x) {
+    Estimate e = estimate(k, x, 1.0, {1}, {}, "ok", 1.0);
+    e.revision = revision;
+    return e;
+  };
+  b.add_estimate(rev(0, 1, {0.5, 0.0}));
+  b.add_estimate(estimate(1, {0.0, 0.0}, 2.0, {}, {}, "ok", -1.0));
+  b.add_estimate(rev(1, 1, {0.0, 1.0}));  // before its truth
+  b.add_estimate(rev(0, 2, {1.0, 0.0}));
+  b.add_estimate(rev(0, 1, {9.0, 9.0}));  // older than the revision kept
+  b.add_truth(truth(1, {0.0, 2.0}));
+  const RunSummary& s = b.summary();
+  EXPECT_EQ(s.periods, 2u);
+  EXPECT_EQ(s.revisions, 4u);
+  EXPECT_DOUBLE_EQ(value_of(s, "rms_error"), std::sqrt(5.0 / 2.0));
+  EXPECT_DOUBLE_EQ(value_of(s, "rms_error_final"), std::sqrt(1.0 / 2.0));
+  EXPECT_DOUBLE_EQ(value_of(s, "mean_trace_P"), 2.0);  // in-time estimates only
+  EXPECT_EQ(value_of(s, "link.1.fused"), 1.0);
+}
+
+TEST(RunSummary, WithoutRevisionsTheFinalErrorIsTheInTimeOne) {
+  RunSummaryBuilder b(scenario_with({1}));
+  b.add_estimate(estimate(0, {0.5, 0.0}, 2.0, {1}, {}, "ok", 1.0));
+  b.add_truth(truth(0, {1.0, 1.0}));
+  b.add_truth(truth(1, {0.0, 0.0}));
+  b.add_estimate(estimate(1, {0.0, 3.0}, 2.0, {1}, {}, "ok", 1.0));
+  EXPECT_DOUBLE_EQ(value_of(b.summary(), "rms_error_final"), value_of(b.summary(), "rms_error"));
+  EXPECT_DOUBLE_EQ(value_of(b.summary(), "rms_error"), std::sqrt((0.25 + 1.0 + 9.0) / 2.0));
 }
 
 }  // namespace

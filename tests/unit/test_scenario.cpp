@@ -583,3 +583,49 @@ TEST(ProgrammaticValidation, CompleteScenarioComputesTheLqrGain) {
 }
 
 }  // namespace
+
+namespace {
+
+std::string late_policy_text(const std::string& estimator) {
+  return "period_ms: 10\n"
+         "plant: { A: [[0.5]], Q: [[1.0]] }\n"
+         "sensors:\n"
+         "  - { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.3 } }\n"
+         "estimator: " + estimator + "\n";
+}
+
+TEST(ScenarioLatePolicy, DropIsTheDefaultAndFuseWithinReadsD) {
+  const netkf::Scenario plain = netkf::parse_scenario(late_policy_text("{ deadline_ms: 8 }"), "inline.yaml");
+  EXPECT_EQ(plain.estimator.late_policy, netkf::LatePolicy::drop);
+  EXPECT_EQ(plain.estimator.fusable_delay_periods(), 0);
+  const netkf::Scenario s =
+      netkf::parse_scenario(late_policy_text("{ late_policy: fuse_within, max_delay_periods: 64 }"), "inline.yaml");
+  EXPECT_EQ(s.estimator.late_policy, netkf::LatePolicy::fuse_within);
+  EXPECT_EQ(s.estimator.fusable_delay_periods(), 64);
+  // The YAML handed to the child processes keeps both keys.
+  const netkf::Scenario again = netkf::parse_scenario(netkf::scenario_to_yaml(s), "again.yaml");
+  EXPECT_EQ(again.estimator.late_policy, netkf::LatePolicy::fuse_within);
+  EXPECT_EQ(again.estimator.max_delay_periods, 64);
+}
+
+TEST(ScenarioLatePolicy, BadValuesAreNamedAtTheirLine) {
+  auto error = [](const std::string& estimator) {
+    return error_of([&] { netkf::parse_scenario(late_policy_text(estimator), "inline.yaml"); });
+  };
+  EXPECT_THAT(error("{ late_policy: fuse_within, max_delay_periods: 0 }"),
+              HasSubstr("inline.yaml:5:"));
+  EXPECT_THAT(error("{ late_policy: fuse_within, max_delay_periods: 0 }"),
+              HasSubstr("estimator.max_delay_periods must be in [1, 64], got 0"));
+  EXPECT_THAT(error("{ late_policy: fuse_within, max_delay_periods: 65 }"),
+              HasSubstr("estimator.max_delay_periods must be in [1, 64], got 65"));
+  EXPECT_THAT(error("{ late_policy: fuse_within }"),
+              HasSubstr("estimator.late_policy: fuse_within needs estimator.max_delay_periods (1..64)"));
+  EXPECT_THAT(error("{ max_delay_periods: 2 }"),
+              HasSubstr("estimator.max_delay_periods needs estimator.late_policy: fuse_within"));
+  EXPECT_THAT(error("{ late_policy: fuse }"),
+              HasSubstr("inline.yaml:5:27: estimator.late_policy must be drop or fuse_within, got 'fuse'"));
+  EXPECT_THAT(error("{ late_policy: fuse_within, max_delay_periods: 2.5 }"),
+              HasSubstr("estimator.max_delay_periods must be an integer"));
+}
+
+}  // namespace

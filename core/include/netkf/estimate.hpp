@@ -12,12 +12,14 @@ namespace netkf {
 
 struct Estimate {
   std::uint64_t k = 0;
+  std::uint32_t revision = 0;     // 0: the in-time estimate of k (published once, at its deadline);
+                                  // n > 0: its n-th correction after late samples were fused (late_policy fuse_within)
   double t = 0.0;                 // t_k = k·period, seconds
   Vector x_hat;                   // x̂_{k|k}
   Matrix P;                       // P_{k|k}
   double trace_P_pred = 0.0;      // Tr P_{k|k-1}: what the theory's bounds S̄, V̄ bound (Sinopoli Thm 4/6)
   std::vector<int> fused;         // sensor ids fused for k (sorted)
-  std::uint32_t late = 0;         // late samples counted since the previous published estimate
+  std::uint32_t late = 0;         // late samples counted since the previous published estimate (never fused)
   std::vector<int> late_sensors;  // their sensor ids, one entry per late sample (late == its size)
   std::vector<std::uint64_t> late_periods;  // the period each of them was for (same order and size)
   std::uint64_t late_total = 0;   // running totals of the run

@@ -41,9 +41,24 @@ struct PlantSpec {
   double state_bound = 1e8;    // an uncontrolled run ends cleanly when |x|_inf exceeds this
 };
 
+/// What the estimator does with a sample that arrives after its period was fused.
+enum class LatePolicy {
+  drop,         // counted late, never fused (the in-time estimate is the only one)
+  fuse_within,  // fused into a revised estimate when at most max_delay_periods late
+};
+const char* to_string(LatePolicy policy);
+
 struct EstimatorSpec {
   std::optional<int> deadline_ms;          // default: period_ms * 0.8
   double divergence_trace_bound = 1e6;     // Tr P above this => state "diverging"
+  LatePolicy late_policy = LatePolicy::drop;
+  std::optional<int> max_delay_periods;    // D, 1..kMaxDelayPeriods; required with fuse_within, refused with drop
+  /// Periods of history the estimator may re-run: the periods a sample for k stays fusable
+  /// (0 with drop).
+  int fusable_delay_periods() const {
+    return late_policy == LatePolicy::fuse_within ? max_delay_periods.value_or(0) : 0;
+  }
+  static constexpr int kMaxDelayPeriods = 64;
 };
 
 /// A change of one link at a given period (the scenario's `events:`, or a replayed live
@@ -75,6 +90,11 @@ struct Scenario {
   double period_s() const { return period_ms / 1000.0; }
   const SensorSpec* find_sensor(int id) const;
   int deadline_ms() const;
+  /// How long after its period's tick a sample can still reach the final estimate: the
+  /// deadline plus D periods with late_policy fuse_within, the deadline with drop.
+  double final_horizon_ms() const {
+    return deadline_ms() + static_cast<double>(estimator.fusable_delay_periods()) * period_ms;
+  }
 };
 
 class ScenarioError : public std::runtime_error {
@@ -87,6 +107,9 @@ class ScenarioError : public std::runtime_error {
 /// so it counts as lost; netkf/link.hpp, effective_loss_model). The theory and the offline
 /// simulation take this; their link analyses read `link.loss` only.
 Scenario with_effective_links(const Scenario& scenario);
+/// The same for a sample that counts when its delay is at most `horizon_ms` (the final
+/// estimate with late_policy fuse_within: horizon final_horizon_ms()).
+Scenario with_effective_links(const Scenario& scenario, double horizon_ms);
 
 /// Indexes of `events` in the order they apply: by at_period, ties in list order.
 std::vector<std::size_t> event_application_order(const std::vector<LinkEvent>& events);
@@ -137,6 +160,7 @@ void validate_scenario(const Scenario& scenario);
 //   events                nothing: a timeline of link changes (LinkEvent)
 //   estimator.deadline_ms             80 % of period_ms; must be in (0, period_ms]
 //   estimator.divergence_trace_bound  1e6
+//   estimator.late_policy             drop (or fuse_within, then estimator.max_delay_periods 1..64)
 // Covariances: Q and lqr.Qx symmetric PSD; R, P0 and lqr.Ru symmetric PD (symmetry
 // up to a relative 1e-9). A given gain must make A - B gain Schur stable.
 

@@ -33,6 +33,23 @@ struct LinkArrival {
   double effective_arrival_rate = 1.0;  // (1 − loss) · in_time
 };
 
+/// late_policy fuse_within: the final estimate (after every revision) of period k fuses the
+/// samples delayed at most deadline + D periods, so it is the intermittent filter with the
+/// arrival rates (1 − loss)·P(delay ≤ deadline + D·period) (same reasoning as the deadline's
+/// effective arrival rate, with a longer horizon). The in-time estimate keeps the report's
+/// top-level verdict and bounds.
+struct FinalEstimateReport {
+  int max_delay_periods = 0;             // D
+  double horizon_ms = 0.0;               // deadline + D·period
+  Verdict stable = Verdict::unknown;
+  std::string stable_reason;
+  std::optional<double> lower_trace;     // Tr S̄ at the final arrival rates
+  std::optional<double> upper_trace;     // Tr V̄
+  bool iid_bounds = false;
+  std::optional<double> markov_criterion;
+  std::vector<LinkArrival> links;        // in_time = P(delay <= horizon)
+};
+
 struct AnalysisReport {
   double spectral_radius = 0.0;
   Verdict stable = Verdict::unknown;   // decide_stability() for the configured links
@@ -47,6 +64,7 @@ struct AnalysisReport {
   std::vector<std::string> notes;
   std::vector<RegionPoint> region;     // filled with AnalyzeOptions::region (two sensors)
   std::vector<SweepPoint> sweep;       // filled with AnalyzeOptions::sweep
+  std::optional<FinalEstimateReport> final_estimate;  // late_policy fuse_within only
 };
 
 struct AnalyzeOptions {

@@ -9,6 +9,10 @@
 // update when a sample completes its period: microseconds, and a hand-off would add a context
 // switch per sample to the latency; see endpoints.hpp). Ticks, the deadline and the status log
 // run on the io thread, which owns the timers. One mutex guards the estimator core.
+// With late_policy fuse_within a late sample is only stored on the receive thread; the re-run
+// it calls for (up to D + 1 fused updates, BENCHMARKS.md "Late-sample re-run") is posted to the io
+// thread, which publishes the revised estimates. (If a sample completes its period before
+// that post runs, the receive thread re-runs first: the in-time estimate must include it.)
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
@@ -33,7 +37,9 @@ struct EstimatorAppOptions {
 
 /// What the estimator did so far (for its summary line and for tests).
 struct EstimatorAppStats {
-  std::uint64_t published = 0;
+  std::uint64_t published = 0;         // estimates written, revisions included
+  std::uint64_t revisions = 0;         // of those, revised estimates (late_policy fuse_within)
+  std::uint64_t late_fused_total = 0;  // late samples fused into revisions
   std::optional<std::uint64_t> last_fused_period;
   std::uint64_t late_total = 0;
   std::uint64_t rejected_total = 0;

@@ -10,7 +10,24 @@
 // paper Thm 1, eqs. 8-9; Sinopoli eqs. 14-16 for one sensor); with nothing received the
 // period still advances (open-loop prediction). Prediction to period k uses the input u_{k-1}
 // the plant acknowledged in tick k. With control, u_k = -L x̂_{k|k} (LQG certainty equivalence).
+//
+// Late samples (estimator.late_policy, docs/scenario-format.md): with `drop` a sample for a
+// fused period is counted late and never fused. With `fuse_within` and max_delay_periods D
+// the core keeps the last D fused periods (their prior x̂_{j|j-1}, P_{j|j-1}, the samples
+// fused and the input predicted with after them), D + 1 of them: the ring. A sample for period
+// j is fusable until period j + D is fused, or until j + D's deadline when it was fused
+// before it (all its samples in, or a later tick): then j's window is deadline + D periods
+// after j's tick, whatever the other sensors do, as the theory assumes (the final estimate's
+// arrival rate (1 − loss)·P(delay <= deadline + D·period), analysis/report.hpp). A fusable
+// sample is added to j's samples and the filter is re-run from j to
+// now: every period from j on gets a revised estimate (revision 1, 2, ... of the same k), the
+// MMSE estimate given every sample that has arrived (multi-sensor paper Thm 1 applied to the
+// arrivals; Schenato 2008: with delays bounded by the buffer, the buffered re-run is optimal).
+// The inputs are the ones applied, so a re-run never changes a control already sent. The
+// re-run is done by revise(), and before anything else that fuses or predicts, so the next
+// in-time estimate always starts from the revised history. A sample older than D is late.
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -67,12 +84,23 @@ class EstimatorCore {
   /// Fuse the open period if its deadline has passed.
   std::vector<PeriodEstimate> on_deadline(std::int64_t now_ns);
 
+  /// late_policy fuse_within: re-run the filter from the earliest period that received a late
+  /// sample since the last re-run, returning the revised estimates (oldest period first); empty
+  /// when nothing is pending. Cost: at most D + 1 fused updates and predictions.
+  std::vector<PeriodEstimate> revise(std::int64_t now_ns);
+  /// Whether a late sample waits for revise().
+  bool revision_pending() const { return rerun_from_.has_value(); }
+
   /// Deadline of the open period (for the node's timer); nullopt when none is open.
   std::optional<std::int64_t> pending_deadline_ns() const;
   std::optional<std::uint64_t> open_period() const;
   std::optional<std::uint64_t> last_fused_period() const { return last_fused_; }
 
   std::uint64_t late_total() const { return late_total_; }
+  /// Samples that arrived after their period was fused and were fused into a revision.
+  std::uint64_t late_fused_total() const { return late_fused_total_; }
+  /// D: how many periods a sample stays fusable after its own (0 with late_policy drop).
+  int max_delay_periods() const { return max_delay_periods_; }
   std::uint64_t rejected_total() const;
   std::uint64_t rejected(SampleRejection r) const { return rejected_[static_cast<int>(r)]; }
   std::size_t buffered_samples() const;
@@ -95,8 +123,26 @@ class EstimatorCore {
     SensorSample sample;
     std::int64_t stamp_ns = 0;
   };
+  /// A fused period the re-run may start from (late_policy fuse_within).
+  struct FusedPeriod {
+    std::uint64_t k = 0;
+    double t = 0.0;
+    Vector x_prior;  // x̂_{k|k-1}
+    Matrix P_prior;  // P_{k|k-1}
+    std::map<int, SensorSample> samples;  // every sample fused for k (in time and late)
+    std::optional<Vector> input_after;     // the input predicted with from k to k+1 (once k+1 opened; empty: none)
+    std::int64_t last_stamp_ns = 0;
+    std::int64_t deadline_ns = 0;  // k's deadline (k - D's window closes at it, or when k is fused if later)
+    std::uint32_t revision = 0;
+  };
 
   PeriodEstimate fuse(std::int64_t now_ns);
+  /// revise() first (the revisions go to `out`), so what follows starts from the revised history.
+  void flush_revisions(std::vector<PeriodEstimate>& out, std::int64_t now_ns);
+  /// A sample for the fused period k: kept for a re-run (true) when fuse_within and k is in the ring.
+  bool keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns, std::int64_t now_ns);
+  void remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior);
+  void count_fused_rejections(const FusedUpdateResult& result);
   void open(std::uint64_t k, std::int64_t now_ns);
   void predict_with(const Vector& applied_input);
   bool complete() const;
@@ -120,6 +166,10 @@ class EstimatorCore {
   std::uint64_t rejected_before_restart_ = 0;  // the previous lives' total (from the checkpoint)
   std::optional<std::uint64_t> resumed_after_;  // ticks up to this period are history: ignored
   std::uint32_t restarts_ = 0;
+  int max_delay_periods_ = 0;               // D (0: late_policy drop)
+  std::deque<FusedPeriod> history_;         // the last D + 1 fused periods, oldest first
+  std::optional<std::uint64_t> rerun_from_;  // earliest period with a late sample not yet re-run
+  std::uint64_t late_fused_total_ = 0;
 };
 
 }  // namespace netkf::nodes
