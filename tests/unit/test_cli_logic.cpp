@@ -420,7 +420,7 @@ Estimate revision_of(std::uint64_t k, std::uint32_t revision, double x, std::vec
 // late_policy fuse_within, D = 1: a row keeps the in-time and the final estimate and waits
 // until the in-time estimate of k + 2 is out; the last rows are written by finish_pending().
 TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
-  EXPECT_EQ(PeriodCsvRecorder::header(1, 1), "k,t,x0,xhat0,trace_P,fused,late,state,revisions,xhat_final0,trace_P_final,fused_final");
+  EXPECT_EQ(PeriodCsvRecorder::header(1, 1), "k,t,x0,xhat0,trace_P,fused,late,state,late_samples,revisions,xhat_final0,trace_P_final,fused_final");
   PeriodCsvRecorder r(1, 1);
   std::ostringstream out;
   r.add_truth({0, 0.0, {1.0}});
@@ -436,8 +436,8 @@ TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
   r.finish_pending();
   EXPECT_EQ(r.flush(out), 1u);
   EXPECT_EQ(out.str(),
-            "0,0,1,0.5,1,1,0,ok,2,0.875,1,1;2;3\n"
-            "1,0.01,2,1.5,1,,0,ok,0,1.5,1,\n");
+            "0,0,1,0.5,1,1,0,ok,,2,0.875,1,1;2;3\n"
+            "1,0.01,2,1.5,1,,0,ok,,0,1.5,1,\n");
 }
 
 TEST(SampleCsv, FuseWithinMarksFinalAndInTimeFusion) {
