@@ -364,6 +364,8 @@ def numpy_filter_worst(rows, samples):
         if k in recorded:
             worst = max(worst, float(np.max(np.abs(x - np.array(recorded[k]["xhat"])))),
                         abs(np.trace(P) - recorded[k]["trace_P"]))
+            if sorted(recorded[k]["fused"]) != [s["sensor_id"] for s in got]:
+                worst = float("inf")  # the recorded fused set disagrees with the samples' flags
         x = A @ x
         P = A @ P @ A.T + Q
     return worst
