@@ -110,3 +110,23 @@ TEST(LossFitCoverage, BernoulliClosedForm) {
   EXPECT_GE(hits, kMinInside);
   EXPECT_GE(burst_passes, kMinInside);
 }
+
+TEST(LossFitCoverage, IidTracesAreRarelyCalledBursty) {
+  // `auto` on i.i.d. traces: it calls one bursty when a chain with memory lowers AIC by more
+  // than 2 (parsimony), for the simple Gilbert alternative when its likelihood-ratio
+  // statistic exceeds 4: P(χ²₁ > 4) = 4.6%; with the other families a little more. At a
+  // false rate of 8%, P(4 or more of 20) = 7%, at 4.6% it is 1.4%: at least 17 of 20 fixed
+  // seeds must be called not bursty. The 4-parameter fit must lose to bernoulli on AIC in as many.
+  int not_bursty = 0, bernoulli_beats_ge = 0;
+  for (int s = 0; s < kSeeds; ++s) {
+    const auto r = netkf::analysis::fit_loss_model(draw(netkf::BernoulliLink{0.2}, 5000 + static_cast<std::uint64_t>(s), kSamples));
+    ASSERT_EQ(r.candidates.size(), 4u);
+    if (r.fit().family == LossFamily::bernoulli) ++not_bursty;
+    if (r.candidates[3].aic > r.candidates[0].aic) ++bernoulli_beats_ge;
+    EXPECT_GE(r.candidates[3].log_likelihood, r.candidates[0].log_likelihood - 1e-6);  // nested
+  }
+  std::cout << "iid traces called not bursty: " << not_bursty << "/" << kSeeds
+            << ", bernoulli AIC below gilbert_elliott: " << bernoulli_beats_ge << "/" << kSeeds << "\n";
+  EXPECT_GE(not_bursty, 17);
+  EXPECT_GE(bernoulli_beats_ge, 17);
+}

@@ -51,7 +51,7 @@ int free_parameters(LossFamily family);
 struct FittedValue {
   std::string name;
   double value = 0.0;
-  bool free = true;  // fitted (false: fixed by the family, e.g. simple_gilbert's loss_bad 1)
+  bool free = true;  // estimated (false: fixed by the family, e.g. simple_gilbert's loss_bad 1)
   std::optional<double> stderr_value;
   std::optional<double> ci_low, ci_high;  // 95%
 };
@@ -101,7 +101,8 @@ struct DelaySummary {
 };
 
 struct LossFitOptions {
-  /// The family to fit; nullopt: every family, and pick the least AIC (`auto`).
+  /// The family to fit; nullopt: every family, and pick by AIC (`auto`): the least AIC,
+  /// but a simpler family within 2 of it is preferred (parsimony).
   std::optional<LossFamily> family;
   int starts = 8;                 // EM starts: one from the simple Gilbert fit, the rest random
   std::uint64_t seed = 1;         // of the random starts (derive_seed(seed, "loss-fit", start))
