@@ -7,6 +7,10 @@ docs/cli.md "netkf fit"), against expectations computed here from the file itsel
   parameters stated in the trace's comment line; its `link` object is a scenario link.
 - --scenario/--link/-o: the copy loads (`netkf analyze` on it) and carries the fitted link.
 - A malformed trace: exit 2 and FILE:LINE:COL on stderr.
+- `netkf analyze S.yaml --link 1=TRACE`: on Sinopoli's scalar plant with a simple Gilbert
+  trace made here (seeded), the criterion is α²(1 − r̂) with r̂ the trace's recovery
+  frequency and the critical mean burst 1/(1 − 1/α²) (Rohr-Marelli-Fu Thm 3.1; the
+  scenario's comment); a bad --link is exit 2.
 No DDS is started (the harness's network namespace is kept for uniformity).
 """
 import json
@@ -96,4 +100,36 @@ check(r.returncode == 2 and (bad + ":3:3: delivered must be 0 or 1") in r.stderr
 r = netkf("fit", trace, "--scenario", scenario, "--link", "9", "-o", os.path.join(out, "x.yaml"))
 check(r.returncode == 2 and "no such link" in r.stderr and not os.path.exists(os.path.join(out, "x.yaml")),
       "an unknown --link is refused, nothing written")
+
+# ---- analyze --link: the verdict for a measured link
+import random
+rng = random.Random(5)
+bad_state, rows = False, ["# simple Gilbert p=0.2 r=0.5 (seed 5)", "k,delivered"]
+for k in range(20000):
+    bad_state = (rng.random() < 0.2) if not bad_state else not (rng.random() < 0.5)
+    rows.append("%d,%d" % (k, 0 if bad_state else 1))
+sg_trace = os.path.join(out, "sg.csv")
+with open(sg_trace, "w") as f:
+    f.write("\n".join(rows) + "\n")
+d = [int(x.split(",")[1]) for x in rows[2:]]
+lost_then = sum(1 for t in range(1, len(d)) if d[t - 1] == 0)
+recovered = sum(1 for t in range(1, len(d)) if d[t - 1] == 0 and d[t] == 1)
+alpha2 = 1.25 ** 2
+r = netkf("analyze", scenario, "--link", "1=" + sg_trace, "--json", "--no-lmi")
+check(r.returncode == 0, "analyze --link exits 0 (rc=%d)" % r.returncode)
+a = json.loads(r.stdout) if r.returncode == 0 else {}
+m = (a.get("measured_links") or [{}])[0]
+check(m.get("family") == "simple_gilbert", "the simple Gilbert trace is fitted as simple_gilbert (%s)" % m.get("family"))
+expected = alpha2 * (1 - recovered / lost_then)
+check(abs((m.get("markov_criterion") or 0) - expected) < 1e-6 and abs((a.get("markov_criterion") or 0) - expected) < 1e-6,
+      "criterion = alpha^2 (1 - r_hat) = %.6g, in the report and for the link" % expected)
+check(m.get("stable") == "yes" and a.get("stable") == "yes", "stable with the measured link")
+crit = (m.get("mean_burst_margin") or {}).get("critical")
+check(crit is not None and abs(crit - 1 / (1 - 1 / alpha2)) < 1e-5,
+      "critical mean burst %s = 1/(1 - 1/alpha^2) = %.6g" % (crit, 1 / (1 - 1 / alpha2)))
+check(m.get("across_interval", "").startswith("stable across"), "stable across the fit's intervals: %s" % m.get("across_interval"))
+for bad_link, says in (("9=" + sg_trace, "no such link"), ("one=" + sg_trace, "expected ID=TRACE.csv"),
+                       ("1=" + bad, "delivered must be 0 or 1")):
+    r = netkf("analyze", scenario, "--link", bad_link)
+    check(r.returncode == 2 and says in r.stderr, "analyze --link %s: exit 2, says '%s'" % (bad_link, says))
 finish()
