@@ -186,7 +186,7 @@ void print_fit(std::ostream& out, const std::string& trace_name, const analysis:
                               std::to_string(f.iterations) + " iterations") << "; 95% intervals from the observed information)\n";
   out << "  key        value       stderr      95% interval\n";
   for (const auto& v : f.parameters) print_value(out, v);
-  print_value(out, f.loss);
+  if (f.family != analysis::LossFamily::bernoulli) print_value(out, f.loss);  // else it is the parameter
   print_value(out, f.mean_burst);
   print_run_test(out, "burst lengths (runs of drops)", f.bursts, true);
   print_run_test(out, "gap lengths (runs of deliveries)", f.gaps, false);

@@ -49,29 +49,53 @@ double emission(const Chain& c, int state, bool dropped) {
 double logit(double v) { return std::log(v / (1.0 - v)); }
 double logistic(double t) { return 1.0 / (1.0 + std::exp(-t)); }
 
+// Sums log c_t over many steps with few logarithms: the product of the c_t (each in (0, 1])
+// is kept until it gets small, then its log is added.
+class LogSum {
+ public:
+  void add(double c) {
+    if (c < 1e-100) {
+      sum_ += std::log(c);
+      return;
+    }
+    product_ *= c;
+    if (product_ < 1e-150) flush();
+  }
+  double total() {
+    flush();
+    return sum_;
+  }
+
+ private:
+  void flush() {
+    sum_ += std::log(product_);
+    product_ = 1.0;
+  }
+  double sum_ = 0.0, product_ = 1.0;
+};
+
 // The scaled forward recursion (Rabiner eq. 91-92): alpha[t] = P(state_t | x_1..x_t), and
 // log L = Σ log c_t with c_t = P(x_t | x_1..x_{t-1}). `alpha` may be null (likelihood only).
 double forward(std::span<const std::uint8_t> dropped, const Chain& c, std::vector<std::array<double, 2>>* alpha,
                std::vector<double>* scale) {
   const auto pi = stationary(c);
   const double P[2][2] = {{1.0 - c.p, c.p}, {c.r, 1.0 - c.r}};
-  double log_l = 0.0;
+  const double e[2][2] = {{emission(c, 0, false), emission(c, 1, false)},   // [x][state]
+                          {emission(c, 0, true), emission(c, 1, true)}};
+  LogSum log_l;
   std::array<double, 2> a{};
   for (std::size_t t = 0; t < dropped.size(); ++t) {
-    const bool x = dropped[t] != 0;
-    std::array<double, 2> next{};
-    for (int j = 0; j < 2; ++j) {
-      const double prior = t == 0 ? pi[j] : a[0] * P[0][j] + a[1] * P[1][j];
-      next[j] = prior * emission(c, j, x);
-    }
-    const double ct = next[0] + next[1];
+    const double* ex = e[dropped[t] != 0];
+    const double n0 = (t == 0 ? pi[0] : a[0] * P[0][0] + a[1] * P[1][0]) * ex[0];
+    const double n1 = (t == 0 ? pi[1] : a[0] * P[0][1] + a[1] * P[1][1]) * ex[1];
+    const double ct = n0 + n1;
     if (!(ct > 0.0)) return -kInf;
-    a = {next[0] / ct, next[1] / ct};
-    log_l += std::log(ct);
+    a = {n0 / ct, n1 / ct};
+    log_l.add(ct);
     if (alpha) (*alpha)[t] = a;
     if (scale) (*scale)[t] = ct;
   }
-  return log_l;
+  return log_l.total();
 }
 
 // Which of a chain's numbers a family fits, by their scenario key names.
@@ -125,6 +149,8 @@ Chain baum_welch_step(std::span<const std::uint8_t> dropped, const Chain& c, boo
   log_l = forward(dropped, c, &alpha, &scale);
   if (!std::isfinite(log_l)) return c;
   const double P[2][2] = {{1.0 - c.p, c.p}, {c.r, 1.0 - c.r}};
+  const double e[2][2] = {{emission(c, 0, false), emission(c, 1, false)},  // [x][state]
+                          {emission(c, 0, true), emission(c, 1, true)}};
   std::array<double, 2> beta{1.0, 1.0};
   double trans[2][2] = {{0, 0}, {0, 0}};
   double occupancy[2] = {0, 0}, drops_in[2] = {0, 0};
@@ -136,8 +162,9 @@ Chain baum_welch_step(std::span<const std::uint8_t> dropped, const Chain& c, boo
       if (x) drops_in[i] += g;
     }
     if (t == 0) break;
-    std::array<double, 2> eb{};  // e_j(x_t) beta_t(j) / c_t
-    for (int j = 0; j < 2; ++j) eb[j] = emission(c, j, x) * beta[j] / scale[t];
+    const double* ex = e[x];
+    const double inv = 1.0 / scale[t];
+    const std::array<double, 2> eb = {ex[0] * beta[0] * inv, ex[1] * beta[1] * inv};  // e_j(x_t) beta_t(j) / c_t
     for (int i = 0; i < 2; ++i)
       for (int j = 0; j < 2; ++j) trans[i][j] += alpha[t - 1][i] * P[i][j] * eb[j];
     beta = {P[0][0] * eb[0] + P[0][1] * eb[1], P[1][0] * eb[0] + P[1][1] * eb[1]};
