@@ -5,6 +5,7 @@ docs/cli.md "netkf fit"), against expectations computed here from the file itsel
   binomial standard error; the simple Gilbert candidate's p and r are the transition
   frequencies; the chosen (auto) fit is bursty and its 95% intervals hold the generating
   parameters stated in the trace's comment line; its `link` object is a scenario link.
+- --plot: an SVG naming the fitted model.
 - --scenario/--link/-o: the copy loads (`netkf analyze` on it) and carries the fitted link.
 - A malformed trace: exit 2 and FILE:LINE:COL on stderr.
 - `netkf analyze S.yaml --link 1=TRACE`: on Sinopoli's scalar plant with a simple Gilbert
@@ -90,6 +91,14 @@ if r.returncode == 0:
     links = json.loads(r.stdout).get("links", [])
     check(len(links) == 1 and abs(links[0]["loss"] - j.get("loss", -1)) < 1e-4,
           "analyze reads the fitted link's loss %.6g" % j.get("loss", -1))
+
+# ---- --plot: the burst histogram as a figure (gnuplot)
+plot = os.path.join(out, "bursts.svg")
+r = netkf("fit", trace, "--plot", plot)
+svg = open(plot).read() if os.path.exists(plot) else ""
+check(r.returncode == 0 and "<svg" in svg and "fitted gilbert_elliott" in svg, "--plot writes the SVG with the fitted model")
+r = netkf("fit", trace, "--plot", os.path.join(out, "bursts.txt"))
+check(r.returncode == 2, "--plot with another extension: exit 2")
 
 # ---- bad input
 bad = os.path.join(out, "bad.csv")
