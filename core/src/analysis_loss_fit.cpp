@@ -74,8 +74,8 @@ class LogSum {
   double sum_ = 0.0, product_ = 1.0;
 };
 
-// The scaled forward recursion (Rabiner eq. 91-92): alpha[t] = P(state_t | x_1..x_t), and
-// log L = Σ log c_t with c_t = P(x_t | x_1..x_{t-1}). `alpha` may be null (likelihood only).
+// The scaled forward recursion (Rabiner 1989, Sec. V.A, "Scaling"): alpha[t] =
+// P(state_t | x_1..x_t), and log L = Σ log c_t with c_t = P(x_t | x_1..x_{t-1}). `alpha` may be null (likelihood only).
 double forward(std::span<const std::uint8_t> dropped, const Chain& c, std::vector<std::array<double, 2>>* alpha,
                std::vector<double>* scale) {
   const auto pi = stationary(c);
@@ -141,7 +141,7 @@ struct EmState {
 
 // One Baum-Welch step from `c`: returns the updated chain and sets `log_l` to the
 // log-likelihood of `c`. The backward pass carries beta_t scaled by the forward c_t
-// (Rabiner eq. 93-94); gamma_t(i) = alpha_t(i) beta_t(i), and xi_t(i, j) = alpha_{t-1}(i)
+// (Rabiner 1989, Sec. V.A); gamma_t(i) = alpha_t(i) beta_t(i), and xi_t(i, j) = alpha_{t-1}(i)
 // P_ij e_j(x_t) beta_t(j) / c_t.
 Chain baum_welch_step(std::span<const std::uint8_t> dropped, const Chain& c, bool loss_good_free,
                       std::vector<std::array<double, 2>>& alpha, std::vector<double>& scale, double& log_l) {
@@ -458,7 +458,7 @@ std::string fixed(double v, int digits = 1) {
 }
 
 // The rule of `auto`: the least AIC, except that a simpler family within kParsimony of it
-// is preferred (Burnham & Anderson 2002, Sec. 2.6: a model within 2 of the best has
+// is preferred (Burnham & Anderson 2002, their rule of thumb: a model within 2 of the best has
 // substantial support). Without it, one spurious extra parameter wins for an i.i.d. trace
 // whenever its log-likelihood gain exceeds 1: P(χ²₁ > 2) = 16% of such traces would be
 // called bursty; with it, P(χ²₁ > 4) = 4.6% for the simple Gilbert alternative.

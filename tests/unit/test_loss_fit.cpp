@@ -215,7 +215,7 @@ TEST(LossFit, SimpleGilbertIsTheTransitionFrequencies) {
   EXPECT_DOUBLE_EQ(param(fit, "r").value, rr);
   EXPECT_EQ(param(fit, "loss_good").value, 0.0);
   EXPECT_FALSE(param(fit, "loss_bad").free);
-  // A Markov chain's transition frequencies: SE sqrt(p(1 − p)/n_from) (Anderson-Goodman);
+  // A Markov chain's transition frequencies: SE sqrt(p(1 − p)/n_from) (Anderson & Goodman 1957);
   // the stationary start term moves the observed information by O(1/n).
   EXPECT_NEAR(*param(fit, "p").stderr_value, std::sqrt(p * (1 - p) / from_good), 0.01 * std::sqrt(p * (1 - p) / from_good));
   EXPECT_NEAR(*param(fit, "r").stderr_value, std::sqrt(rr * (1 - rr) / from_bad), 0.01 * std::sqrt(rr * (1 - rr) / from_bad));

@@ -10,7 +10,8 @@
 //  - gilbert: loss_good 0, loss_bad free (p, r, loss_bad);
 //  - gilbert_elliott: p, r, loss_good, loss_bad.
 //    Both by maximum likelihood of the 2-state hidden Markov chain: Baum-Welch (EM with the
-//    scaled forward-backward recursions, Rabiner 1989, Sec. V.A) from several seeded starts
+//    scaled forward-backward recursions: L. R. Rabiner, "A tutorial on hidden Markov models",
+//    Proc. IEEE 77(2), 1989, Sec. III.C and V.A) from several seeded starts
 //    (a few iterations each, then the best one to convergence), the nested fits (simple
 //    Gilbert; for gilbert_elliott also Bernoulli) taken when they are better: EM cannot
 //    reach the boundary loss_bad = 1.
