@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   netkf::cli::add_record_command(app);
   netkf::cli::add_analyze_command(app);
   netkf::cli::add_simulate_command(app);
+  netkf::cli::add_fit_command(app);
   netkf::cli::add_security_command(app);
   try {
     app.parse(argc, argv);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "measured_links.hpp"
 #include "progress_bar.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/monte_carlo.hpp"
@@ -41,6 +42,16 @@ void check_plot_or_fail(const std::string& command, const std::string& path) {
   }
 }
 
+// `analyze --link ID=TRACE`: the traces fitted into the scenario, or one clear error, status 2.
+std::vector<MeasuredLink> fit_links_or_fail(Scenario& s, const std::vector<std::string>& specs) {
+  try {
+    return fit_measured_links(s, specs);
+  } catch (const std::exception& e) {
+    std::cerr << "netkf analyze: error: " << e.what() << "\n";
+    throw CLI::RuntimeError(2);
+  }
+}
+
 [[noreturn]] void fail(const std::string& command, const std::string& message) {
   std::cerr << "netkf " << command << ": error: " << message << "\n";
   throw CLI::RuntimeError(1);
@@ -54,6 +65,7 @@ void add_analyze_command(CLI::App& app) {
     bool json = false, region = false, sweep = false, no_lmi = false, lmi_always = false;
     int points = 0;
     std::string plot;
+    std::vector<std::string> links;
   };
   auto args = std::make_shared<Args>();
   auto* cmd = app.add_subcommand("analyze", "What the papers predict for a scenario: bounds, critical rates, regions");
@@ -65,9 +77,12 @@ void add_analyze_command(CLI::App& app) {
   cmd->add_flag("--no-lmi", args->no_lmi, "skip the CSDP LMI (upper bounds from the g iteration only)");
   cmd->add_flag("--lmi-always", args->lmi_always, "solve the LMI whatever its size (slow above ~50 rows)");
   cmd->add_option("--plot", args->plot, "write the figure (PNG or SVG) with gnuplot");
+  cmd->add_option("--link", args->links,
+                  "ID=TRACE.csv: fit the link's measured trace, analyse with it, give its verdict and margins (repeatable)");
   cmd->callback([args] {
-    const Scenario s = load_or_fail("analyze", args->file);
+    Scenario s = load_or_fail("analyze", args->file);
     check_plot_or_fail("analyze", args->plot);
+    std::vector<MeasuredLink> measured = fit_links_or_fail(s, args->links);
     analysis::AnalyzeOptions o;
     o.region = args->region;
     o.sweep = args->sweep || (!args->plot.empty() && !args->region);
@@ -81,14 +96,17 @@ void add_analyze_command(CLI::App& app) {
                       args->region && progress_bar_wanted(stderr_is_terminal(), args->json));
       o.progress = bar.callback();
       r = analysis::analyze(s, o);
+      judge_measured_links(s, measured);
     } catch (const std::exception& e) {
       fail("analyze", e.what());
     }
     if (args->json) {
-      const json j = analysis_json(r, args->region, args->sweep);
+      json j = analysis_json(r, args->region, args->sweep);
+      if (!measured.empty()) j["measured_links"] = measured_links_json(measured);
       std::cout << j.dump(2) << "\n";
     } else {
       print_analysis(std::cout, s, r);
+      print_measured_links(std::cout, measured);
     }
     if (!args->plot.empty()) {
       try {

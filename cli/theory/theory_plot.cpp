@@ -157,4 +157,23 @@ void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisRe
   run_gnuplot(s.str());
 }
 
+void plot_burst_histogram(const analysis::LossFit& fit, const std::string& title, const std::filesystem::path& out) {
+  std::ostringstream s;
+  s << header(out, title);
+  s << "$runs << EOD\n";
+  for (const auto& b : fit.bursts.bins) {
+    const std::string label = b.to < 0 ? std::to_string(b.from) + "+"
+                              : b.from == b.to ? std::to_string(b.from)
+                                               : std::to_string(b.from) + "-" + std::to_string(b.to);
+    s << quoted(label) << " " << b.observed << " " << b.expected << "\n";
+  }
+  s << "EOD\n";
+  s << "set xlabel 'burst length (consecutive drops)'\nset ylabel 'bursts'\n";
+  s << "set style data histograms\nset style histogram clustered gap 1\nset style fill solid 0.8 border -1\n";
+  s << "set yrange [0:*]\n";
+  s << "plot $runs using 2:xtic(1) lc rgb '#1f77b4' title 'trace (" << fit.bursts.runs << " bursts)', \\\n"
+       "     $runs using 3 lc rgb '#ff7f0e' title 'fitted " << analysis::to_string(fit.family) << " (expected)' noenhanced\n";
+  run_gnuplot(s.str());
+}
+
 }  // namespace netkf::cli

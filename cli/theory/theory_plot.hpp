@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <string>
 
+#include "netkf/analysis/loss_fit.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/monte_carlo.hpp"
 
@@ -21,5 +22,9 @@ void plot_region(const analysis::AnalysisReport& report, const std::string& titl
 /// Monte Carlo mean Tr P_{k|k-1} and mean squared error with ±2 SE bands, next to S̄ and V̄.
 void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisReport& bounds, const std::string& title,
                       const std::filesystem::path& out);
+
+/// `netkf fit --plot`: the trace's burst-length histogram (runs of drops, in the fit's
+/// chi-square bins) as bars beside the fitted model's expected counts.
+void plot_burst_histogram(const analysis::LossFit& fit, const std::string& title, const std::filesystem::path& out);
 
 }  // namespace netkf::cli

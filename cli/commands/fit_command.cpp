@@ -1,0 +1,106 @@
+// `netkf fit TRACE.csv`: which loss model explains a measured link (docs/cli.md, "netkf fit").
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.hpp"
+#include "fit_scenario.hpp"
+#include "fit_text.hpp"
+#include "netkf/analysis/loss_fit.hpp"
+#include "netkf/link_trace.hpp"
+#include "theory_plot.hpp"
+
+namespace netkf::cli {
+namespace {
+
+struct FitArgs {
+  std::string trace, model = "auto", plot, scenario, output;
+  std::optional<int> link;
+  std::uint64_t seed = 1;
+  bool json = false;
+};
+
+[[noreturn]] void fail(int status, const std::string& message) {
+  std::cerr << "netkf fit: error: " << message << "\n";
+  throw CLI::RuntimeError(status);
+}
+
+// The options that go together, and a plot path, checked before any work: status 2.
+void check_usage(const FitArgs& a) {
+  const int given = !a.scenario.empty() + a.link.has_value() + !a.output.empty();
+  if (given != 0 && given != 3) fail(2, "--scenario, --link and -o go together (write the fitted link into a copy)");
+  if (!a.plot.empty()) {
+    try {
+      check_plot_output(a.plot);
+    } catch (const std::exception& e) {
+      fail(2, e.what());
+    }
+  }
+}
+
+analysis::TraceFit fit_trace(const FitArgs& a, const LinkTrace& trace) {
+  analysis::LossFitOptions o;
+  if (a.model != "auto") o.family = analysis::parse_loss_family(a.model);
+  o.seed = a.seed;
+  try {
+    return analysis::fit_loss_model(trace.delivered, o);
+  } catch (const std::exception& e) {
+    fail(2, a.trace + ": " + e.what());
+  }
+}
+
+void write_outputs(const FitArgs& a, const analysis::TraceFit& r, const std::optional<analysis::DelaySummary>& delay) {
+  const auto& f = r.fit();
+  if (!a.plot.empty()) {
+    try {
+      plot_burst_histogram(f, a.trace + ": burst lengths against the fitted " + analysis::to_string(f.family), a.plot);
+    } catch (const std::exception& e) {
+      fail(1, e.what());
+    }
+    if (!a.json) std::cout << "wrote " << a.plot << "\n";
+  }
+  if (a.scenario.empty()) return;
+  const std::string note = "link " + std::to_string(*a.link) + " fitted by `netkf fit` from " + a.trace + ": " +
+                           analysis::to_string(f.family) + ", log-likelihood " + std::to_string(f.log_likelihood) +
+                           ", AIC " + std::to_string(f.aic);
+  try {
+    write_scenario_with_link(a.scenario, *a.link, fitted_link_json(f, delay), note, a.output);
+  } catch (const std::exception& e) {
+    fail(2, e.what());
+  }
+  if (!a.json) std::cout << "wrote " << a.output << " (link " << *a.link << " fitted)\n";
+}
+
+}  // namespace
+
+void add_fit_command(CLI::App& app) {
+  auto a = std::make_shared<FitArgs>();
+  auto* cmd = app.add_subcommand("fit", "Fit a loss model (bernoulli, Gilbert, Gilbert-Elliott) to a link's arrival trace");
+  cmd->add_option("trace", a->trace, "trace CSV: k,delivered[,delay_ms] (docs/scenario-format.md, 'Link traces')")
+      ->required();
+  cmd->add_option("--model", a->model, "family to fit, or auto (every family, chosen by AIC)")
+      ->check(CLI::IsMember({"auto", "bernoulli", "simple_gilbert", "gilbert", "gilbert_elliott"}));
+  cmd->add_flag("--json", a->json, "print one JSON object (keys: docs/cli.md, 'netkf fit')");
+  cmd->add_option("--plot", a->plot, "write the burst-length histogram against the model's (PNG or SVG) with gnuplot");
+  cmd->add_option("--scenario", a->scenario, "scenario to copy with the fitted link (with --link and -o)");
+  cmd->add_option("--link", a->link, "the link (sensor id) of --scenario that gets the fitted model");
+  cmd->add_option("-o,--output", a->output, "where the scenario copy goes");
+  cmd->add_option("--seed", a->seed, "seed of the EM's random starts (default 1)");
+  cmd->callback([a] {
+    check_usage(*a);
+    LinkTrace trace;
+    try {
+      trace = read_link_trace_file(a->trace);
+    } catch (const std::exception& e) {
+      fail(2, e.what());
+    }
+    const analysis::TraceFit r = fit_trace(*a, trace);
+    const auto delay = trace.has_delay ? analysis::summarize_delays(trace.delay_ms) : std::nullopt;
+    if (a->json) std::cout << fit_json(a->trace, r, delay).dump(2) << "\n";
+    else print_fit(std::cout, a->trace, r, delay);
+    write_outputs(*a, r, delay);
+  });
+}
+
+}  // namespace netkf::cli
