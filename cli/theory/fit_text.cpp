@@ -1,4 +1,5 @@
 #include "fit_text.hpp"
+#include "theory_text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -10,11 +11,6 @@ namespace netkf::cli {
 using nlohmann::json;
 
 namespace {
-
-json number_or_null(const std::optional<double>& v) {
-  if (!v || !std::isfinite(*v)) return nullptr;
-  return *v;
-}
 
 // Six significant digits: what a person pastes into a scenario (the intervals are wider).
 std::string g6(double v) {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "fit_text.hpp"
+#include "theory_text.hpp"
 #include "netkf/link_trace.hpp"
 
 namespace netkf::cli {
@@ -18,11 +19,6 @@ std::string g6(double v) {
   char text[32];
   std::snprintf(text, sizeof text, "%.6g", v);
   return text;
-}
-
-json number_or_null(const std::optional<double>& v) {
-  if (!v || !std::isfinite(*v)) return nullptr;
-  return *v;
 }
 
 std::pair<int, std::string> parse_spec(const std::string& spec) {

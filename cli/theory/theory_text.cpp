@@ -8,13 +8,14 @@ namespace netkf::cli {
 
 using nlohmann::json;
 
-namespace {
-
-json number_or_null(const std::optional<double>& v) {
+nlohmann::json number_or_null(const std::optional<double>& v) {
   if (!v || !std::isfinite(*v)) return nullptr;
   return *v;
 }
 
+namespace {
+
+using cli::number_or_null;  // the optional form, beside this one
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
 json report_json(const analysis::AnalysisReport& r) {

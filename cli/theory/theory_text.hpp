@@ -3,6 +3,7 @@
 // (the keys are a contract: docs/architecture.md, "Contracts"). JSON has no NaN or infinity:
 // a non-finite or missing number is null.
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <ostream>
 
 #include "netkf/analysis/report.hpp"
@@ -17,5 +18,8 @@ void print_analysis(std::ostream& out, const Scenario& scenario, const analysis:
 
 nlohmann::json monte_carlo_json(const MonteCarloResult& result);
 void print_monte_carlo(std::ostream& out, const Scenario& scenario, const MonteCarloResult& result);
+
+/// A number for JSON, or null when absent or not finite (JSON has no inf or NaN).
+nlohmann::json number_or_null(const std::optional<double>& v);
 
 }  // namespace netkf::cli
