@@ -73,6 +73,11 @@ void LiveConsole::truth(const TruthRecord& truth) {
 }
 
 void LiveConsole::estimate(const Estimate& estimate) {
+  // A revision (late_policy fuse_within) corrects an earlier period: only the page plots it.
+  if (estimate.revision > 0) {
+    if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
+    return;
+  }
   model_.add_estimate(estimate);
   if (estimate.has_pipeline_latency()) metrics_.observe_pipeline_latency(estimate.pipeline_latency_s());
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());

@@ -62,9 +62,9 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
   };
   h.estimate = [&recording, console, summary](Estimate&& e) {
     recording.estimate(e);
-    // The live view shows the in-time estimates (revision 0); the recording keeps the first and
-    // the final estimate of each period, the summary scores both.
-    if (console && e.revision == 0) console->estimate(e);
+    // The recording keeps the first and the final estimate of each period, the summary scores
+    // both, the live view takes both (its status and metrics follow the in-time ones).
+    if (console) console->estimate(e);
     if (summary) summary->add_estimate(e);
   };
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };

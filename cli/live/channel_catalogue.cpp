@@ -74,6 +74,8 @@ std::vector<Channel> make_channels() {
                               {"period_ms", {{"type", "number"}}},
                               {"state_dim", {{"type", "integer"}}},
                               {"seed", {{"type", "integer"}}},
+                              {"late_policy", {{"type", "string"}}},
+                              {"max_delay_periods", {{"type", json::array({"integer", "null"})}}},
                               {"sensors",
                                {{"type", "array"},
                                 {"items", schema_object({{"id", {{"type", "integer"}}},
@@ -230,6 +232,11 @@ json scenario_message(const Scenario& scenario) {
               {"period_ms", scenario.period_ms},
               {"state_dim", scenario.state_dim()},
               {"seed", scenario.seed},
+              // fuse_within: revised estimates (revision > 0) follow on netkf/estimate for up to D periods.
+              {"late_policy", to_string(scenario.estimator.late_policy)},
+              {"max_delay_periods", scenario.estimator.late_policy == LatePolicy::fuse_within
+                                        ? json(scenario.estimator.fusable_delay_periods())
+                                        : json(nullptr)},
               {"sensors", std::move(sensors)}};
 }
 

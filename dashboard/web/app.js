@@ -72,6 +72,8 @@
     unstable: 'rgba(214, 48, 49, 0.20)',
     lowerCurve: '#b8322f',
     upperCurve: '#1e8a4c',
+    final: '#c2185b',                      // late_policy fuse_within: the final (revised) estimates
+    finalBand: 'rgba(194, 24, 91, 0.08)',
   };
 
   // What a test (tests/e2e/dashboard_browser.mjs) reads; updated as messages arrive.
@@ -83,6 +85,12 @@
     decodeErrors: 0,
     eventCount: 0,
     pointsPlotted: 0,          // estimate points in the first state chart
+    revisionsReceived: 0,      // revised estimates (revision > 0, late_policy fuse_within)
+    finalPointsPlotted: 0,     // periods in the plotted window whose final estimate is a revision
+    finalSeries: false,        // the charts carry the final-estimate series and band
+    finalVerdict: null,        // the final estimates' "stable" ("yes"/"no"/"unknown"), null without one
+    recentRevisions: [],       // the last revised estimates taken: {k, revision, x_hat}
+    theoryBands: null,         // the latest theory's bands: {configured, final: {stable, lower, upper} or null}
     plotLengths: {},           // uPlot data lengths per chart, after the last redraw
     setParametersSent: 0,
     connected: false,
@@ -131,11 +139,17 @@
       this.diverging = new Uint8Array(capacity);
       this.tracePred = new Float64Array(capacity);
       this.trace = new Float64Array(capacity);
+      // The final estimate of a period: its last revision (late_policy fuse_within).
+      this.revision = new Uint16Array(capacity);
+      this.hasFinal = new Uint8Array(capacity);
+      this.tracePredFinal = new Float64Array(capacity);
+      this.xHatFinal = [];
       this.xHat = [];
       this.sigma = [];
       this.truth = [];
       for (let i = 0; i < stateDim; i++) {
         this.xHat.push(new Float64Array(capacity));
+        this.xHatFinal.push(new Float64Array(capacity));
         this.sigma.push(new Float64Array(capacity));
         this.truth.push(new Float64Array(capacity));
       }
@@ -147,6 +161,7 @@
       this.k.fill(-1);
       this.hasEstimate.fill(0);
       this.hasTruth.fill(0);
+      this.hasFinal.fill(0);
       this.maxK = -1;
       this.firstK = Infinity;   // oldest period received since the last clear
     }
@@ -159,6 +174,7 @@
         this.k[i] = k;
         this.hasEstimate[i] = 0;
         this.hasTruth[i] = 0;
+        this.hasFinal[i] = 0;
       }
       if (k > this.maxK) this.maxK = k;
       if (k < this.firstK) this.firstK = k;
@@ -192,7 +208,9 @@
     sensorIds: [],
     sensorIndex: new Map(),
     ring: null,
-    theory: new RecordRing(THEORY_SAMPLES),   // {k, confLower, confUpper, obsLower, obsUpper}
+    theory: new RecordRing(THEORY_SAMPLES),   // {k, confLower, confUpper, obsLower, obsUpper, finLower, finUpper}
+    fuseWithin: false,                        // late_policy fuse_within: revised estimates follow
+    maxDelayPeriods: 0,                       // D
     latestEstimate: null,
     latestTheory: null,
     latestNetwork: null,
@@ -382,7 +400,8 @@
   // --------------------------------------------------------------- messages
   function onScenario(s) {
     const sensors = Array.isArray(s.sensors) ? s.sensors : [];
-    const key = JSON.stringify([s.name, s.period_ms, s.state_dim, s.seed, sensors.map((x) => [x.id, x.measurement_dim])]);
+    const key = JSON.stringify([s.name, s.period_ms, s.state_dim, s.seed, s.late_policy, s.max_delay_periods,
+      sensors.map((x) => [x.id, x.measurement_dim])]);
     store.scenario = s;
     if (key === store.scenarioKey) return;
     store.scenarioKey = key;
@@ -391,14 +410,18 @@
     store.sensorIndex = new Map(store.sensorIds.map((id, i) => [id, i]));
     const capacity = Math.min(MAX_PERIODS, Math.ceil(MAX_WINDOW_S / store.periodS) + 16);
     store.ring = new PeriodRing(capacity, Math.max(1, s.state_dim | 0), sensors.length);
+    store.fuseWithin = s.late_policy === 'fuse_within';
+    store.maxDelayPeriods = isNum(s.max_delay_periods) ? s.max_delay_periods : 0;
     store.theory.clear();
     store.regionTrail.clear();
     store.latestTheory = null;
     $('scenario-name').textContent = s.name || '(unnamed scenario)';
     $('scenario-name').title = 'scenario ' + (s.name || '') + ', period ' + s.period_ms + ' ms, seed ' + s.seed +
       ', ' + s.state_dim + ' states, ' + sensors.length + ' sensors';
+    buildTraceChart();
     buildStateCharts(store.ring.n);
     buildLinkCards(sensors);
+    $('assessment').classList.toggle('no-final', !store.fuseWithin);
     const twoSensors = sensors.length === 2;
     $('region-box').hidden = !twoSensors;
     $('region-none').hidden = twoSensors;
@@ -409,7 +432,26 @@
     markAllDirty();
   }
 
+  // A revised estimate (late_policy fuse_within) of a period the ring holds: its final estimate.
+  function onRevisedEstimate(e) {
+    dash.revisionsReceived++;
+    const ring = store.ring;
+    if (!ring || !isNum(e.k)) return;
+    const i = ring.find(e.k);
+    if (i < 0 || !ring.hasEstimate[i] || e.revision < ring.revision[i]) return;
+    ring.revision[i] = Math.min(e.revision, 65535);
+    ring.hasFinal[i] = 1;
+    ring.tracePredFinal[i] = isNum(e.trace_P_pred) ? e.trace_P_pred : NaN;
+    const xHat = e.x_hat || [];
+    for (let c = 0; c < ring.n; c++) ring.xHatFinal[c][i] = isNum(xHat[c]) ? xHat[c] : NaN;
+    dash.recentRevisions.push({ k: e.k, revision: e.revision, x_hat: xHat });
+    if (dash.recentRevisions.length > 20) dash.recentRevisions.shift();
+    view.dirty.data = true;
+    requestRender();
+  }
+
   function onEstimate(e) {
+    if (isNum(e.revision) && e.revision > 0) { onRevisedEstimate(e); return; }
     dash.estimatesReceived++;
     dash.lastK = e.k;
     store.latestEstimate = e;
@@ -424,6 +466,8 @@
     const i = ring.slot(e.k);
     if (i < 0) return;
     ring.hasEstimate[i] = 1;
+    ring.hasFinal[i] = 0;
+    ring.revision[i] = 0;
     ring.t[i] = isNum(e.t) ? e.t : e.k * store.periodS;
     ring.tracePred[i] = isNum(e.trace_P_pred) ? e.trace_P_pred : NaN;
     ring.trace[i] = isNum(e.trace_P) ? e.trace_P : NaN;
@@ -463,6 +507,9 @@
     store.latestTheory = th;
     const conf = th.configured || null;
     const obs = th.observed || null;
+    const fin = th.final_estimate || null;
+    const band = (a) => (a ? { stable: a.stable, lower: a.lower_trace, upper: a.upper_trace } : null);
+    dash.theoryBands = { configured: band(conf), final: band(fin) };
     store.theory.push({
       k: isNum(th.k) ? th.k : (store.ring ? store.ring.maxK : 0),
       confLower: conf ? conf.lower_trace : null,
@@ -471,6 +518,9 @@
       obsLower: obs ? obs.lower_trace : null,
       obsUpper: obs ? obs.upper_trace : null,
       obsValid: !!obs,
+      finLower: fin ? fin.lower_trace : null,
+      finUpper: fin ? fin.upper_trace : null,
+      finValid: !!fin,
     });
     view.dirty.theory = true;
     view.dirty.region = true;
@@ -957,28 +1007,41 @@
       const chartBox = el('div', { class: 'chart' });
       holder.appendChild(chartBox);
       box.appendChild(holder);
-      charts.states.push(timeChart(chartBox, n > 2 ? 120 : 140, [
+      const series = [
         { label: 'truth x', stroke: COLOR.truth, width: 1.25, points: { show: false } },
-        { label: 'estimate x̂', stroke: COLOR.estimate, width: 1.5, points: { show: false } },
+        { label: store.fuseWithin ? 'in-time x̂' : 'estimate x̂', stroke: COLOR.estimate, width: 1.5, points: { show: false } },
         { label: 'x̂ + 2σ', stroke: COLOR.sigmaEdge, width: 1, points: { show: false } },
         { label: 'x̂ − 2σ', stroke: COLOR.sigmaEdge, width: 1, points: { show: false } },
-      ], null, null, { bands: [{ series: [3, 4], fill: COLOR.sigmaBand }] }));
+      ];
+      if (store.fuseWithin) series.push({ label: 'final x̂ (revised)', stroke: COLOR.final, width: 1.25, dash: [5, 3], points: { show: false } });
+      charts.states.push(timeChart(chartBox, n > 2 ? 120 : 140, series, null, null, { bands: [{ series: [3, 4], fill: COLOR.sigmaBand }] }));
     }
   }
 
   // Row annotations of the trace chart for its drawClear hook (theory band, diverging spans).
   const traceRows = { theory: [], diverging: [] };
 
+  // With late_policy fuse_within the chart also carries the final estimates' Tr P k|k−1 and
+  // their theory band (each link's arrival rate at the horizon deadline + D periods).
   function buildTraceChart() {
     const box = $('trace-chart');
-    charts.trace = timeChart(box, 190, [
+    if (charts.trace) charts.trace.destroy();
+    box.replaceChildren();
+    const series = [
       { label: 'Tr P k|k−1', stroke: COLOR.tracePred, width: 1.5, points: { show: false } },
       { label: 'Tr P k|k', stroke: COLOR.traceFiltered, width: 1, points: { show: false } },
       { label: 'Tr S̄ configured', stroke: COLOR.configured, width: 1.5, points: { show: false } },
       { label: 'Tr V̄ configured', stroke: COLOR.configured, width: 1.5, dash: [6, 4], points: { show: false } },
       { label: 'Tr S̄ observed (since change)', stroke: COLOR.observed, width: 1.25, points: { show: false } },
       { label: 'Tr V̄ observed (since change)', stroke: COLOR.observed, width: 1.25, dash: [6, 4], points: { show: false } },
-    ], { y: { distr: 3, log: 10 } }, { drawClear: [drawTraceBackground] }, {
+    ];
+    if (store.fuseWithin) {
+      series.push({ label: 'Tr P k|k−1 final', stroke: COLOR.final, width: 1.25, points: { show: false } },
+        { label: 'Tr S̄ final', stroke: COLOR.final, width: 1, dash: [2, 3], points: { show: false } },
+        { label: 'Tr V̄ final', stroke: COLOR.final, width: 1, dash: [6, 4], points: { show: false } });
+    }
+    dash.finalSeries = store.fuseWithin;
+    charts.trace = timeChart(box, 190, series, { y: { distr: 3, log: 10 } }, { drawClear: [drawTraceBackground] }, {
       yValues: (u, splits) => splits.map((v) => (v === null ? '' : fmtTick(v))),
     });
   }
@@ -1038,6 +1101,7 @@
     };
     band('confLower', 'confUpper', 'confValid', COLOR.configuredBand);
     band('obsLower', 'obsUpper', 'obsValid', COLOR.observedBand);
+    if (store.fuseWithin) band('finLower', 'finUpper', 'finValid', COLOR.finalBand);
     ctx.restore();
   }
 
@@ -1175,9 +1239,10 @@
     if (!w) {
       view.tLo = 0;
       view.tHi = view.windowS;
-      charts.trace.setData(emptyData(6));
-      for (const chart of charts.states) chart.setData(emptyData(4));
+      charts.trace.setData(emptyData(charts.trace.series.length - 1));
+      for (const chart of charts.states) chart.setData(emptyData(chart.series.length - 1));
       dash.pointsPlotted = 0;
+      dash.finalPointsPlotted = 0;
       dash.plotLengths = { trace: 0, states: charts.states.map(() => 0) };
       return;
     }
@@ -1195,7 +1260,11 @@
     const plotPx = Math.max(100, Math.round(charts.trace.bbox.width / (window.devicePixelRatio || 1)) || 600);
     const stride = Math.max(1, Math.ceil((w.kHi - w.kLo + 1) / plotPx));
     const n = ring.n;
-    const seriesCount = 2 + 4 * n;   // Tr P pred, Tr P, then per component truth, x̂, x̂+2σ, x̂−2σ
+    // Tr P pred, Tr P, then per component truth, x̂, x̂+2σ, x̂−2σ; with fuse_within then the final
+    // estimates' Tr P pred and per component final x̂ (a period never revised: its in-time one).
+    const final = store.fuseWithin;
+    const finalBase = 2 + 4 * n;
+    const seriesCount = finalBase + (final ? 1 + n : 0);
     const envelopes = Array.from({ length: seriesCount }, () => new Envelope());
     const outs = Array.from({ length: seriesCount }, () => []);
     const xs = [];
@@ -1203,6 +1272,8 @@
     const confUpper = [];
     const obsLower = [];
     const obsUpper = [];
+    const finLower = [];
+    const finUpper = [];
     traceRows.theory = [];
     traceRows.diverging = [];
     // The theory entry in force for period k is the last one computed at or before k.
@@ -1216,9 +1287,12 @@
       confUpper.push(entry && isNum(entry.confUpper) ? entry.confUpper : null);
       obsLower.push(entry && isNum(entry.obsLower) ? entry.obsLower : null);
       obsUpper.push(entry && isNum(entry.obsUpper) ? entry.obsUpper : null);
+      finLower.push(entry && isNum(entry.finLower) ? entry.finLower : null);
+      finUpper.push(entry && isNum(entry.finUpper) ? entry.finUpper : null);
     };
     const num = (v) => (Number.isNaN(v) ? null : v);
     let estimatePoints = 0;
+    let finalPoints = 0;
     for (let b = w.kLo - (w.kLo % stride); b <= w.kHi; b += stride) {
       const first = Math.max(b, w.kLo);
       const last = Math.min(b + stride - 1, w.kHi);
@@ -1236,6 +1310,13 @@
           const tf = num(ring.trace[i]);
           envelopes[0].add(tp !== null && tp > 0 ? tp : null, k);
           envelopes[1].add(tf !== null && tf > 0 ? tf : null, k);
+          if (final) {
+            const revised = ring.hasFinal[i] === 1;
+            if (revised) finalPoints++;
+            const tpf = revised ? num(ring.tracePredFinal[i]) : tp;
+            envelopes[finalBase].add(tpf !== null && tpf > 0 ? tpf : null, k);
+            for (let c = 0; c < n; c++) envelopes[finalBase + 1 + c].add(num((revised ? ring.xHatFinal : ring.xHat)[c][i]), k);
+          }
         }
         for (let c = 0; c < n; c++) {
           const base = 2 + 4 * c;
@@ -1263,12 +1344,17 @@
         traceRows.diverging.push(diverging, diverging);
       }
     }
-    charts.trace.setData([xs, outs[0], outs[1], confLower, confUpper, obsLower, obsUpper]);
+    const traceData = [xs, outs[0], outs[1], confLower, confUpper, obsLower, obsUpper];
+    if (final) traceData.push(outs[finalBase], finLower, finUpper);
+    charts.trace.setData(traceData);
     charts.states.forEach((chart, c) => {
       const base = 2 + 4 * c;
-      chart.setData([xs, outs[base], outs[base + 1], outs[base + 2], outs[base + 3]]);
+      const data = [xs, outs[base], outs[base + 1], outs[base + 2], outs[base + 3]];
+      if (final) data.push(outs[finalBase + 1 + c]);
+      chart.setData(data);
     });
     dash.pointsPlotted = charts.states.length ? estimatePoints : 0;
+    dash.finalPointsPlotted = finalPoints;
     Object.assign(dash.plotLengths, {
       trace: charts.trace.data[0].length,
       states: charts.states.map((chart) => chart.data[0].length),
@@ -1291,6 +1377,7 @@
     const estimate = store.latestEstimate;
     const items = [describe(th.configured, 'configured', 'configured'),
       describe(th.observed, 'observed (since change)', 'observed')];
+    if (store.fuseWithin) items.push(describe(th.final_estimate, 'final estimates (D = ' + store.maxDelayPeriods + ')', 'final'));
     if (estimate && isNum(estimate.trace_P_pred)) items.unshift(chip('pred', 'Tr P k|k−1 = ' + fmt(estimate.trace_P_pred, 3)));
     box.replaceChildren(...items);
   }
@@ -1560,19 +1647,24 @@
     const obs = th.observed || null;
     const confStable = conf ? String(conf.stable) : 'unknown';
     const obsStable = obs ? String(obs.stable) : 'none';
+    const fin = store.fuseWithin ? (th.final_estimate || null) : null;
+    const finStable = fin ? String(fin.stable) : 'none';
     verdict.dataset.configured = confStable;
     verdict.dataset.observed = obsStable;
+    verdict.dataset.final = finStable;
+    dash.finalVerdict = fin ? finStable : null;
     verdict.replaceChildren(
       el('span', { class: 'verdict-main', 'data-stable': confStable, text: STABLE_TEXT[confStable] || confStable }),
       document.createTextNode(' '),
       el('span', { class: 'verdict-detail', text: 'configured: ' + (STABLE_TEXT[confStable] || confStable) +
-        ' · observed (since change): ' + (obs ? (STABLE_TEXT[obsStable] || obsStable) : 'not yet known') }),
+        ' · observed (since change): ' + (obs ? (STABLE_TEXT[obsStable] || obsStable) : 'not yet known') +
+        (store.fuseWithin ? ' · final estimates: ' + (fin ? (STABLE_TEXT[finStable] || finStable) : 'not yet known') : '') }),
       document.createTextNode(' '),
       el('span', { class: 'verdict-k muted small', text: '(at k ' + th.k + ')' }));
     const set = (field, text, cls) => {
       const cell = document.querySelector('#assessment [data-field="' + field + '"]');
       cell.textContent = text;
-      cell.className = cls || '';
+      cell.className = (field.startsWith('fin-') ? 'final-col ' : '') + (cls || '');
     };
     const fill = (prefix, a) => {
       if (!a) {
@@ -1590,9 +1682,11 @@
     };
     fill('conf', conf);
     fill('obs', obs);
+    fill('fin', fin);
     const reasons = [];
     if (conf && conf.reason) reasons.push('configured: ' + conf.reason);
     if (obs && obs.reason) reasons.push('observed (since change): ' + obs.reason);
+    if (fin && fin.reason) reasons.push('final estimates: ' + fin.reason);
     $('assessment-reason').textContent = reasons.join(' · ');
   }
 

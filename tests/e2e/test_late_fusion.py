@@ -11,13 +11,16 @@ Independent expectations:
   in-time one; and the final estimates equal an independent NumPy Kalman filter (stacked form,
   Sinopoli eqs. 14-16 with the received rows only) over the samples the run fused in them;
 - `netkf analyze`: link 2's in-time arrival rate 0, final (deadline + 2 periods = 28 ms) 0.7;
+- the dashboard page (headless Chromium) of the fuse_within run plots the final estimates: the
+  revised estimates it took equal the recording's final estimates of their periods (when they
+  are their period's last revision), and its in-time and final theory bands equal `analyze`'s;
 - the summary's rms_error_final is sqrt(mean |x_k - x̂_final|²) tallied here from the
   recording; with drop it equals rms_error; `--check 'rms_error_final<…'` is evaluated."""
 import json
 import math
 import os
 
-from e2e_common import DATA, Launch, check, finish, netkf, numpy_filter_worst, require_netns, workdir
+from e2e_common import DATA, Launch, check, finish, netkf, node, numpy_filter_worst, require_netns, wait_for, workdir
 
 require_netns()
 out = workdir("late_fusion")
@@ -26,6 +29,8 @@ scenarios = {"drop": os.path.join(out, "late2-drop.yaml"), "fuse": os.path.join(
 open(scenarios["drop"], "w").write(base)  # drop is the default
 open(scenarios["fuse"], "w").write(base + "  late_policy: fuse_within\n  max_delay_periods: 2\n")
 N = 2
+PORT = 8470  # the test's network namespace has it to itself
+report = None
 
 a = netkf("analyze", scenarios["fuse"], "--json")
 check(a.returncode == 0, "analyze accepts late_policy fuse_within")
@@ -118,7 +123,46 @@ worst = numpy_filter_worst(final_rows(fuse["periods"]), fused_samples(fuse["samp
 check(worst <= 1e-12, "fuse_within: the final estimates equal a NumPy filter over their samples to 1e-12 (worst %.3g)" % worst)
 
 
-# 5. rms_error and rms_error_final against a tally of the recording.
+# 5. The dashboard of a third run (fuse_within; apart, so that the browser's start does not
+# stall the runs above): its page plots the final estimates and both theory bands.
+d = os.path.join(out, "page")
+os.makedirs(d, exist_ok=True)
+with Launch(scenarios["fuse"], 14, d, extra=("--dashboard", str(PORT))) as run:
+    check(wait_for(lambda: "dashboard: http://127.0.0.1:%d/" % PORT in run.output(), 20), "page: the dashboard is up")
+    page = node("dashboard_browser.mjs", "--url", "http://127.0.0.1:%d/" % PORT, "--screenshot",
+                os.path.join(d, "dashboard.png"), "--no-set", "--seconds", 3, "--timeout", 60, timeout=90)
+    rc = run.wait(90)
+check(rc == 0, "page: launch exits 0 (rc=%s)" % rc)
+seen = page.get("final", {})
+check(not page.get("error") and not page.get("console_errors") and not page.get("page_errors"),
+      "page: the page ran without errors: %s %s %s" % (page.get("error"), page.get("console_errors"), page.get("page_errors")))
+check(seen.get("finalSeries") is True and seen.get("revisionsReceived", 0) > 50 and seen.get("finalPointsPlotted", 0) > 50,
+      "page: the page plots final estimates (revisions received %s, revised periods plotted %s)"
+      % (seen.get("revisionsReceived"), seen.get("finalPointsPlotted")))
+by_k = {int(p["k"]): p for p in read_csv(run.record)[1]}
+matched, differ = 0, []
+for r in seen.get("recentRevisions", []):
+    row = by_k.get(r["k"])
+    if row is None or int(row["revisions"]) != r["revision"]:
+        continue  # a revision that a later one replaced (or a period the stop cut off)
+    matched += 1
+    if not all(abs(r["x_hat"][i] - float(row["xhat_final%d" % i])) <= 1e-12 * (1 + abs(r["x_hat"][i])) for i in range(N)):
+        differ.append(r["k"])
+check(matched >= 5 and not differ, "page: the page's final x̂ equals the recording's final estimate in each of its last "
+      "revised periods that was its period's last revision (%d; differ: %s)" % (matched, differ))
+bands = seen.get("theoryBands") or {}
+if report is not None:
+    for name, want in (("configured", report), ("final", report["final_estimate"])):
+        got = bands.get(name) or {}
+        cov = want["expected_covariance"]
+        close = all(isinstance(got.get(k), float) and abs(got[k] - cov[k + "_trace"]) <= 1e-9 * cov[k + "_trace"]
+                    for k in ("lower", "upper"))
+        check(close and got.get("stable") == want["stable"],
+              "page: the page's %s band and verdict equal analyze's (%s vs %s)" % (name, got, cov))
+check(seen.get("finalVerdict") == "yes", "page: the page's final verdict (%s)" % seen.get("finalVerdict"))
+
+
+# 6. rms_error and rms_error_final against a tally of the recording.
 def rms(periods, prefix):
     e = [sum((float(p["x%d" % i]) - float(p["%s%d" % (prefix, i)])) ** 2 for i in range(N)) for p in periods]
     return math.sqrt(sum(e) / len(e))
