@@ -108,7 +108,7 @@ class ChannelApp::Impl {
       for (const auto& r : links_.reports()) {
         facts.push_back({r.sensor_id, r.link, probability_within(r.link.delay, deadline_ms_), r.stats, r.lifetime,
                          r.last_request_id, r.last_request_rejected, r.reject_reason, held_.held(r.sensor_id),
-                         r.past_deadline});
+                         r.past_deadline, r.recent_fit});
       }
     }
     for (const auto& f : facts) status_.write(dds::make_link_status(f, now));

@@ -31,6 +31,7 @@ void ChannelLinks::set_link(Link& link, const LinkSpec& spec, bool reset_statist
   if (reset_statistics) {
     link.report.stats = LinkStatistics{};
     link.report.past_deadline = 0;
+    link.recent.clear();
   }
 }
 
@@ -101,6 +102,7 @@ SampleFate ChannelLinks::on_sample(int sensor_id, std::int64_t k) {
   const bool dropped = link.loss.next_dropped();
   link.report.stats.record(dropped);
   link.report.lifetime.record(dropped);
+  link.recent.record(dropped);
   if (dropped) return {Verdict::dropped, 0.0};
   const double delay_ms = link.delay.next_delay_ms(link.report.link.delay);
   if (delay_ms > deadline_ms_) ++link.report.past_deadline;
@@ -151,7 +153,10 @@ std::vector<AppliedLinkChange> ChannelLinks::take_changes() {
 std::vector<LinkReport> ChannelLinks::reports() const {
   std::vector<LinkReport> out;
   out.reserve(links_.size());
-  for (const auto& [id, link] : links_) out.push_back(link.report);
+  for (const auto& [id, link] : links_) {
+    out.push_back(link.report);
+    out.back().recent_fit = link.recent.fit();
+  }
   return out;
 }
 

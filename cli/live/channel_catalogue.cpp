@@ -62,6 +62,15 @@ json link_status_schema_properties(json status_props) {
   status_props["observed_arrival_rate_window"] = nullable_number();
   status_props["observed_window_samples"] = {{"type", "integer"}};
   status_props["last_request_rejected"] = {{"type", "boolean"}};
+  status_props["recent_fit"] = {{"type", json::array({"object", "null"})},
+                                {"properties",
+                                 {{"family", {{"type", "string"}}},
+                                  {"samples", {{"type", "integer"}}},
+                                  {"dropped", {{"type", "integer"}}},
+                                  {"loss", nullable_number()},
+                                  {"mean_burst", nullable_number()},
+                                  {"link", {{"type", "object"}}},
+                                  {"aic_gain", nullable_number()}}}};
   status_props["reject_reason"] = {{"type", "string"}};
   return status_props;
 }
@@ -286,7 +295,25 @@ json link_status_json(const LinkStatusRecord& l) {
   j["last_request_id"] = l.last_request_id;
   j["last_request_rejected"] = !l.rejection_reason.empty();
   j["reject_reason"] = l.rejection_reason;
+  j["recent_fit"] = l.recent_fit ? recent_fit_json(*l.recent_fit) : json(nullptr);
   return j;
+}
+
+// A fitted loss model's keys: a link's without the delay (a fit knows only drops).
+json fitted_link_json(const LinkModel& model) {
+  json j = link_json(LinkSpec(model));
+  for (const char* delay_key : {"delay_ms", "jitter_ms", "delay_distribution"}) j.erase(delay_key);
+  return j;
+}
+
+json recent_fit_json(const analysis::RecentLossFit& f) {
+  return json{{"family", analysis::to_string(f.family)},
+              {"samples", f.samples},
+              {"dropped", f.dropped},
+              {"loss", number_or_null(f.loss())},
+              {"mean_burst", number_or_null(f.mean_burst())},
+              {"link", fitted_link_json(f.link)},
+              {"aic_gain", optional_number(f.aic_gain)}};
 }
 
 json link_status_message(const LinkView& l) {

@@ -45,6 +45,8 @@ nlohmann::json truth_message(const TruthRecord& truth);
 /// it. The dashboard's and the recording's message adds what needs the earlier reports or the
 /// estimator side (late_total, late_fraction, the observed arrival rate over the window).
 nlohmann::json link_status_json(const LinkStatusRecord& link);
+/// A link's recent-samples fit (`recent_fit` of the link status keys, docs/cli.md).
+nlohmann::json recent_fit_json(const analysis::RecentLossFit& fit);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the
 /// link after the change, keys as in link_status_message).

@@ -30,6 +30,7 @@ LinkStatusRecord to_record(const wire::LinkStatus& w) {
   r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
   r.held = w.held();
   r.past_deadline = w.past_deadline();
+  r.recent_fit = dds::recent_fit_of(w);
   return r;
 }
 

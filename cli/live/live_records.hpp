@@ -3,9 +3,11 @@
 // filled from the DDS library's types in one adapter (live_bus.cpp), consumed by the
 // recorder and the status view, which therefore need no DDS to be tested.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/estimate.hpp"
 #include "netkf/scenario.hpp"
 
@@ -48,6 +50,8 @@ struct LinkStatusRecord {
   std::uint64_t dropped_total = 0;
   std::uint64_t last_request_id = 0;
   std::string rejection_reason;  // empty when the last request was applied
+  /// The model the link's last samples show (recent_loss_fit.hpp; none before its first sample).
+  std::optional<analysis::RecentLossFit> recent_fit;
 
   /// λ = (1 − stationary loss) · P(in time): the rate at which the link's samples reach the
   /// estimator before the deadline (docs/scenario-format.md, "Delay"), the rate the theory uses.

@@ -115,6 +115,19 @@ void render_links(std::ostringstream& out, const LiveSnapshot& s) {
 
 }  // namespace
 
+std::string describe_recent_fit(const analysis::RecentLossFit& f) {
+  std::ostringstream out;
+  out << "fitted to its last " << f.samples << " samples: ";
+  if (const auto* g = std::get_if<GilbertElliottLink>(&f.link)) out << "simple_gilbert p=" << rate4(g->p) << " r=" << rate4(g->r);
+  else out << "bernoulli";
+  out << ", loss " << rate4(f.loss()) << ", mean burst "
+      << (std::isfinite(f.mean_burst()) ? fmt(f.mean_burst()) : std::string("∞"));
+  if (!f.aic_gain) out << " (no chain: a transition out of both states not seen yet)";
+  else if (f.family == analysis::LossFamily::simple_gilbert) out << " (bursty: AIC " << fmt(*f.aic_gain) << " below bernoulli)";
+  else out << " (drops look independent: a chain does not lower AIC by more than 2)";
+  return out.str();
+}
+
 std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
   std::ostringstream out;
   char line[320];
@@ -134,6 +147,7 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
                   l.observed_loss, l.mean_burst_length, late, static_cast<unsigned long long>(l.held),
                   describe_link(l.link).c_str());
     out << line;
+    if (l.recent_fit) out << "       " << describe_recent_fit(*l.recent_fit) << "\n";
     if (!l.rejection_reason.empty())
       out << "       last request " << l.last_request_id << " rejected: " << l.rejection_reason << "\n";
   }

@@ -12,6 +12,8 @@ namespace netkf::cli {
 
 /// Table of links (used by `ctl status`).
 std::string render_link_table(const std::vector<LinkStatusRecord>& links);
+/// One line: the model a link's recent samples show (LinkStatusRecord::recent_fit).
+std::string describe_recent_fit(const analysis::RecentLossFit& fit);
 
 /// Multi-line status text. `theory_pending`: an assessment is being computed.
 std::string render_status(const LiveSnapshot& snapshot, bool theory_pending);

@@ -601,6 +601,15 @@
     return { loss, meanBurst: starts > 0 ? loss / starts : null };
   }
 
+  // The link status's recent_fit in a few words (docs/cli.md, "Link status keys").
+  function recentFitText(fit) {
+    if (!fit) return 'not yet';
+    const model = fit.family === 'simple_gilbert' && fit.link
+      ? 'simple Gilbert p ' + fmt(fit.link.p, 3) + ' r ' + fmt(fit.link.r, 3) : 'Bernoulli';
+    return model + ': loss ' + fmt(fit.loss, 3) + ', burst ' + (isNum(fit.mean_burst) ? fmt(fit.mean_burst, 2) : '∞') +
+      ' (last ' + fit.samples + ')';
+  }
+
   // A value as a field shows it: short, and empty for an unknown (infinite) mean burst.
   function fieldText(v) { return isNum(v) ? String(+v.toPrecision(6)) : ''; }
 
@@ -907,6 +916,8 @@
         ['loss since change', fmt(st.observed_loss, 3), 'dropped / samples since the link\'s model was set'],
         ['mean burst', fmt(st.mean_burst_length, 2)],
         ['held', isNum(st.held) ? String(st.held) : '—', 'samples the channel holds now (delayed)'],
+        ['fitted', recentFitText(st.recent_fit), 'the loss model the link\'s last samples since its model was set ' +
+          'show (at most 5000; bernoulli or simple Gilbert, by AIC), to compare with the configured one'],
       ];
       if (st.last_request_rejected && st.reject_reason) items.push(['last request refused', st.reject_reason]);
       this.statsLine.replaceChildren(...items.map(([k, v, title]) => el('span', Object.assign({ class: 'stat', 'data-stat': k },

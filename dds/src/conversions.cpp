@@ -264,8 +264,46 @@ wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_n
   s.reject_reason(f.reject_reason);
   s.held(f.held);
   s.past_deadline(f.past_deadline);
+  if (f.recent_fit) {
+    const analysis::RecentLossFit& fit = *f.recent_fit;
+    s.fit_samples(fit.samples);
+    s.fit_dropped(fit.dropped);
+    s.fit_family(analysis::to_string(fit.family));
+    // As a simple Gilbert chain: a Bernoulli loss q is the chain p = q, r = 1 − q.
+    if (const auto* g = std::get_if<GilbertElliottLink>(&fit.link)) {
+      s.fit_p(g->p);
+      s.fit_r(g->r);
+    } else {
+      const double q = stationary_loss(fit.link);
+      s.fit_p(q);
+      s.fit_r(1.0 - q);
+    }
+    s.fit_has_chain(fit.aic_gain.has_value());
+    s.fit_aic_gain(fit.aic_gain.value_or(0.0));
+  }
   s.stamp_ns(stamp_ns);
   return s;
+}
+
+std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& s) {
+  if (s.fit_family().empty() && s.fit_samples() == 0) return std::nullopt;
+  const auto family = analysis::parse_loss_family(s.fit_family());
+  const auto probability = [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 1.0; };
+  if (!family || (*family != analysis::LossFamily::bernoulli && *family != analysis::LossFamily::simple_gilbert))
+    throw ConversionError("link status: unknown fit_family '" + s.fit_family() + "'");
+  if (s.fit_samples() == 0 || s.fit_dropped() > s.fit_samples() || !probability(s.fit_p()) ||
+      !probability(s.fit_r()) || !std::isfinite(s.fit_aic_gain()))
+    throw ConversionError("link status: malformed recent-samples fit");
+  analysis::RecentLossFit fit;
+  fit.samples = s.fit_samples();
+  fit.dropped = s.fit_dropped();
+  fit.family = *family;
+  if (*family == analysis::LossFamily::simple_gilbert)
+    fit.link = GilbertElliottLink{s.fit_p(), s.fit_r(), 0.0, 1.0};
+  else
+    fit.link = BernoulliLink{s.fit_p()};
+  if (s.fit_has_chain()) fit.aic_gain = s.fit_aic_gain();
+  return fit;
 }
 
 wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,

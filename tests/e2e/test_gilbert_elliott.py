@@ -39,6 +39,15 @@ if st.returncode == 0:
               % (l["sensor_id"], l["observed_loss"], tl, LOSS))
         check(abs(l["mean_burst_length"] - BURST) <= tb, "link %d (channel): mean burst %.3f within %.3f of %.3f"
               % (l["sensor_id"], l["mean_burst_length"], tb, BURST))
+        # The model the link's last <= 5000 samples show: the configured chain, p and r within
+        # 4.5 binomial standard errors of transition frequencies over about n(1 - loss) and n loss samples.
+        fit = l.get("recent_fit") or {}
+        n = fit.get("samples", 0)
+        tp, tr = (4.5 * math.sqrt(P * (1 - P) / max(n * (1 - LOSS), 1)), 4.5 * math.sqrt(R * (1 - R) / max(n * LOSS, 1)))
+        check(fit.get("family") == "simple_gilbert" and n == min(l["samples_in"], 5000) and
+              abs(fit["link"]["p"] - P) <= tp and abs(fit["link"]["r"] - R) <= tr and fit["aic_gain"] > 2,
+              "link %d (channel): its last %d samples fit simple_gilbert p %s r %s (within %.3f, %.3f of %g, %g)"
+              % (l["sensor_id"], n, fit.get("link", {}).get("p"), fit.get("link", {}).get("r"), tp, tr, P, R))
 
 # Independently, from the delivered samples in the recording.
 rows = read_periods(run.record, 1)

@@ -3,6 +3,7 @@
 // valid data converts without loss. No participant is created here.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <vector>
@@ -148,6 +149,39 @@ TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
   EXPECT_DOUBLE_EQ(s.in_time(), 0.5);
   EXPECT_EQ(s.held(), 7u);
   EXPECT_EQ(dds::link_of(s), netkf::LinkSpec(netkf::BernoulliLink{0.25}));
+}
+
+// The recent-samples fit travels whole (recent_loss_fit.hpp): a window's fit, written and read
+// back, is the same fit; none before the first sample; a malformed one is refused.
+TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
+  netkf::analysis::RecentArrivals bursty(50), one(5);
+  for (int i = 0; i < 80; ++i) bursty.record(i % 10 < 4);  // runs of 4 drops, 6 deliveries
+  one.record(true);
+  for (const auto& window : {bursty, one}) {
+    dds::LinkStatusFacts facts{3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0, 0, window.fit()};
+    const auto back = dds::recent_fit_of(dds::make_link_status(facts, 0));
+    ASSERT_TRUE(back.has_value());
+    EXPECT_EQ(back->samples, facts.recent_fit->samples);
+    EXPECT_EQ(back->dropped, facts.recent_fit->dropped);
+    EXPECT_EQ(back->family, facts.recent_fit->family);
+    EXPECT_EQ(back->link, facts.recent_fit->link);
+    EXPECT_EQ(back->aic_gain, facts.recent_fit->aic_gain);
+  }
+  EXPECT_EQ(bursty.fit()->family, netkf::analysis::LossFamily::simple_gilbert);
+  EXPECT_FALSE(one.fit()->aic_gain.has_value());
+
+  auto s = dds::make_link_status({3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0}, 0);
+  EXPECT_FALSE(dds::recent_fit_of(s).has_value());
+  s = dds::make_link_status({3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0, 0, bursty.fit()}, 0);
+  auto bad = s;
+  bad.fit_family("gilbert_elliott");
+  EXPECT_THROW((void)dds::recent_fit_of(bad), dds::ConversionError);
+  bad = s;
+  bad.fit_p(std::nan(""));
+  EXPECT_THROW((void)dds::recent_fit_of(bad), dds::ConversionError);
+  bad = s;
+  bad.fit_dropped(bad.fit_samples() + 1);
+  EXPECT_THROW((void)dds::recent_fit_of(bad), dds::ConversionError);
 }
 
 // A received payload Fast CDR cannot read is refused (the sample dropped), never an

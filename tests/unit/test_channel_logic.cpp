@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "netkf/analysis/loss_fit.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/nodes/release_queue.hpp"
 
@@ -60,6 +61,36 @@ TEST(ChannelLogic, GilbertElliottMatchesTheory) {
   const double p = 0.05, rr = 0.5;
   EXPECT_NEAR(r->stats.observed_loss(), p / (p + rr), 0.01);
   EXPECT_NEAR(r->stats.mean_burst_length(), 1.0 / rr, 0.1);
+}
+
+// Every report carries the model the link's last 5000 samples since its model was set show:
+// the batch fitter (loss_fit.hpp) over the decisions seen here gives the same; a change
+// empties the window.
+TEST(ChannelLogic, ReportsFitTheLinksRecentSamples) {
+  ChannelLinks links(links_scenario());
+  std::vector<std::uint8_t> delivered;
+  for (int i = 0; i < 12000; ++i) delivered.push_back(links.on_sample(3) == ChannelLinks::Verdict::delivered);
+  const auto fit_of = [&](int id) {
+    for (const auto& r : links.reports())
+      if (r.sensor_id == id) return r.recent_fit;
+    return std::optional<netkf::analysis::RecentLossFit>{};
+  };
+  const auto f = fit_of(3);
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->samples, 5000u);
+  const std::vector<std::uint8_t> last(delivered.end() - 5000, delivered.end());
+  netkf::analysis::LossFitOptions o;
+  o.family = netkf::analysis::LossFamily::simple_gilbert;
+  const auto batch = netkf::analysis::fit_loss_model(last, o).fit();
+  ASSERT_EQ(f->family, netkf::analysis::LossFamily::simple_gilbert);  // p 0.05, r 0.5: bursty
+  const auto& chain = std::get<netkf::GilbertElliottLink>(f->link);
+  EXPECT_DOUBLE_EQ(chain.p, std::get<netkf::GilbertElliottLink>(batch.link).p);
+  EXPECT_DOUBLE_EQ(chain.r, std::get<netkf::GilbertElliottLink>(batch.link).r);
+  EXPECT_FALSE(fit_of(1).has_value());  // no sample yet
+  ASSERT_TRUE(links.request(1, 3, loss_keys(0.5)).applied);
+  EXPECT_FALSE(fit_of(3).has_value());
+  links.on_sample(3);
+  EXPECT_EQ(fit_of(3)->samples, 1u);
 }
 
 TEST(ChannelLogic, SeededPerLinkAndReproducible) {

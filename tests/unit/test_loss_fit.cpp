@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "netkf/analysis/loss_fit.hpp"
+#include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/link_trace.hpp"
 #include "netkf/loss_model.hpp"
 
@@ -289,3 +290,94 @@ TEST(LossFit, DelaySummaryQuantilesInterpolateLikeNumPy) {
 }
 
 }  // namespace
+
+// ---- the recent window (recent_loss_fit.hpp) against the batch fitter -----------------------
+
+namespace {
+
+using netkf::analysis::RecentArrivals;
+
+// The batch fitter's candidate of `family` for `delivered`.
+netkf::analysis::LossFit batch(const std::vector<std::uint8_t>& delivered, LossFamily family) {
+  LossFitOptions o;
+  o.family = family;
+  return fit_loss_model(delivered, o).fit();
+}
+
+// Feeds `delivered` to a window of `window` samples and checks its fit against the batch
+// fitter on the window's samples (the last `window` of them): the same parameters and
+// log-likelihoods, and the same choice by loss_fit.cpp's AIC rule.
+void expect_window_matches_batch(const std::vector<std::uint8_t>& delivered, std::size_t window) {
+  RecentArrivals recent(window);
+  for (const auto d : delivered) recent.record(d == 0);
+  const std::vector<std::uint8_t> last(delivered.end() - static_cast<std::ptrdiff_t>(std::min(window, delivered.size())),
+                                       delivered.end());
+  const auto f = recent.fit();
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->samples, last.size());
+  const auto b = batch(last, LossFamily::bernoulli);
+  const auto s = batch(last, LossFamily::simple_gilbert);
+  ASSERT_TRUE(f->aic_gain.has_value());
+  EXPECT_NEAR(*f->aic_gain, b.aic - s.aic, 1e-9 * std::abs(b.aic));
+  const bool chain = s.aic < b.aic - 2.0;
+  EXPECT_EQ(f->family, chain ? LossFamily::simple_gilbert : LossFamily::bernoulli);
+  const auto& chosen = chain ? s : b;
+  EXPECT_NEAR(f->loss(), chosen.loss.value, 1e-12);
+  EXPECT_NEAR(f->mean_burst(), chosen.mean_burst.value, 1e-9 * chosen.mean_burst.value);
+  if (chain) {
+    const auto& g = std::get<GilbertElliottLink>(f->link);
+    EXPECT_NEAR(g.p, param(s, "p").value, 1e-12);
+    EXPECT_NEAR(g.r, param(s, "r").value, 1e-12);
+  }
+}
+
+}  // namespace
+
+TEST(RecentLossFit, WindowEqualsTheBatchFitOfItsSamples) {
+  // Bursty and i.i.d. links, seeded; windows shorter than, equal to and longer than the input.
+  const std::vector<LinkModel> links{GilbertElliottLink{0.05, 0.3, 0.0, 1.0}, GilbertElliottLink{0.1, 0.4, 0.05, 0.8},
+                                     BernoulliLink{0.3}};
+  for (std::size_t i = 0; i < links.size(); ++i) {
+    const auto delivered = draw(links[i], 100 + i, 12000);
+    for (const std::size_t window : {std::size_t{5000}, std::size_t{12000}, std::size_t{20000}}) {
+      SCOPED_TRACE("link " + std::to_string(i) + ", window " + std::to_string(window));
+      expect_window_matches_batch(delivered, window);
+    }
+  }
+}
+
+TEST(RecentLossFit, CallsABurstyLinkBurstyAndAnIidOneNot) {
+  RecentArrivals bursty, iid;
+  for (const auto d : draw(GilbertElliottLink{0.05, 0.25, 0.0, 1.0}, 7, 5000)) bursty.record(d == 0);
+  for (const auto d : draw(BernoulliLink{0.2}, 7, 5000)) iid.record(d == 0);
+  const auto b = bursty.fit();
+  const auto i = iid.fit();
+  ASSERT_TRUE(b && i);
+  EXPECT_EQ(b->family, LossFamily::simple_gilbert);
+  // mean burst 1/r = 4, stationary loss p/(p + r) = 1/6: within about 4 standard errors of 5000 samples.
+  EXPECT_NEAR(b->mean_burst(), 4.0, 0.6);
+  EXPECT_NEAR(b->loss(), 1.0 / 6.0, 0.03);
+  EXPECT_EQ(i->family, LossFamily::bernoulli);
+  EXPECT_NEAR(i->loss(), 0.2, 0.025);
+}
+
+TEST(RecentLossFit, DegenerateWindowsAndClear) {
+  RecentArrivals recent(4);
+  EXPECT_FALSE(recent.fit().has_value());
+  for (int i = 0; i < 6; ++i) recent.record(true);  // only drops: bernoulli loss 1, endless bursts
+  auto f = recent.fit();
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->samples, 4u);
+  EXPECT_EQ(f->family, LossFamily::bernoulli);
+  EXPECT_FALSE(f->aic_gain.has_value());
+  EXPECT_EQ(f->loss(), 1.0);
+  EXPECT_TRUE(std::isinf(f->mean_burst()));
+  recent.record(false);  // window: drop drop drop delivered
+  f = recent.fit();
+  EXPECT_EQ(f->dropped, 3u);
+  EXPECT_FALSE(f->aic_gain.has_value());  // no transition out of "delivered" yet
+  recent.clear();
+  EXPECT_EQ(recent.samples(), 0u);
+  EXPECT_FALSE(recent.fit().has_value());
+  EXPECT_THROW(RecentArrivals(1), std::invalid_argument);
+}

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/loss_model.hpp"
 #include "netkf/scenario.hpp"
 
@@ -25,6 +26,7 @@ struct LinkReport {
   std::uint64_t last_request_id = 0;
   bool last_request_rejected = false;
   std::string reject_reason;
+  std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the model was set (reports())
 };
 
 /// The answer to one change request.
@@ -101,6 +103,7 @@ class ChannelLinks {
     std::optional<std::uint64_t> unjournaled_request;  // applied, period not yet known
     std::optional<Ramp> ramp;
     std::int64_t samples_seen = 0;
+    analysis::RecentArrivals recent;  // emptied with `report.stats`
   };
 
   void set_link(Link& link, const LinkSpec& spec, bool reset_statistics);

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/estimate.hpp"
 #include "netkf/kalman_filter.hpp"
 #include "netkf/loss_model.hpp"
@@ -83,8 +84,13 @@ struct LinkStatusFacts {
   std::string reject_reason;
   std::uint64_t held = 0;
   std::uint64_t past_deadline = 0;
+  std::optional<analysis::RecentLossFit> recent_fit;  // the link's recent samples' model (none: no sample yet)
 };
 wire::LinkStatus make_link_status(const LinkStatusFacts& facts, std::int64_t stamp_ns);
+/// The recent samples' model a status carries; none before the link's first sample, and
+/// ConversionError when it is malformed (unknown family, probabilities outside [0, 1], more
+/// drops than samples).
+std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& status);
 /// The link a status describes (throws ConversionError when it is not a valid link).
 LinkSpec link_of(const wire::LinkStatus& status);
 /// The answer to one link change request.
