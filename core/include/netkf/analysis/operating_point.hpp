@@ -32,6 +32,8 @@ struct OperatingPointAssessment {
   Verdict stable = Verdict::unknown;
   std::optional<double> lower_trace;   // Tr S̄ at these rates (nullopt: unbounded)
   std::optional<double> upper_trace;   // Tr V̄ at these rates (nullopt: unbounded / undecided)
+  BoundMethod upper_method = BoundMethod::enumerated;  // sampled: upper_trace is an estimate ± its standard error
+  double upper_standard_error = 0.0;
   std::optional<double> markov_criterion;  // < 1 stable (when it applies)
   std::string reason;                  // decide_stability()'s line (which result decided, or why none
                                        // did), or what is wrong with the rates
