@@ -25,7 +25,7 @@ json report_json(const analysis::AnalysisReport& r) {
   j["stable_reason"] = r.stable_reason;
   j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
                               {"upper_trace", number_or_null(r.upper_trace)},
-                              {"upper_method", analysis::to_string(r.upper_method)},
+                              {"upper_method", r.iid_bounds ? json(analysis::to_string(r.upper_method)) : json(nullptr)},
                               {"upper_trace_standard_error", number_or_null(r.upper_trace_standard_error)}};
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
@@ -59,7 +59,7 @@ json report_json(const analysis::AnalysisReport& r) {
                            {"expected_covariance",
                             {{"lower_trace", number_or_null(f.lower_trace)},
                              {"upper_trace", number_or_null(f.upper_trace)},
-                             {"upper_method", analysis::to_string(f.upper_method)},
+                             {"upper_method", f.iid_bounds ? json(analysis::to_string(f.upper_method)) : json(nullptr)},
                              {"upper_trace_standard_error", number_or_null(f.upper_trace_standard_error)}}},
                            {"markov_criterion", number_or_null(f.markov_criterion)},
                            {"links", std::move(links)}};
