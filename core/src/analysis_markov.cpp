@@ -400,8 +400,9 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
         block.criterion = block.criterion_upper;
       } else {
         undecided.push_back("eigen-block |λ| = " + std::to_string(alpha) + " has " + std::to_string(r.classes) +
-                            " observation classes (distinct row spaces), more than the " +
-                            std::to_string(options.max_classes) + " tracked exactly; its criterion lies in [" +
+                            " observation classes (distinct row spaces), more than can be tracked exactly (at most " +
+                            std::to_string(options.max_classes) + " classes, " +
+                            std::to_string(options.max_class_link_states) + " link states); its criterion lies in [" +
                             std::to_string(block.criterion_lower) + ", " + std::to_string(block.criterion_upper) +
                             "], which straddles 1");
         out.blocks.push_back(block);
