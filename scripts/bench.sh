@@ -9,13 +9,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-names=(fused-update late-fusion monte-carlo analyze latency hop-clock capacity dashboard security recovery multi-host
+names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity dashboard security recovery multi-host
        shutdown-aborts)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
   [monte-carlo]="Monte Carlo filter steps per second against NumPy (bench_monte_carlo, bench/numpy_monte_carlo.py)"
   [analyze]="wall time of netkf analyze --json per scenario (bench/bench_analyze.sh)"
+  [analyze-many]="wall and CPU time of netkf analyze --json for 512-sensor scenarios (bench/bench_many_sensors.sh)"
   [latency]="pipeline latency against one bare DDS hop, 8 sensors at 100 Hz, auto grouping and one process per sensor (bench_latency)"
   [hop-clock]="the same with the bare hop on the truth's clock and on its own (bench_latency --hop-clock)"
   [capacity]="sensors at 100 Hz without unintended loss, 64 and 128 sensors (bench_latency --capacity)"
@@ -274,6 +275,10 @@ bench_analyze() {
   bench/bench_analyze.sh "$netkf" | tee "$out/analyze.md"
   echo
   report analyze "$out/analyze.md"
+}
+
+bench_analyze_many() {
+  bench/bench_many_sensors.sh "$netkf" | tee "$out/analyze-many.md"
 }
 
 bench_latency() {

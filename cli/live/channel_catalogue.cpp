@@ -39,6 +39,8 @@ json assessment_schema() {
                 {"stable", {{"type", "string"}, {"enum", {"yes", "no", "unknown"}}}},
                 {"lower_trace", nullable_number()},
                 {"upper_trace", nullable_number()},
+                {"upper_method", {{"type", "string"}, {"enum", {"enumerated", "grouped", "sampled"}}}},
+                {"upper_standard_error", nullable_number()},
                 {"markov_criterion", nullable_number()},
                 {"reason", {{"type", "string"}}}}}};
 }
@@ -191,6 +193,10 @@ json assessment_json(const AssessmentView& a) {
               {"stable", analysis::to_string(a.result.stable)},
               {"lower_trace", optional_number(a.result.lower_trace)},
               {"upper_trace", optional_number(a.result.upper_trace)},
+              {"upper_method", analysis::to_string(a.result.upper_method)},
+              {"upper_standard_error", a.result.upper_method == analysis::BoundMethod::sampled && a.result.upper_trace
+                                           ? optional_number(a.result.upper_standard_error)
+                                           : json(nullptr)},
               {"markov_criterion", optional_number(a.result.markov_criterion)},
               {"reason", a.result.reason}};
 }

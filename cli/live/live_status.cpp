@@ -41,6 +41,8 @@ void render_assessment(std::ostringstream& out, const char* label, const Assessm
   out << "  theory (" << label << "): stable=" << analysis::to_string(a.result.stable);
   out << "  Tr S̄=" << (a.result.lower_trace ? fmt(*a.result.lower_trace) : std::string("∞"));
   out << "  Tr V̄=" << (a.result.upper_trace ? fmt(*a.result.upper_trace) : std::string("∞"));
+  if (a.result.upper_trace && a.result.upper_method == analysis::BoundMethod::sampled)
+    out << " (sampled ±" << fmt(a.result.upper_standard_error) << ")";
   if (a.result.markov_criterion) out << "  Markov criterion=" << fmt(*a.result.markov_criterion);
   // "unknown" alone does not tell a user whether to wait or why there is no answer.
   if (a.result.stable == analysis::Verdict::unknown && !a.result.reason.empty()) out << "  (" << a.result.reason << ")";

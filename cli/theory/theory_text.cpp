@@ -24,7 +24,9 @@ json report_json(const analysis::AnalysisReport& r) {
   j["stable"] = analysis::to_string(r.stable);
   j["stable_reason"] = r.stable_reason;
   j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
-                              {"upper_trace", number_or_null(r.upper_trace)}};
+                              {"upper_trace", number_or_null(r.upper_trace)},
+                              {"upper_method", r.iid_bounds ? json(analysis::to_string(r.upper_method)) : json(nullptr)},
+                              {"upper_trace_standard_error", number_or_null(r.upper_trace_standard_error)}};
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
     j["critical_rate"] = {{"lower", number_or_null(cr.lower)},
@@ -55,7 +57,10 @@ json report_json(const analysis::AnalysisReport& r) {
                            {"stable", analysis::to_string(f.stable)},
                            {"stable_reason", f.stable_reason},
                            {"expected_covariance",
-                            {{"lower_trace", number_or_null(f.lower_trace)}, {"upper_trace", number_or_null(f.upper_trace)}}},
+                            {{"lower_trace", number_or_null(f.lower_trace)},
+                             {"upper_trace", number_or_null(f.upper_trace)},
+                             {"upper_method", f.iid_bounds ? json(analysis::to_string(f.upper_method)) : json(nullptr)},
+                             {"upper_trace_standard_error", number_or_null(f.upper_trace_standard_error)}}},
                            {"markov_criterion", number_or_null(f.markov_criterion)},
                            {"links", std::move(links)}};
   } else {
@@ -72,6 +77,13 @@ std::string show(const std::optional<double>& v, const char* missing = "unbounde
   return os.str();
 }
 
+// Tr V̄ as the report has it: a sampled value says so, with its standard error.
+std::string show_upper(const std::optional<double>& v, const char* missing, analysis::BoundMethod method,
+                       const std::optional<double>& standard_error) {
+  if (!v || method != analysis::BoundMethod::sampled) return show(v, missing);
+  return show(v) + " +/- " + show(standard_error) + " (SAMPLED estimate, not a bound)";
+}
+
 }  // namespace
 
 namespace {
@@ -83,7 +95,8 @@ void print_final_estimate(std::ostream& out, const analysis::FinalEstimateReport
   out << "\n";
   const char* missing = f.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
   out << "    Tr S-bar (lower bound)   " << show(f.lower_trace, missing) << "\n";
-  out << "    Tr V-bar (upper bound)   " << show(f.upper_trace, missing) << "\n";
+  out << "    Tr V-bar (upper bound)   " << show_upper(f.upper_trace, missing, f.upper_method, f.upper_trace_standard_error)
+      << "\n";
   out << "    Markov criterion         " << show(f.markov_criterion, "n/a") << "\n";
   out << "    links: id  loss  P(delay <= horizon)  final arrival rate\n";
   for (const auto& l : f.links)
@@ -100,7 +113,8 @@ void print_analysis(std::ostream& out, const Scenario& s, const analysis::Analys
   out << "\n";
   const char* missing = r.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
   out << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
-  out << "  Tr V-bar (upper bound)     " << show(r.upper_trace, missing) << "\n";
+  out << "  Tr V-bar (upper bound)     " << show_upper(r.upper_trace, missing, r.upper_method, r.upper_trace_standard_error)
+      << "\n";
   out << "  Markov criterion           " << show(r.markov_criterion, "n/a") << "\n";
   out << "  links: id  loss  P(in time)  effective arrival rate (1 - loss) * P(in time)\n";
   for (const auto& l : r.links)

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "netkf/analysis/arrival_groups.hpp"
 #include "netkf/analysis/lmi.hpp"
 #include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/riccati.hpp"
@@ -49,12 +50,20 @@ std::optional<double> upper_rate_iteration(const Matrix& A, const Matrix& Q, std
   // stable", which biases the result upward by far less than the 1e-3 the tests allow.
   UpperBoundOptions options;
   options.max_iterations = 1500;
+  // Exact sums only (enumerated or grouped by count); a sampled map would make the bisection noisy.
+  bool exact = true;
   auto bounded = [&](double rate) {
     const auto r = rates(rate);
-    const auto patterns = independent_arrival_patterns(sensors, r);
-    return expected_covariance_upper_bound(A, Q, patterns, options).status == BoundStatus::bounded;
+    const PatternSets patterns = grouped_arrival_patterns(sensors, r);
+    if (patterns.method == BoundMethod::sampled) {
+      exact = false;
+      return true;
+    }
+    return expected_covariance_upper_bound(A, Q, patterns, options).bound.status == BoundStatus::bounded;
   };
-  return infimum_stable_rate(bounded, lo, 1.0, tolerance);
+  const auto rate = infimum_stable_rate(bounded, lo, 1.0, tolerance);
+  if (!exact) return std::nullopt;
+  return rate;
 }
 
 std::optional<double> exact_rate_markov(const Matrix& A, std::span<const SensorSpec> sensors, const RateFamily& rates,

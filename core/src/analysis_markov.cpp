@@ -1,11 +1,16 @@
 // Markov-loss stability criterion by the transition-matrix method (see analysis/markov.hpp).
 #include "netkf/analysis/markov.hpp"
 
+#include "netkf/link.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <cmath>
 #include <complex>
+#include <algorithm>
 #include <numbers>
+#include <optional>
+#include <utility>
 #include <sstream>
 #include <variant>
 
@@ -139,6 +144,156 @@ BlockChainResult block_deficiency_rate(const std::vector<CMatrix>& sensor_rows, 
   return {true, nonnegative_spectral_radius(M), static_cast<int>(states.size())};
 }
 
+// ρ(M_j) of one link's lost-chain M_j(to, from) = T(from, to) · loss(to): the growth rate of
+// P(lost N times in a row). Bernoulli: its loss.
+double lost_chain_rate(const LinkChain& c) {
+  Matrix M(c.T.rows(), c.T.rows());
+  for (Eigen::Index to = 0; to < M.rows(); ++to)
+    for (Eigen::Index from = 0; from < M.cols(); ++from) M(to, from) = c.T(from, to) * (1.0 - c.arrival(to));
+  return nonnegative_spectral_radius(M);
+}
+
+// Binomial pmf C(m, k) p^k (1 − p)^{m−k}.
+double binomial(int m, int k, double p) {
+  if (k < 0 || k > m) return 0.0;
+  return std::exp(std::lgamma(m + 1.0) - std::lgamma(k + 1.0) - std::lgamma(m - k + 1.0)) *
+         (k == 0 ? 1.0 : std::pow(p, k)) * (k == m ? 1.0 : std::pow(1.0 - p, m - k));
+}
+
+// One observation class as a single link: it arrives when any member does. Bernoulli members
+// merge (loss Π loss_j); identical Gilbert-Elliott members are counted in the bad state (the
+// count is an exactly lumpable chain); the class chain is the product over the GE groups.
+// nullopt when that product has more than `max_states` states.
+std::optional<LinkChain> class_chain(const std::vector<const LinkModel*>& members, int max_states) {
+  double bernoulli_loss = 1.0;
+  std::vector<std::pair<GilbertElliottLink, int>> ge;  // (parameters, members)
+  for (const LinkModel* m : members) {
+    if (const auto* b = std::get_if<BernoulliLink>(m)) {
+      bernoulli_loss *= b->loss;
+      continue;
+    }
+    const auto& g = std::get<GilbertElliottLink>(*m);
+    auto same = [&](const auto& e) {
+      return e.first.p == g.p && e.first.r == g.r && e.first.loss_good == g.loss_good && e.first.loss_bad == g.loss_bad;
+    };
+    auto it = std::find_if(ge.begin(), ge.end(), same);
+    if (it == ge.end()) ge.emplace_back(g, 1);
+    else ++it->second;
+  }
+  int size = 1;
+  for (const auto& [g, m] : ge) {
+    size *= m + 1;
+    if (size > max_states) return std::nullopt;
+  }
+  LinkChain c;
+  c.T = Matrix::Ones(size, size);
+  c.arrival = Vector::Constant(size, 1.0);
+  auto count = [&](int state, std::size_t k) {
+    for (std::size_t j = 0; j < k; ++j) state /= ge[j].second + 1;
+    return state % (ge[k].second + 1);
+  };
+  for (int from = 0; from < size; ++from) {
+    double lost = bernoulli_loss;
+    for (std::size_t k = 0; k < ge.size(); ++k) {
+      const int bad = count(from, k), m = ge[k].second;
+      lost *= std::pow(ge[k].first.loss_bad, bad) * std::pow(ge[k].first.loss_good, m - bad);
+    }
+    c.arrival(from) = 1.0 - lost;
+    for (int to = 0; to < size; ++to)
+      for (std::size_t k = 0; k < ge.size(); ++k) {
+        // bad → bad' : `stay` of the bad links stay bad (prob 1 − r), bad' − stay good links turn bad (p).
+        const int b = count(from, k), b2 = count(to, k), m = ge[k].second;
+        double p = 0.0;
+        for (int stay = 0; stay <= b; ++stay)
+          p += binomial(b, stay, 1.0 - ge[k].first.r) * binomial(m - b, b2 - stay, ge[k].first.p);
+        c.T(from, to) *= p;
+      }
+  }
+  return c;
+}
+
+struct GroupedBlockResult {
+  bool ok = false;        // false: the chain passed its cap (aperiodic block)
+  bool exact = true;
+  double rate = 0.0;      // exact rate
+  double lower = 0.0;     // bounds on the rate when !exact
+  double upper = 1.0;
+  int states = 0;
+  int observing = 0;
+  int classes = 0;
+  std::string method;
+};
+
+// The block's rate by observation classes (analysis/markov.hpp).
+GroupedBlockResult grouped_block_rate(const std::vector<CMatrix>& rows, const CMatrix& U_inv,
+                                      const std::vector<LinkChain>& links, std::span<const SensorSpec> sensors,
+                                      const MarkovOptions& options) {
+  const Eigen::Index n_i = U_inv.rows();
+  GroupedBlockResult out;
+  struct Class {
+    CMatrix basis, projector;
+    std::vector<const LinkModel*> members;
+    double all_lost = 1.0;  // stationary P(every member lost), to rank classes by reliability
+  };
+  std::vector<Class> classes;
+  double product_rate = 1.0;
+  bool all_full = true;
+  for (std::size_t j = 0; j < rows.size(); ++j) {
+    const CMatrix basis = row_space_basis(rows[j]);
+    if (basis.rows() == 0) continue;  // sensor j never sees block i
+    ++out.observing;
+    product_rate *= lost_chain_rate(links[j]);
+    all_full = all_full && basis.rows() >= n_i;
+    const CMatrix proj = basis.adjoint() * basis;
+    auto it = std::find_if(classes.begin(), classes.end(),
+                           [&](const Class& c) { return (c.projector - proj).norm() < 1e-7; });
+    if (it == classes.end()) {
+      classes.push_back({basis, proj, {}, 1.0});
+      it = classes.end() - 1;
+    }
+    it->members.push_back(&sensors[j].link.loss);
+    it->all_lost *= stationary_loss(sensors[j].link.loss);
+  }
+  out.classes = static_cast<int>(classes.size());
+  out.ok = true;
+  if (classes.empty() || (classes.size() == 1 && all_full)) {
+    // No sensor sees the block (rate 1), or any arrival reveals it: R_N = "all lost N times".
+    out.rate = product_rate;
+    out.method = "product";
+    return out;
+  }
+  // Exact chain over the classes if they fit, else over the most reliable ones (an upper bound).
+  std::sort(classes.begin(), classes.end(), [](const Class& a, const Class& b) { return a.all_lost < b.all_lost; });
+  std::vector<CMatrix> class_rows;
+  std::vector<LinkChain> class_links;
+  int joint = 1;
+  for (const auto& c : classes) {
+    if (static_cast<int>(class_rows.size()) >= options.max_classes) break;
+    auto chain = class_chain(c.members, options.max_class_link_states);
+    if (!chain || joint * chain->T.rows() > options.max_class_link_states) break;
+    joint *= static_cast<int>(chain->T.rows());
+    class_rows.push_back(c.basis);
+    class_links.push_back(std::move(*chain));
+  }
+  out.exact = class_rows.size() == classes.size();
+  out.method = out.exact ? "classes" : "bounds";
+  if (class_rows.empty()) {
+    out.lower = product_rate;
+    out.upper = 1.0;
+    return out;
+  }
+  const BlockChainResult r = block_deficiency_rate(class_rows, U_inv, class_links, options.max_chain_states);
+  out.states = r.states;
+  if (out.exact) {
+    out.ok = r.ok;
+    out.rate = r.rate;
+    return out;
+  }
+  out.lower = product_rate;
+  out.upper = r.ok ? r.rate : 1.0;
+  return out;
+}
+
 }  // namespace
 
 MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
@@ -167,6 +322,8 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
   std::vector<bool> used(static_cast<std::size_t>(n), false);
   out.applies = true;
   out.value = 0.0;
+  bool unstable_by_bounds = false;
+  std::vector<std::string> undecided;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (used[static_cast<std::size_t>(i)]) continue;
     const double alpha = std::abs(lambda(i));
@@ -195,7 +352,22 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
     }
     std::vector<CMatrix> rows;
     for (const auto& s : sensors) rows.push_back(s.C.cast<Complex>() * Vi);
-    const BlockChainResult r = block_deficiency_rate(rows, U_inv, links, options.max_chain_states);
+    GroupedBlockResult r;
+    if (options.group_sensors) {
+      r = grouped_block_rate(rows, U_inv, links, sensors, options);
+    } else if (sensors.size() > 16) {
+      r.ok = false;  // the reference enumeration: 2^d masks per state
+    } else {
+      const BlockChainResult e = block_deficiency_rate(rows, U_inv, links, options.max_chain_states);
+      r.ok = e.ok;
+      r.rate = e.rate;
+      r.states = e.states;
+      r.method = "enumerated";
+    }
+    block.method = r.method;
+    block.observing_sensors = r.observing;
+    block.classes = r.classes;
+    block.chain_states = r.states;
     if (!r.ok) {
       if (alpha < 1.0) {
         // A stable block never decides instability: α_i² · rate ≤ α_i² < 1.
@@ -209,15 +381,53 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
       }
       out.applies = false;
       out.reasons.push_back("eigen-block |λ| = " + std::to_string(alpha) +
-                            " is aperiodic (no τ with A^τ ∝ I): the transition-matrix method (multi-sensor "
-                            "paper Thm 9) needs a periodic block");
+                            " is aperiodic (no τ with A^τ ∝ I) or its rank-deficient chain passed " +
+                            std::to_string(options.max_chain_states) +
+                            " states: the transition-matrix method (multi-sensor paper Thm 9) needs a periodic block");
       continue;
     }
-    block.deficiency_rate = r.rate;
-    block.criterion = alpha * alpha * r.rate;
-    block.chain_states = r.states;
+    if (!r.exact) {
+      // Bounds only (analysis/markov.hpp): decided when the sufficient or necessary side does.
+      out.exact = false;
+      block.criterion_lower = alpha * alpha * r.lower;
+      block.criterion_upper = alpha * alpha * r.upper;
+      if (block.criterion_lower >= 1.0) {
+        block.deficiency_rate = r.lower;
+        block.criterion = block.criterion_lower;
+        unstable_by_bounds = true;
+      } else if (block.criterion_upper < 1.0) {
+        block.deficiency_rate = r.upper;
+        block.criterion = block.criterion_upper;
+      } else {
+        undecided.push_back("eigen-block |λ| = " + std::to_string(alpha) + " has " + std::to_string(r.classes) +
+                            " observation classes (distinct row spaces), more than can be tracked exactly (at most " +
+                            std::to_string(options.max_classes) + " classes, " +
+                            std::to_string(options.max_class_link_states) + " link states); its criterion lies in [" +
+                            std::to_string(block.criterion_lower) + ", " + std::to_string(block.criterion_upper) +
+                            "], which straddles 1");
+        out.blocks.push_back(block);
+        continue;
+      }
+    } else {
+      block.deficiency_rate = r.rate;
+      block.criterion = alpha * alpha * r.rate;
+    }
     out.blocks.push_back(block);
     out.value = std::max(out.value, block.criterion);
+  }
+  // An unstable block decides whatever the undecided ones say; otherwise they leave it open.
+  if (out.applies && !undecided.empty() && !(out.value >= 1.0)) {
+    out.applies = false;
+    for (auto& u : undecided) out.reasons.push_back(std::move(u));
+  }
+  if (out.applies && !out.exact) {
+    if (unstable_by_bounds)
+      out.reasons.push_back("Markov criterion decided unstable by a necessary condition: every sensor observing a "
+                            "block lost N times in a row already has rate prod_j rho(M_j) with alpha^2 times it >= 1");
+    else if (out.value < 1.0)
+      out.reasons.push_back("Markov criterion decided stable by a sufficient condition: the exact chain over the "
+                            "most reliable observation classes only (dropping sensors only adds rank-deficient "
+                            "sequences)");
   }
   return out;
 }

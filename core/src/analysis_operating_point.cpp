@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "netkf/analysis/arrival_groups.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "netkf/analysis/stability.hpp"
 
@@ -16,13 +17,15 @@ OperatingPointAssessment assess(const Scenario& scenario, const std::vector<Sens
   const Matrix& A = scenario.plant.A;
   const Matrix& Q = scenario.plant.Q;
   // The verdict `netkf analyze` gives for these links (analysis/stability.hpp).
-  const StabilityDecision decision = decide_stability(A, Q, sensors);
+  const StabilityDecision decision = decide_stability(A, Q, sensors, scenario.seed);
   out.stable = decision.stable;
   out.reason = decision.reason;
   if (decision.markov.applies) out.markov_criterion = decision.markov.value;
   if (decision.iid_bounds) {
     if (decision.lower) out.lower_trace = decision.lower->trace();
     if (decision.upper.status == BoundStatus::bounded) out.upper_trace = decision.upper.V.trace();
+    out.upper_method = decision.upper_method;
+    out.upper_standard_error = decision.upper_standard_error;
     return out;
   }
   // Links with memory: the status still shows the i.i.d. bounds at the stationary rates
@@ -30,8 +33,13 @@ OperatingPointAssessment assess(const Scenario& scenario, const std::vector<Sens
   if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(rates))) out.lower_trace = S->trace();
   UpperBoundOptions ub;
   ub.max_iterations = stability_upper_bound_iterations;
-  const UpperBound V = expected_covariance_upper_bound(A, Q, independent_arrival_patterns(sensors, rates), ub);
-  if (V.status == BoundStatus::bounded) out.upper_trace = V.V.trace();
+  SamplingOptions sampling;
+  sampling.seed = scenario.seed;
+  const UpperBoundEstimate V =
+      expected_covariance_upper_bound(A, Q, grouped_arrival_patterns(sensors, rates, sampling), ub);
+  if (V.bound.status == BoundStatus::bounded) out.upper_trace = V.bound.V.trace();
+  out.upper_method = V.method;
+  out.upper_standard_error = V.trace_standard_error;
   return out;
 }
 

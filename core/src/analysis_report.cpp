@@ -7,6 +7,7 @@
 #include <sstream>
 #include <variant>
 
+#include "netkf/analysis/arrival_groups.hpp"
 #include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "netkf/analysis/stability.hpp"
@@ -72,7 +73,7 @@ FinalEstimateReport final_estimate_report(const Scenario& configured) {
     f.links.push_back({sensor.id, stationary_loss(sensor.link.loss), in_time, arrival_rate(sensor.link.loss, in_time)});
   }
   const Scenario scenario = with_effective_links(configured, f.horizon_ms);
-  const StabilityDecision decision = decide_stability(scenario.plant.A, scenario.plant.Q, scenario.sensors);
+  const StabilityDecision decision = decide_stability(scenario.plant.A, scenario.plant.Q, scenario.sensors, scenario.seed);
   f.stable = decision.stable;
   f.stable_reason = decision.reason;
   if (decision.markov.applies) f.markov_criterion = decision.markov.value;
@@ -80,6 +81,9 @@ FinalEstimateReport final_estimate_report(const Scenario& configured) {
     f.iid_bounds = true;
     if (decision.lower) f.lower_trace = decision.lower->trace();
     if (decision.upper.status == BoundStatus::bounded) f.upper_trace = decision.upper.V.trace();
+    f.upper_method = decision.upper_method;
+    if (decision.upper_method == BoundMethod::sampled && f.upper_trace)
+      f.upper_trace_standard_error = decision.upper_standard_error;
   }
   return f;
 }
@@ -115,7 +119,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   const double alpha = report.spectral_radius;
 
   // The verdict and the bounds it used, as the live status has them (analysis/stability.hpp).
-  const StabilityDecision decision = decide_stability(A, Q, sensors);
+  const StabilityDecision decision = decide_stability(A, Q, sensors, scenario.seed);
 
   bool all_bernoulli = true;
   std::vector<double> rates;
@@ -148,6 +152,17 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     report.iid_bounds = true;
     if (decision.lower) report.lower_trace = decision.lower->trace();
     if (upper.status == BoundStatus::bounded) report.upper_trace = upper.V.trace();
+    report.upper_method = decision.upper_method;
+    if (decision.upper_method == BoundMethod::grouped)
+      report.notes.push_back("upper bound V-bar summed exactly over how many sensors of each group (same C, R) "
+                             "arrive (Poisson-binomial counts) instead of the 2^d patterns");
+    if (decision.upper_method == BoundMethod::sampled) {
+      if (report.upper_trace) report.upper_trace_standard_error = decision.upper_standard_error;
+      report.notes.push_back("upper_trace is SAMPLED, not a bound: too many arrival patterns to sum (more than " +
+                             std::to_string(exact_pattern_limit) + " count patterns); mean of 8 batches of 256 "
+                             "patterns drawn from the links (seeded from the scenario) +/- its standard error; "
+                             "it decides no verdict");
+    }
     if (upper.status == BoundStatus::undecided)
       report.notes.push_back("upper bound V-bar: the g iteration neither certified a fixed point nor diverged in " +
                              std::to_string(upper.iterations) + " iterations (operating point near the boundary)");
@@ -199,18 +214,25 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     cr.lower = critical_rate_lower_bound(alpha, static_cast<int>(d));
     const RateFamily family = shared_rate(d);
     cr.upper_iteration = upper_rate_iteration(A, Q, sensors, family, cr.lower);
-    const auto block = static_cast<int>(A.rows()) * (1 + (1 << d));
-    const bool lmi = options.use_lmi && (options.lmi_max_block <= 0 || block <= options.lmi_max_block);
+    if (!cr.upper_iteration)
+      report.notes.push_back("critical_rate.upper_iteration: null (too many arrival patterns to sum exactly; a "
+                             "bisection on a sampled map would be noise)");
+    // The LMI enumerates the 2^d patterns: only for few sensors (1 << d must not overflow).
+    const long long block = d <= 16 ? static_cast<long long>(A.rows()) * (1 + (1LL << d)) : -1;
+    const bool lmi = options.use_lmi && block > 0 && (options.lmi_max_block <= 0 || block <= options.lmi_max_block);
     if (lmi) {
       cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
     } else {
       cr.upper = cr.upper_iteration;
-      report.notes.push_back(options.use_lmi ? "critical_rate.upper from the g-iteration bisection: the LMI (" +
+      report.notes.push_back(!options.use_lmi ? "critical_rate.upper from the g-iteration bisection (LMI disabled)"
+                             : block < 0 ? "critical_rate.upper from the g-iteration bisection: the LMI needs the 2^d "
+                                           "patterns, too many for " + std::to_string(d) + " sensors"
+                                         : "critical_rate.upper from the g-iteration bisection: the LMI (" +
                                                    std::to_string(block) + " rows) exceeds the size limit for CSDP "
                                                    "(analyze --lmi-always forces it)"
-                                             : "critical_rate.upper from the g-iteration bisection (LMI disabled)");
+                         );
     }
-    if (markov.applies) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
+    if (markov.applies && markov.exact) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
     if (d > 1)
       report.notes.push_back("critical_rate.lower = 1 - alpha^(-2/d) for d links sharing the rate (Sinopoli Thm 3 "
                              "with Liu-Goldsmith's all-lost probability)");
@@ -236,9 +258,10 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
       p.lambda = static_cast<double>(k) / (points - 1);
       const std::vector<double> r(d, p.lambda);
       if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(r))) p.lower_trace = S->trace();
-      const auto patterns = independent_arrival_patterns(sensors, r);
-      const auto V = expected_covariance_upper_bound(A, Q, patterns, ub);
-      if (V.status == BoundStatus::bounded) p.upper_trace = V.V.trace();
+      SamplingOptions sampling;
+      sampling.seed = scenario.seed;
+      const auto V = expected_covariance_upper_bound(A, Q, grouped_arrival_patterns(sensors, r, sampling), ub);
+      if (V.bound.status == BoundStatus::bounded) p.upper_trace = V.bound.V.trace();
       report.sweep.push_back(p);
     }
   }

@@ -35,12 +35,8 @@ const char* to_string(Verdict verdict) {
   return "unknown";
 }
 
-StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors) {
-  // Before the Markov criterion: its chain has 2^d arrival masks per state (and 1u << d
-  // is undefined past 31), so a large network fails here at once, as the bounds would.
-  if (sensors.size() > 16)
-    throw std::invalid_argument("stability verdict: more than 16 sensors (" + std::to_string(sensors.size()) +
-                                "; the criterion and the bounds enumerate 2^d arrival patterns)");
+StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                                   std::uint64_t seed) {
   StabilityDecision out;
   if (sensors.empty()) {
     // E[P] = Σ A^k Q A'^k: bounded iff α < 1.
@@ -65,20 +61,27 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
     out.lower = lyapunov_lower_bound(A, Q, all_lost);
     UpperBoundOptions ub;
     ub.max_iterations = stability_upper_bound_iterations;
-    out.upper = expected_covariance_upper_bound(A, Q, independent_arrival_patterns(sensors, rates), ub);
+    SamplingOptions sampling;
+    sampling.seed = seed;
+    const UpperBoundEstimate estimate =
+        expected_covariance_upper_bound(A, Q, grouped_arrival_patterns(sensors, rates, sampling), ub);
+    out.upper = estimate.bound;
+    out.upper_method = estimate.method;
+    out.upper_standard_error = estimate.trace_standard_error;
   }
 
   if (out.markov.applies) {
     const bool stable = out.markov.stable();
     out.stable = stable ? Verdict::yes : Verdict::no;
+    const std::string how = out.markov.exact ? "" : (stable ? " (a sufficient bound)" : " (a necessary bound)");
     out.reason = stable ? "stable decided by the Markov criterion " + verdict_number(out.markov.value) +
-                              " < 1 (multi-sensor paper Thm 7)"
+                              " < 1" + how + " (multi-sensor paper Thm 7)"
                         : "unstable decided by the Markov criterion " + verdict_number(out.markov.value) +
-                              " >= 1 (multi-sensor paper Thm 7): below the critical boundary";
+                              " >= 1" + how + " (multi-sensor paper Thm 7): below the critical boundary";
   } else if (!out.iid_bounds) {
     out.reason = "stable unknown: Gilbert-Elliott links are decided only by the Markov criterion, which does not "
                  "apply here (" + why_not(out.markov) + ")";
-  } else if (out.upper.status == BoundStatus::bounded) {
+  } else if (out.upper.status == BoundStatus::bounded && out.upper_method != BoundMethod::sampled) {
     out.stable = Verdict::yes;
     out.reason = "stable decided by the upper bound: V-bar = g(V-bar) exists (Sinopoli Thm 3/5)";
   } else if (!out.lower) {
@@ -88,7 +91,9 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
                  verdict_number(all_lost * alpha * alpha) + " >= 1, Sinopoli Thm 3): below the critical rate";
   } else {
     out.reason = std::string("stable unknown: S-bar exists but V-bar ") +
-                 (out.upper.status == BoundStatus::unbounded
+                 (out.upper_method == BoundMethod::sampled
+                      ? "was only sampled (too many arrival patterns to sum exactly; a sample decides nothing)"
+                  : out.upper.status == BoundStatus::unbounded
                       ? "does not exist"
                       : "was neither certified nor diverged in " + std::to_string(out.upper.iterations) +
                             " iterations (near the boundary)") +

@@ -6,3 +6,9 @@ if(TARGET netkf)
                  $<TARGET_FILE:netkf> ${CMAKE_CURRENT_SOURCE_DIR}/data/theory)
   set_tests_properties(validation_numpy_bounds PROPERTIES LABELS validation TIMEOUT 300)
 endif()
+# `netkf analyze` answers for 512 sensors (theory beyond 16 sensors; closed form in Python).
+if(TARGET netkf)
+  add_test(NAME validation_cli_many_sensors
+         COMMAND /usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/validation/cli_many_sensors.py $<TARGET_FILE:netkf>)
+  set_tests_properties(validation_cli_many_sensors PROPERTIES LABELS validation TIMEOUT 300)
+endif()

@@ -14,6 +14,29 @@
 // finite chain for periodic blocks; its sub-stochastic transition matrix M has
 // P(R_N) = u M^N v and limsup P(R_N)^{1/N} = ρ(M) (eq. 35-36: per step here rather than
 // per period τ, which is the same number).
+//
+// Any number of sensors (multi-sensor paper Thm 7 needs, per block i, only which sensors
+// have arrived; the default path, MarkovOptions::group_sensors):
+//  * a sensor j with C_j V_i = 0 never observes block i and drops out of its chain;
+//  * the rank of the stacked rows depends only on the union of the arrived sensors' row
+//    spaces, so sensors with the same row space in block i form one observation class; a
+//    class "arrives" when any member does. Independent Bernoulli members merge into one
+//    Bernoulli link (loss Π loss_j); identical Gilbert-Elliott members are tracked by how
+//    many are in the bad state (an exactly lumpable chain, m + 1 states); the class chain
+//    is the product of those. Exact, with 2^{classes} masks instead of 2^d;
+//  * when the block has one class and every observing sensor alone reveals the whole block
+//    (C_j V_i of full column rank n_i), W never leaves {0}: R_N(i) is "every observing
+//    sensor lost N times", whose chain is the Kronecker product of the links' lost-chains
+//    M_j(to, from) = T_j(from, to) · loss_j(to), so limsup P(R_N)^{1/N} = Π_j ρ(M_j)
+//    (= Π_j (1 − λ_j) for Bernoulli links). Exact and O(d): `product`;
+//  * otherwise, with more classes than max_classes, bounds (`bounds`): necessary,
+//    P(R_N) ≥ P(every observing sensor lost), rate ≥ Π_j ρ(M_j); sufficient, dropping
+//    classes only adds rank-deficient sequences, so the exact chain over the max_classes
+//    most reliable classes bounds the rate from above. The block decides when the upper
+//    criterion is < 1 (stable) or the lower one ≥ 1 (unstable); else the criterion does
+//    not apply.
+// The 2^d enumeration over single sensors (group_sensors = false, d ≤ 16) is kept as the
+// reference the tests compare with.
 #include <optional>
 #include <span>
 #include <string>
@@ -30,6 +53,11 @@ struct EigenBlockCriterion {
   double deficiency_rate = 0.0;  // limsup P(R_N(i))^{1/N} = ρ(M_i)
   double criterion = 0.0;        // α_i² · deficiency_rate (stable block iff < 1)
   int chain_states = 0;          // size of the rank-deficient chain
+  std::string method;            // "product", "classes", "enumerated" or "bounds" (see above)
+  int observing_sensors = 0;     // sensors with C_j V_i ≠ 0
+  int classes = 0;               // observation classes (distinct row spaces) among them
+  double criterion_lower = 0.0;  // "bounds": α_i² Π_j ρ(M_j) (≥ 1: unstable, necessary condition)
+  double criterion_upper = 0.0;  // "bounds": α_i² · rate over a subset of classes (< 1: stable, sufficient)
 };
 
 struct MarkovCriterion {
@@ -37,11 +65,17 @@ struct MarkovCriterion {
   double value = 0.0;                 // max over eigen-blocks of α_i² ρ(M_i)
   std::vector<EigenBlockCriterion> blocks;
   std::vector<std::string> reasons;   // why it does not apply / what was assumed
+  /// false: some block was decided by its bounds; `value` is then the number that decided
+  /// (an upper criterion < 1 for stable, a lower one ≥ 1 for unstable), not the exact one.
+  bool exact = true;
   bool stable() const { return applies && value < 1.0; }
 };
 
 struct MarkovOptions {
   int max_chain_states = 600;   // per eigen-block; larger (e.g. aperiodic rotations) => not applicable
+  bool group_sensors = true;    // false: the reference 2^d enumeration over single sensors (d ≤ 16)
+  int max_classes = 8;          // observation classes tracked exactly per block (2^classes masks)
+  int max_class_link_states = 64;  // product of the classes' chain sizes tracked exactly
 };
 
 /// Criterion for the sensors with their configured links (Bernoulli or Gilbert-Elliott,

@@ -9,9 +9,10 @@
 // once per second. Cost: the Markov criterion and one expected-Riccati fixed point (at
 // most stability_upper_bound_iterations iterations, then a few linear solves); dearest
 // where an aperiodic eigen-block runs the Markov chain search to its cap or an operating
-// point near the boundary runs V̄ to the iteration cap. Measured: BENCHMARKS.md,
-// "Operating-point assessment". No caches, no threads, no logging: safe to call from any
-// thread.
+// point near the boundary runs V̄ to the iteration cap. Any number of sensors: the
+// criterion groups them and V̄ is summed over counts or sampled (analysis/arrival_groups.hpp).
+// Measured: BENCHMARKS.md, "Operating-point assessment" and "Theory beyond 16 sensors".
+// No caches, no threads, no logging: safe to call from any thread.
 //
 // Typical use (estimator, once per second):
 //   std::vector<double> rates = observed_arrival_rates();   // delivered / expected, per sensor
@@ -32,6 +33,8 @@ struct OperatingPointAssessment {
   Verdict stable = Verdict::unknown;
   std::optional<double> lower_trace;   // Tr S̄ at these rates (nullopt: unbounded)
   std::optional<double> upper_trace;   // Tr V̄ at these rates (nullopt: unbounded / undecided)
+  BoundMethod upper_method = BoundMethod::enumerated;  // sampled: upper_trace is an estimate ± its standard error
+  double upper_standard_error = 0.0;
   std::optional<double> markov_criterion;  // < 1 stable (when it applies)
   std::string reason;                  // decide_stability()'s line (which result decided, or why none
                                        // did), or what is wrong with the rates

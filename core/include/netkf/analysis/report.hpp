@@ -46,6 +46,8 @@ struct FinalEstimateReport {
   std::optional<double> lower_trace;     // Tr S̄ at the final arrival rates
   std::optional<double> upper_trace;     // Tr V̄
   bool iid_bounds = false;
+  BoundMethod upper_method = BoundMethod::enumerated;
+  std::optional<double> upper_trace_standard_error;
   std::optional<double> markov_criterion;
   std::vector<LinkArrival> links;        // in_time = P(delay <= horizon)
 };
@@ -57,6 +59,8 @@ struct AnalysisReport {
   std::optional<double> lower_trace;   // Tr S̄ for the configured links
   std::optional<double> upper_trace;   // Tr V̄
   bool iid_bounds = false;             // S̄/V̄ were computed (every link Bernoulli); else not reported
+  BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed; sampled: an estimate, not a bound
+  std::optional<double> upper_trace_standard_error;    // sampled only
   std::optional<CriticalRates> critical_rate;  // all links Bernoulli with one shared rate
   std::optional<double> markov_criterion;      // max_i α_i² limsup P(R_N(i))^{1/N}
   std::optional<double> second_order_criterion;  // Thm 12 closed form (cross-check), when it applies

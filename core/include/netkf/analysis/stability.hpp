@@ -6,6 +6,7 @@
 #include <span>
 #include <string>
 
+#include "netkf/analysis/arrival_groups.hpp"
 #include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/riccati.hpp"
 #include "netkf/scenario.hpp"
@@ -29,21 +30,26 @@ struct StabilityDecision {
   bool iid_bounds = false;     // S̄ and V̄ computed: at least one sensor, every link Bernoulli
   std::optional<Matrix> lower;  // S̄ (nullopt: unbounded, or not computed)
   UpperBound upper;            // V̄ (status undecided after 0 iterations when not computed)
+  BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed (analysis/arrival_groups.hpp)
+  double upper_standard_error = 0.0;  // sampled V̄ only: standard error of Tr V̄
 };
 
 /// The verdict for the plant (A, Q) and the sensors with their links, in this order:
 ///  1. no sensors: open-loop prediction, bounded iff α < 1;
 ///  2. the necessary-and-sufficient Markov criterion where it applies, for Bernoulli and
 ///     Gilbert-Elliott links alike (multi-sensor paper Thm 7; Rohr et al. Thm 3.1);
-///  3. every link Bernoulli (i.i.d. arrivals): V̄ = g(V̄) exists ⇒ stable (Sinopoli Thm 3/5);
+///  3. every link Bernoulli (i.i.d. arrivals): V̄ = g(V̄) exists ⇒ stable (Sinopoli Thm 3/5)
+///     when V̄ was summed exactly (enumerated or grouped; a sampled V̄ never decides);
 ///     else S̄ does not exist, q α² ≥ 1 with q the all-lost probability ⇒ unstable
 ///     (Sinopoli Thm 3; Liu-Goldsmith Thm 3 for d links);
 ///  4. otherwise unknown. Gilbert-Elliott links have memory: the i.i.d. bounds at their
 ///     stationary rates bound nothing for them, so they never decide.
 /// Reads each link's loss model only: pass the sensors of with_effective_links() when links
-/// have delay. Throws std::invalid_argument for more than 16 sensors (both the criterion
-/// and the bounds enumerate the 2^d arrival patterns).
-StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors);
+/// have delay. Any number of sensors: the criterion groups sensors per eigen-block and V̄
+/// is summed over count vectors or sampled (analysis/markov.hpp, arrival_groups.hpp);
+/// `seed` (the scenario's) seeds the sampling.
+StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                                   std::uint64_t seed = 0);
 
 /// A number in a verdict's text: six significant digits, or enough to tell it from 1 next
 /// to a "< 1" verdict.
