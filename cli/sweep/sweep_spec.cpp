@@ -78,6 +78,8 @@ void apply_path(YAML::Node node, const std::vector<std::string>& path, std::size
     next.push_back(node[index]);
   } else if (node.IsMap() || node.IsNull()) {
     if (last) {
+      if (node[segment] && !node[segment].IsScalar() && !node[segment].IsNull())
+        throw std::invalid_argument("--vary " + key + ": it names a mapping or list, not a value");
       node[segment] = value;
       return;
     }
