@@ -178,7 +178,7 @@ fs::path run_file(const SweepConfig& config, const PendingRun& run, const char* 
          ("p" + std::to_string(run.point) + "-s" + std::to_string(run.seed) + ext);
 }
 
-/// `netkf launch RUN.yaml --duration D --summary RUN.json --domain DOMAIN` in its own process
+/// `netkf launch RUN.yaml --duration D --summary RUN.json --domain DOMAIN --dashboard off` in its own process
 /// group (the terminal's Ctrl-C reaches the sweep only, which ends the child cleanly), its
 /// output in RUN.log.
 Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun& run, int slot) {
@@ -193,7 +193,8 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   std::snprintf(duration, sizeof duration, "%.6g", run_duration_s(config, plan.period_s));
   std::vector<std::string> args = {config.netkf_exe, "launch", yaml.string(), "--duration", duration,
                                    "--summary", c.summary.string(), "--domain",
-                                   std::to_string(config.domain_base + slot), "--status-interval", "0"};
+                                   std::to_string(config.domain_base + slot), "--status-interval", "0",
+                                   "--dashboard", "off"};  // no port for parallel runs to fight over
   const std::string log = run_file(config, run, ".log").string();
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
