@@ -80,6 +80,24 @@ constexpr const char* kScript = R"(
     });
     root.appendChild(el('h2', 'against ' + key));
     const box = el('div'); box.className = 'plots'; root.appendChild(box);
+    // The theory's critical margin (1 - Markov criterion; > 0 stable), one curve per group.
+    const margin = [xs], mseries = [{ label: key }];
+    let gm = 0;
+    groups.forEach((pts, label) => {
+      const m = xs.map((_, i) => pts[i] == null ? null : pts[i].theory.critical_margin);
+      if (m.some(v => v != null)) {
+        margin.push(m);
+        mseries.push({ label: label + ' margin', stroke: colors[gm++ % colors.length], width: 2, points: { show: true } });
+      }
+    });
+    if (margin.length > 1) {
+      margin.push(xs.map(() => 0));
+      mseries.push({ label: 'stability edge', stroke: '#c00', dash: [6, 4] });
+      const div = el('div'); div.className = 'plot'; box.appendChild(div);
+      new uPlot({ title: 'theory: critical margin (1 - Markov criterion)', width: 560, height: 300, series: mseries,
+                  scales: { x: { time: false } }, axes: [{ label: key, values: (u, vs) => vs.map(v => isNum ? v : (xsText[v] ?? '')) }, {}] },
+                margin, div);
+    }
     D.quantities.forEach((q, qi) => {
       const data = [xs], series = [{ label: key, value: (u, v) => v == null ? '' : (isNum ? v : xsText[v]) }], bands = [];
       const at = (p, f) => p == null ? null : f(p);
@@ -155,7 +173,7 @@ std::string render_report(const ReportData& data, std::string_view uplot_js, std
           "error, min and max dashed. On mean_trace_P (Tr P<sub>k|k</sub>) the grey band is the theory's "
           "[Tr S&#772;, Tr V&#772;], the bounds on lim E[P<sub>k|k&minus;1</sub>] (Sinopoli Thm 4), where the "
           "analysis gives them (every link Bernoulli). Critical margin: 1 &minus; the Markov criterion "
-          "(&gt; 0: stable).</p>\n";
+          "(&gt; 0: stable by the multi-sensor Markov criterion, Thm 7/9), plotted first against each key.</p>\n";
   html += "<div id=\"plots\"></div>\n<h2>Points and theory</h2>\n<table id=\"points\"></table>\n";
   html += "<script type=\"application/json\" id=\"sweep-data\">" + script_safe(report_json(data).dump()) + "</script>\n";
   html += "<script>" + std::string(kScript) + "</script>\n</body></html>\n";

@@ -9,6 +9,8 @@ link 2's loss x 3 seeds, against expectations made here:
 - link 2's observed loss over the seeds agrees with the loss of its point (binomial, 5 se).
 - the theory columns equal `netkf analyze --json` on the point's scenario, made here by editing
   the file's text (not the sweep's key path): stable, Tr S̄, Tr V̄ and 1 - the Markov criterion.
+- report.html in headless Chromium (network refused): the margin plot and one plot per measured
+  quantity, no script error, no request.
 - reruns are identical; --check on the points' means fails exactly at the points whose mean
   fails it (exit 1, stderr names them); a bad value is exit 2 naming the point.
 No DDS is started (the harness's network namespace is kept for uniformity).
@@ -20,7 +22,7 @@ import math
 import os
 import re
 
-from e2e_common import REPO, check, finish, netkf, require_netns, workdir
+from e2e_common import REPO, check, finish, netkf, node, require_netns, workdir
 
 require_netns()
 scenario = os.path.join(REPO, "deploy", "scenarios", "default.yaml")
@@ -143,6 +145,13 @@ with open(os.path.join(sweep_dir, "report.html")) as f:
 check("uPlot" in html and not re.search(r"(src|href)\s*=\s*[\"']?https?:", html), "report.html inlines uPlot, loads nothing")
 data = json.loads(re.search(r'<script type="application/json" id="sweep-data">(.*?)</script>', html, re.S).group(1))
 check(data["keys"] == ["sensors.2.link.loss"] and len(data["points"]) == 3, "report.html holds the sweep's data")
+# In a browser with the network refused: the page draws its plots, without a script error or a request.
+page = node("report_browser.mjs", "--report", os.path.join(sweep_dir, "report.html"), "--screenshot",
+            os.path.join(out, "report.png"))
+measured = [q for q in quantities if any(x[q] != "" for x in runs)]
+check(page.get("errors") == [] and page.get("requests") == [], "report.html: no script error, no request (%s)" % page)
+check(page.get("titles", [])[1:] == measured and page["titles"][0].startswith("theory: critical margin"),
+      "report.html: the theory's margin, then one plot per measured quantity (%d plots)" % page.get("plots", 0))
 
 # ---- a rerun is identical
 again = os.path.join(out, "again")
