@@ -25,10 +25,6 @@
 #include "sweep_table.hpp"
 #include "netkf/scenario.hpp"
 
-#ifndef NETKF_VERSION
-#define NETKF_VERSION "unknown"
-#endif
-
 namespace netkf::cli::sweep {
 
 std::atomic<bool> stop_requested{false};
@@ -145,7 +141,7 @@ std::vector<PendingRun> pending_runs(const SweepConfig& config, const Plan& plan
 }
 
 void run_offline(const SweepConfig& config, const Plan& plan, const std::vector<PendingRun>& pending,
-                 std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total) {
+                 std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total, std::ostream& err) {
   const std::int64_t periods = run_periods(config, plan.period_s);
   for (const auto& run : pending) {
     if (stop_requested) return;
@@ -154,9 +150,11 @@ void run_offline(const SweepConfig& config, const Plan& plan, const std::vector<
     try {
       const Scenario s = parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, run.seed), config.scenario_path);
       row.values = summary_values(offline_summary(s, periods), plan.quantities);
-    } catch (const std::exception&) {
+    } catch (const std::exception& e) {
       row.ok = false;
       row.values.assign(plan.quantities.size(), std::nullopt);
+      err << "netkf sweep: run " << run.point << "/" << run.seed << " (" << point_label(config.vary, point)
+          << ") failed: " << e.what() << "\n";
     }
     append_row(config, plan, row);
     rows.push_back(std::move(row));
@@ -216,16 +214,26 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   return c;
 }
 
-RunRow finished_row(const Child& c, int status, const std::vector<std::string>& quantities) {
+/// The run's row from its launch's summary; a launch that failed (or wrote no summary) is a
+/// failed run, said on `err` with its log.
+RunRow finished_row(const SweepConfig& config, const Child& c, int status, const std::vector<std::string>& quantities,
+                    std::ostream& err) {
   RunRow row{c.run.point, c.run.seed, false, std::vector<std::optional<double>>(quantities.size())};
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) return row;
-  try {
-    std::ifstream in(c.summary);
-    const auto j = nlohmann::json::parse(in);
-    row.values = summary_values(j, quantities);
-    row.ok = true;
-  } catch (const std::exception&) {
+  std::string why;
+  if (!WIFEXITED(status)) why = "the launch ended by signal " + std::to_string(WTERMSIG(status));
+  else if (WEXITSTATUS(status) != 0) why = "the launch exited " + std::to_string(WEXITSTATUS(status));
+  if (why.empty()) {
+    try {
+      std::ifstream in(c.summary);
+      row.values = summary_values(nlohmann::json::parse(in), quantities);
+      row.ok = true;
+      return row;
+    } catch (const std::exception& e) {
+      why = std::string("its summary is unreadable: ") + e.what();
+    }
   }
+  err << "netkf sweep: run " << c.run.point << "/" << c.run.seed << " failed: " << why << " (log "
+      << run_file(config, c.run, ".log").string() << ")\n";
   return row;
 }
 
@@ -242,7 +250,7 @@ void stop_children(std::vector<Child>& running) {
 }
 
 void run_live(const SweepConfig& config, const Plan& plan, const std::vector<PendingRun>& pending,
-              std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total) {
+              std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total, std::ostream& err) {
   fs::create_directories(fs::path(config.out) / "runs");
   std::vector<Child> running;
   std::size_t next = 0;
@@ -260,7 +268,7 @@ void run_live(const SweepConfig& config, const Plan& plan, const std::vector<Pen
     if (pid < 0) continue;  // EINTR: a signal, looked at above
     for (auto it = running.begin(); it != running.end(); ++it) {
       if (it->pid != pid) continue;
-      RunRow row = finished_row(*it, status, plan.quantities);
+      RunRow row = finished_row(config, *it, status, plan.quantities, err);
       running.erase(it);
       append_row(config, plan, row);
       rows.push_back(std::move(row));
@@ -355,8 +363,8 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
   {
     ProgressBar bar(err, config.live ? "sweep (live)" : "sweep (offline)", progress_bar_wanted(stderr_is_terminal(), false));
     bar.update(static_cast<std::int64_t>(rows.size()), static_cast<std::int64_t>(total));
-    if (config.live) run_live(config, plan, pending, rows, bar, total);
-    else run_offline(config, plan, pending, rows, bar, total);
+    if (config.live) run_live(config, plan, pending, rows, bar, total, err);
+    else run_offline(config, plan, pending, rows, bar, total, err);
   }
   write_outputs(config, plan, rows, assets);
   int status = check_points(config, plan, rows, err) ? 0 : 1;
