@@ -87,7 +87,8 @@ sweep::SweepConfig make_config(const SweepArgs& a, const std::vector<std::string
     c.out = a.out;
     c.checks = a.checks;
   }
-  if (c.live && c.domain_base + c.jobs - 1 > 232) usage_error("the live runs' DDS domains pass 232: lower --domain or --jobs");
+  if (c.live && sweep::live_domain(c, c.jobs - 1) > 232)
+    usage_error("the live runs' DDS domains pass 232: lower --domain or --jobs");
   std::error_code ec;
   c.netkf_exe = std::filesystem::read_symlink("/proc/self/exe", ec).string();
   return c;
@@ -110,7 +111,7 @@ void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv) {
   cmd->add_flag("--live", a->live, "each run a real `netkf launch` (DDS, the channel emulator)");
   cmd->add_flag("--offline", a->offline, "each run the core filter and loss models, no DDS (the default; fast)");
   cmd->add_option("--jobs", a->jobs, "live runs at a time (default 1)")->check(CLI::Range(1, 64));
-  cmd->add_option("--domain", a->domain, "first DDS domain of the live runs: job j uses DOMAIN + j (default $NETKF_DOMAIN, else 0)")
+  cmd->add_option("--domain", a->domain, "first DDS domain of the live runs: job j uses DOMAIN + 2j (default $NETKF_DOMAIN, else 0)")
       ->check(CLI::Range(0, 232));
   cmd->add_option("--out", a->out, "directory to write (runs.csv, points.csv, sweep.yaml, report.html)");
   cmd->add_option("--check", a->checks, "NAME<VALUE etc. on every point's mean (repeatable; as launch --check)");

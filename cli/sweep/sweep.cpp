@@ -191,7 +191,7 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   std::snprintf(duration, sizeof duration, "%.6g", run_duration_s(config, plan.period_s));
   std::vector<std::string> args = {config.netkf_exe, "launch", yaml.string(), "--duration", duration,
                                    "--summary", c.summary.string(), "--domain",
-                                   std::to_string(config.domain_base + slot), "--status-interval", "0",
+                                   std::to_string(live_domain(config, slot)), "--status-interval", "0",
                                    "--dashboard", "off"};  // no port for parallel runs to fight over
   const std::string log = run_file(config, run, ".log").string();
   std::vector<char*> argv;
@@ -329,6 +329,8 @@ void write_outputs(const SweepConfig& config, const Plan& plan, const std::vecto
 }
 
 }  // namespace
+
+int live_domain(const SweepConfig& config, int slot) { return config.domain_base + 2 * slot; }
 
 std::int64_t run_periods(const SweepConfig& config, double period_s) {
   if (config.periods) return *config.periods;

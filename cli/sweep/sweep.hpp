@@ -23,7 +23,7 @@ struct SweepConfig {
   std::optional<std::int64_t> periods;
   bool live = false;
   int jobs = 1;                      // live runs at a time
-  int domain_base = 0;               // live: job slot j runs on DDS domain domain_base + j
+  int domain_base = 0;               // live: job slot j runs on DDS domain live_domain(config, j)
   std::string out;                   // DIR
   std::vector<std::string> checks;
   std::string netkf_exe;             // live: the netkf executable that launches each run
@@ -31,6 +31,12 @@ struct SweepConfig {
 };
 
 inline constexpr double kDefaultDurationS = 10.0;
+
+/// The DDS domain of live job slot j: domain_base + 2 j. Adjacent domains are not apart on one
+/// host: a participant's loopback discovery probes 128 participant ids, 2 ports each (dds/,
+/// participant.cpp), past the 250 ports of its domain into the next one's, where the domain
+/// guard of a launch saw the other job's launch.
+int live_domain(const SweepConfig& config, int slot);
 
 /// A run's periods (offline) from --periods or --duration / the period.
 std::int64_t run_periods(const SweepConfig& config, double period_s);

@@ -1,7 +1,8 @@
 """`netkf sweep --live` (docs/experiments.md, "Sweeps"): each run a real `netkf launch` child on
 the test's DDS domain, against the launches' own files:
 
-- a sweep of 2 points (link 1's loss) x 2 seeds, short runs, is cut by Ctrl-C (SIGINT) after its
+- a sweep of 2 points (link 1's loss) x 2 seeds, short runs, two launches at a time (on domains
+  $NETKF_DOMAIN and +2: adjacent domains would see each other's launch), is cut by Ctrl-C (SIGINT) after its
   first finished run: it exits 1 saying how to resume, keeps the finished rows, and leaves no
   node process behind; `--resume DIR` finishes it (the kept rows unchanged, every run done).
 - each runs.csv row equals the summary JSON its launch wrote (DIR/runs/pP-sS.json), quantity by
@@ -25,7 +26,7 @@ out = workdir("sweep-live")
 sweep_dir = os.path.join(out, "sweep")
 duration = 3
 cmd = [NETKF, "sweep", scenario, "--vary", "sensors.1.link.loss=0.1,0.6", "--seeds", "2", "--duration", str(duration),
-       "--live", "--jobs", "1", "--domain", str(domain), "--out", sweep_dir]
+       "--live", "--jobs", "2", "--domain", str(domain), "--out", sweep_dir]
 print("$", " ".join(cmd), flush=True)
 log_path = os.path.join(out, "sweep.log")
 runs_csv = os.path.join(sweep_dir, "runs.csv")
