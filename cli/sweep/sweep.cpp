@@ -201,7 +201,8 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   if (c.pid < 0) throw std::runtime_error("cannot start a launch: fork failed");
   if (c.pid == 0) {
     setpgid(0, 0);
-    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    // Appended: the log of a failed attempt stays when --resume runs it again.
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     if (fd >= 0) {
       dup2(fd, 1);
       dup2(fd, 2);

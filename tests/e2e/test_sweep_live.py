@@ -24,7 +24,7 @@ domain = int(os.environ.get("NETKF_DOMAIN", "96"))
 scenario = os.path.join(DATA, "bernoulli3.yaml")  # three links, Bernoulli loss 0.3, period 40 ms
 out = workdir("sweep-live")
 sweep_dir = os.path.join(out, "sweep")
-duration = 3
+duration = 6  # a launch needs its start too: 3 s on the loaded 2-core VM sometimes saw no estimate
 cmd = [NETKF, "sweep", scenario, "--vary", "sensors.1.link.loss=0.1,0.6", "--seeds", "2", "--duration", str(duration),
        "--live", "--jobs", "2", "--domain", str(domain), "--out", sweep_dir]
 print("$", " ".join(cmd), flush=True)
@@ -60,7 +60,8 @@ check(wait_for(lambda: not netkf_processes(domain), 10), "Ctrl-C: no node proces
 r = netkf("sweep", "--resume", sweep_dir, timeout=240)
 check(r.returncode == 0, "--resume finishes the sweep (rc=%d)" % r.returncode)
 rows = data_rows()
-check(rows[:len(kept)] == kept, "--resume keeps the rows already done")
+kept_ok = [row for row in kept if row[3] == "ok"]
+check(rows[:len(kept_ok)] == kept_ok, "--resume keeps the ok rows already done (%d; a failed run is run again)" % len(kept_ok))
 with open(runs_csv) as f:
     runs = list(csv.DictReader(f))
 check(sorted((x["point"], x["seed"]) for x in runs) == [("0", "1"), ("0", "2"), ("1", "1"), ("1", "2")],
