@@ -1,4 +1,4 @@
-// netkf: launch and supervise a scenario, tune links, record, analyse, simulate.
+// netkf: launch and supervise a scenario, tune links, record, analyse, simulate, sweep.
 // Exit codes (README, "Exit codes"; cli/common/exit_code.hpp): 0 done, 1 failure of the run,
 // 2 bad usage or input, 3 no network answered, 4 the network refused the request.
 #include <iostream>
@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   netkf::cli::add_simulate_command(app);
   netkf::cli::add_fit_command(app);
   netkf::cli::add_security_command(app);
+  netkf::cli::add_sweep_command(app, std::vector<std::string>(argv, argv + argc));
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {

@@ -2,6 +2,8 @@
 // Each `netkf` subcommand registers itself on the top-level CLI11 app. A command's
 // callback throws CLI::RuntimeError(code) to end with a non-zero exit status.
 #include <CLI/CLI.hpp>
+#include <string>
+#include <vector>
 
 namespace netkf::cli {
 
@@ -12,5 +14,7 @@ void add_analyze_command(CLI::App& app);
 void add_simulate_command(CLI::App& app);
 void add_fit_command(CLI::App& app);
 void add_security_command(CLI::App& app);
+/// `argv`: the command line as given (sweep.yaml records it).
+void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv);
 
 }  // namespace netkf::cli

@@ -1,0 +1,134 @@
+// `netkf sweep`: a scenario over a grid of key values × seeds, offline or live, into a directory
+// of CSV files, sweep.yaml and report.html (cli/sweep/, docs/experiments.md "Sweeps").
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "commands.hpp"
+#include "dashboard__assets.hpp"
+#include "sweep.hpp"
+
+namespace netkf::cli {
+namespace {
+
+struct SweepArgs {
+  std::string scenario;
+  std::vector<std::string> vary;
+  int seeds = 1;
+  std::optional<double> duration;
+  std::optional<std::int64_t> periods;
+  bool live = false, offline = false;
+  int jobs = 1;
+  std::optional<int> domain;
+  std::string out, resume;
+  std::vector<std::string> checks;
+};
+
+void on_stop_signal(int) { sweep::stop_requested = true; }
+
+/// Ctrl-C (and SIGTERM) ask the sweep to stop; no SA_RESTART, so a wait for a child returns.
+struct StopSignals {
+  struct sigaction old_int {}, old_term {};
+  StopSignals() {
+    struct sigaction sa {};
+    sa.sa_handler = on_stop_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int);
+    sigaction(SIGTERM, &sa, &old_term);
+  }
+  ~StopSignals() {
+    sigaction(SIGINT, &old_int, nullptr);
+    sigaction(SIGTERM, &old_term, nullptr);
+  }
+};
+
+[[noreturn]] void usage_error(const std::string& message) {
+  std::cerr << "netkf sweep: error: " << message << "\n";
+  throw CLI::RuntimeError(2);
+}
+
+int default_domain() {
+  const char* env = std::getenv("NETKF_DOMAIN");
+  return env ? std::atoi(env) : 0;
+}
+
+/// The config from the flags (a new sweep) or from DIR/sweep.yaml (--resume DIR).
+sweep::SweepConfig make_config(const SweepArgs& a, const std::vector<std::string>& argv) {
+  sweep::SweepConfig c;
+  if (!a.resume.empty()) {
+    if (!a.scenario.empty() || !a.vary.empty() || !a.out.empty())
+      usage_error("--resume DIR takes everything from DIR/sweep.yaml: give no scenario, --vary or --out");
+    try {
+      c = sweep::read_sweep_yaml(a.resume, c.expected_sha256);
+    } catch (const std::exception& e) {
+      usage_error(e.what());
+    }
+  } else {
+    if (a.scenario.empty() || a.out.empty()) usage_error("give a scenario and --out DIR (or --resume DIR)");
+    if (a.live && a.offline) usage_error("--live and --offline exclude each other");
+    c.command = argv;
+    c.scenario_path = a.scenario;
+    try {
+      for (const auto& v : a.vary) c.vary.push_back(sweep::parse_vary(v));
+    } catch (const std::exception& e) {
+      usage_error(e.what());
+    }
+    c.seeds = a.seeds;
+    c.duration_s = a.duration;
+    c.periods = a.periods;
+    c.live = a.live;
+    c.jobs = a.jobs;
+    c.domain_base = a.domain.value_or(default_domain());
+    c.out = a.out;
+    c.checks = a.checks;
+  }
+  if (c.live && sweep::live_domain(c, c.jobs - 1) > 232)
+    usage_error("the live runs' DDS domains pass 232: lower --domain or --jobs");
+  std::error_code ec;
+  c.netkf_exe = std::filesystem::read_symlink("/proc/self/exe", ec).string();
+  return c;
+}
+
+}  // namespace
+
+void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv) {
+  auto a = std::make_shared<SweepArgs>();
+  auto* cmd = app.add_subcommand("sweep", "Run a scenario over a grid of key values x seeds; CSV files and an HTML report");
+  cmd->add_option("scenario", a->scenario, "scenario YAML file");
+  cmd->add_option("--vary", a->vary,
+                  "KEY=V1,V2,... or KEY=FROM:TO:N (repeatable; the grid is their product). KEY: a scenario path, "
+                  "e.g. sensors.2.link.loss (sensor id 2), sensors.*.link.mean_burst, estimator.deadline_ms, plant.A.0.0");
+  cmd->add_option("--seeds", a->seeds, "seeds per point (1..N, derived from the scenario's seed)")->check(CLI::Range(1, 100000));
+  auto* duration = cmd->add_option("--duration", a->duration, "seconds per run (default 10)")->check(CLI::PositiveNumber);
+  cmd->add_option("--periods", a->periods, "periods per run (instead of --duration)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{100000000}))
+      ->excludes(duration);
+  cmd->add_flag("--live", a->live, "each run a real `netkf launch` (DDS, the channel emulator)");
+  cmd->add_flag("--offline", a->offline, "each run the core filter and loss models, no DDS (the default; fast)");
+  cmd->add_option("--jobs", a->jobs, "live runs at a time (default 1)")->check(CLI::Range(1, 64));
+  cmd->add_option("--domain", a->domain, "first DDS domain of the live runs: job j uses DOMAIN + 2j (default $NETKF_DOMAIN, else 0)")
+      ->check(CLI::Range(0, 232));
+  cmd->add_option("--out", a->out, "directory to write (runs.csv, points.csv, sweep.yaml, report.html)");
+  cmd->add_option("--check", a->checks, "NAME<VALUE etc. on every point's mean (repeatable; as launch --check)");
+  cmd->add_option("--resume", a->resume, "finish the sweep in DIR, skipping its done runs");
+  cmd->callback([a, argv] {
+    const sweep::SweepConfig config = make_config(*a, argv);
+    const auto* js = dashboard::find_asset("/uPlot.iife.min.js");
+    const auto* css = dashboard::find_asset("/uPlot.min.css");
+    const sweep::ReportAssets assets{js ? js->body : "", css ? css->body : ""};
+    int status = 0;
+    {
+      StopSignals signals;
+      status = sweep::run_sweep(config, !a->resume.empty(), assets, std::cerr);
+    }
+    if (status == 0) std::cout << "wrote " << config.out << "/{runs.csv,points.csv,sweep.yaml,report.html}\n";
+    if (status != 0) throw CLI::RuntimeError(status);
+  });
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,387 @@
+#include "sweep.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+#include <fcntl.h>
+
+#include <cerrno>
+#include <csignal>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <algorithm>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <yaml-cpp/yaml.h>
+
+#include "progress_bar.hpp"
+#include "run_summary.hpp"
+#include "sha256.hpp"
+#include "sweep_report.hpp"
+#include "sweep_runs.hpp"
+#include "sweep_table.hpp"
+#include "netkf/scenario.hpp"
+
+namespace netkf::cli::sweep {
+
+std::atomic<bool> stop_requested{false};
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Bad input: the sweep ends with status 2 before any run.
+struct InputError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("cannot read " + path.string());
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Everything fixed before the first run.
+struct Plan {
+  YAML::Node tree;                    // the scenario file's
+  std::string sha256;
+  std::vector<Point> grid;
+  std::vector<Scenario> scenarios;    // per point, seed 1 (the theory's; the loader's verdict)
+  std::vector<std::string> quantities;
+  std::vector<Check> checks;
+  double period_s = 0.0;
+};
+
+Plan make_plan(const SweepConfig& config) {
+  Plan plan;
+  const std::string text = read_text(config.scenario_path);
+  plan.sha256 = sha256_hex(text);
+  if (!config.expected_sha256.empty() && config.expected_sha256 != plan.sha256)
+    throw InputError(config.scenario_path + " changed since the sweep started (sha256 " + plan.sha256 +
+                     ", sweep.yaml has " + config.expected_sha256 + "): start a new sweep");
+  try {
+    plan.tree = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(config.scenario_path + ": " + e.what());
+  }
+  try {
+    plan.grid = expand_grid(config.vary);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  for (const auto& point : plan.grid) {
+    const std::string name = config.scenario_path + " (point " + std::to_string(point.index) + ": " +
+                             point_label(config.vary, point) + ")";
+    try {
+      plan.scenarios.push_back(parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, 1), name));
+    } catch (const std::exception& e) {
+      // The loader's message names the field; the source name names the point.
+      const std::string what = e.what();
+      throw InputError(what.find(name) == std::string::npos ? name + ": " + what : what);
+    }
+  }
+  std::vector<int> ids;
+  for (const auto& s : plan.scenarios.front().sensors) ids.push_back(s.id);
+  plan.quantities = summary_names(ids);
+  try {
+    for (const auto& c : config.checks) plan.checks.push_back(parse_check(c, ids));
+  } catch (const std::invalid_argument& e) {
+    throw InputError(e.what());
+  }
+  plan.period_s = plan.scenarios.front().period_s();
+  return plan;
+}
+
+/// runs.csv opened for appending, holding the header and the rows kept from before.
+std::vector<RunRow> open_runs_file(const SweepConfig& config, const Plan& plan, bool resume) {
+  const fs::path path = fs::path(config.out) / "runs.csv";
+  std::vector<RunRow> kept;
+  if (resume && fs::exists(path)) {
+    std::ifstream in(path);
+    try {
+      for (auto& r : read_runs_csv(in, config.vary, plan.quantities))
+        if (r.ok) kept.push_back(std::move(r));  // a failed run is run again
+    } catch (const std::runtime_error& e) {
+      throw InputError(path.string() + ": " + e.what());
+    }
+  } else if (!resume && fs::exists(path)) {
+    throw InputError(config.out + " already holds a sweep: finish it with --resume " + config.out +
+                     ", or give another --out");
+  }
+  std::ofstream out(path, std::ios::trunc);
+  out << runs_header(config.vary, plan.quantities) << "\n";
+  for (const auto& r : kept) out << runs_line(r, plan.grid[static_cast<std::size_t>(r.point)]) << "\n";
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  return kept;
+}
+
+/// Appends one finished run to runs.csv at once (a cut sweep keeps it).
+void append_row(const SweepConfig& config, const Plan& plan, const RunRow& row) {
+  std::ofstream out(fs::path(config.out) / "runs.csv", std::ios::app);
+  out << runs_line(row, plan.grid[static_cast<std::size_t>(row.point)]) << "\n";
+}
+
+struct PendingRun {
+  int point = 0;
+  int seed = 0;
+};
+
+std::vector<PendingRun> pending_runs(const SweepConfig& config, const Plan& plan, const std::vector<RunRow>& kept) {
+  const auto done = done_runs(kept);
+  std::vector<PendingRun> pending;
+  for (const auto& p : plan.grid)
+    for (int seed = 1; seed <= config.seeds; ++seed)
+      if (!done.count({p.index, seed})) pending.push_back({p.index, seed});
+  return pending;
+}
+
+void run_offline(const SweepConfig& config, const Plan& plan, const std::vector<PendingRun>& pending,
+                 std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total, std::ostream& err) {
+  const std::int64_t periods = run_periods(config, plan.period_s);
+  for (const auto& run : pending) {
+    if (stop_requested) return;
+    const Point& point = plan.grid[static_cast<std::size_t>(run.point)];
+    RunRow row{run.point, run.seed, true, {}};
+    try {
+      const Scenario s = parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, run.seed), config.scenario_path);
+      row.values = summary_values(offline_summary(s, periods), plan.quantities);
+    } catch (const std::exception& e) {
+      row.ok = false;
+      row.values.assign(plan.quantities.size(), std::nullopt);
+      err << "netkf sweep: run " << run.point << "/" << run.seed << " (" << point_label(config.vary, point)
+          << ") failed: " << e.what() << "\n";
+    }
+    append_row(config, plan, row);
+    rows.push_back(std::move(row));
+    bar.update(static_cast<std::int64_t>(rows.size()), static_cast<std::int64_t>(total));
+  }
+}
+
+// ------------------------------------------------------------------ live runs
+
+struct Child {
+  pid_t pid = -1;
+  PendingRun run;
+  int slot = 0;
+  fs::path summary;
+};
+
+fs::path run_file(const SweepConfig& config, const PendingRun& run, const char* ext) {
+  return fs::path(config.out) / "runs" /
+         ("p" + std::to_string(run.point) + "-s" + std::to_string(run.seed) + ext);
+}
+
+/// `netkf launch RUN.yaml --duration D --summary RUN.json --domain DOMAIN --dashboard off` in its own process
+/// group (the terminal's Ctrl-C reaches the sweep only, which ends the child cleanly), its
+/// output in RUN.log.
+Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun& run, int slot) {
+  const fs::path yaml = run_file(config, run, ".yaml");
+  {
+    std::ofstream out(yaml);
+    out << run_scenario_yaml(plan.tree, config.vary, plan.grid[static_cast<std::size_t>(run.point)], run.seed);
+  }
+  Child c{-1, run, slot, run_file(config, run, ".json")};
+  fs::remove(c.summary);
+  char duration[32];
+  std::snprintf(duration, sizeof duration, "%.6g", run_duration_s(config, plan.period_s));
+  std::vector<std::string> args = {config.netkf_exe, "launch", yaml.string(), "--duration", duration,
+                                   "--summary", c.summary.string(), "--domain",
+                                   std::to_string(live_domain(config, slot)), "--status-interval", "0",
+                                   "--dashboard", "off"};  // no port for parallel runs to fight over
+  const std::string log = run_file(config, run, ".log").string();
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  c.pid = fork();
+  if (c.pid < 0) throw std::runtime_error("cannot start a launch: fork failed");
+  if (c.pid == 0) {
+    setpgid(0, 0);
+    // Appended: the log of a failed attempt stays when --resume runs it again.
+    const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (fd >= 0) {
+      dup2(fd, 1);
+      dup2(fd, 2);
+      close(fd);
+    }
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  setpgid(c.pid, c.pid);
+  return c;
+}
+
+/// The run's row from its launch's summary; a launch that failed (or wrote no summary) is a
+/// failed run, said on `err` with its log.
+RunRow finished_row(const SweepConfig& config, const Child& c, int status, const std::vector<std::string>& quantities,
+                    std::ostream& err) {
+  RunRow row{c.run.point, c.run.seed, false, std::vector<std::optional<double>>(quantities.size())};
+  std::string why;
+  if (!WIFEXITED(status)) why = "the launch ended by signal " + std::to_string(WTERMSIG(status));
+  else if (WEXITSTATUS(status) != 0) why = "the launch exited " + std::to_string(WEXITSTATUS(status));
+  if (why.empty()) {
+    try {
+      std::ifstream in(c.summary);
+      row.values = summary_values(nlohmann::json::parse(in), quantities);
+      row.ok = true;
+      return row;
+    } catch (const std::exception& e) {
+      why = std::string("its summary is unreadable: ") + e.what();
+    }
+  }
+  err << "netkf sweep: run " << c.run.point << "/" << c.run.seed << " failed: " << why << " (log "
+      << run_file(config, c.run, ".log").string() << ")\n";
+  return row;
+}
+
+/// Ends the running launches as Ctrl-C would (SIGINT to each group), waits for them; their runs
+/// are not done.
+void stop_children(std::vector<Child>& running) {
+  for (const auto& c : running) kill(-c.pid, SIGINT);
+  for (const auto& c : running) {
+    int status = 0;
+    while (waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
+    }
+  }
+  running.clear();
+}
+
+void run_live(const SweepConfig& config, const Plan& plan, const std::vector<PendingRun>& pending,
+              std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total, std::ostream& err) {
+  fs::create_directories(fs::path(config.out) / "runs");
+  std::vector<Child> running;
+  std::size_t next = 0;
+  while (next < pending.size() || !running.empty()) {
+    if (stop_requested) return stop_children(running);
+    while (next < pending.size() && static_cast<int>(running.size()) < config.jobs) {
+      std::set<int> used;
+      for (const auto& c : running) used.insert(c.slot);
+      int slot = 0;
+      while (used.count(slot)) ++slot;
+      running.push_back(start_child(config, plan, pending[next++], slot));
+    }
+    int status = 0;
+    const pid_t pid = waitpid(-1, &status, 0);
+    if (pid < 0) continue;  // EINTR: a signal, looked at above
+    for (auto it = running.begin(); it != running.end(); ++it) {
+      if (it->pid != pid) continue;
+      RunRow row = finished_row(config, *it, status, plan.quantities, err);
+      running.erase(it);
+      append_row(config, plan, row);
+      rows.push_back(std::move(row));
+      bar.update(static_cast<std::int64_t>(rows.size()), static_cast<std::int64_t>(total));
+      break;
+    }
+  }
+}
+
+// ------------------------------------------------------------------ outputs
+
+bool holds(double v, const Check& c) {
+  switch (c.op) {
+    case CheckOp::less: return v < c.threshold;
+    case CheckOp::less_equal: return v <= c.threshold;
+    case CheckOp::greater: return v > c.threshold;
+    case CheckOp::greater_equal: return v >= c.threshold;
+  }
+  return false;
+}
+
+/// Each check on each point's mean; prints the failed points; true when all passed.
+bool check_points(const SweepConfig& config, const Plan& plan, const std::vector<RunRow>& rows, std::ostream& err) {
+  bool all = true;
+  for (const auto& check : plan.checks) {
+    const auto q = static_cast<std::size_t>(
+        std::find(plan.quantities.begin(), plan.quantities.end(), check.name) - plan.quantities.begin());
+    for (const auto& point : plan.grid) {
+      const Stats s = point_stats(point.index, q, rows);
+      if (s.mean && holds(*s.mean, check)) continue;
+      all = false;
+      err << "netkf sweep: check '" << check.text << "' FAILED at point " << point.index << " ("
+          << point_label(config.vary, point) << "): "
+          << (s.mean ? "mean " + cell(s.mean) : std::string("not measured in any run")) << "\n";
+    }
+  }
+  return all;
+}
+
+void write_outputs(const SweepConfig& config, const Plan& plan, const std::vector<RunRow>& rows,
+                   const ReportAssets& assets) {
+  std::vector<Theory> theory;
+  for (const auto& s : plan.scenarios) {
+    try {
+      theory.push_back(point_theory(s));
+    } catch (const std::exception&) {
+      theory.emplace_back();  // no analysis for this point: empty theory cells
+    }
+  }
+  std::ofstream points(fs::path(config.out) / "points.csv", std::ios::trunc);
+  points << points_header(config.vary, plan.quantities) << "\n";
+  for (const auto& p : plan.grid)
+    points << points_line(p, plan.quantities.size(), rows, theory[static_cast<std::size_t>(p.index)]) << "\n";
+  ReportData data{config.scenario_path, config.live ? "live" : "offline", config.seeds, config.vary, plan.grid,
+                  plan.quantities, rows, theory};
+  std::ofstream report(fs::path(config.out) / "report.html", std::ios::trunc);
+  report << render_report(data, assets.uplot_js, assets.uplot_css);
+}
+
+}  // namespace
+
+int live_domain(const SweepConfig& config, int slot) { return config.domain_base + 2 * slot; }
+
+std::int64_t run_periods(const SweepConfig& config, double period_s) {
+  if (config.periods) return *config.periods;
+  const double d = config.duration_s.value_or(kDefaultDurationS);
+  return std::max<std::int64_t>(1, static_cast<std::int64_t>(std::llround(d / period_s)));
+}
+
+double run_duration_s(const SweepConfig& config, double period_s) {
+  if (config.duration_s) return *config.duration_s;
+  if (config.periods) return static_cast<double>(*config.periods) * period_s;
+  return kDefaultDurationS;
+}
+
+int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets, std::ostream& err) {
+  Plan plan;
+  std::vector<RunRow> rows;
+  try {
+    plan = make_plan(config);
+    if (config.live && config.netkf_exe.empty()) throw InputError("no netkf executable to launch the runs");
+    fs::create_directories(config.out);
+    rows = open_runs_file(config, plan, resume);
+  } catch (const std::exception& e) {
+    err << "netkf sweep: error: " << e.what() << "\n";
+    return 2;
+  }
+  {
+    std::ofstream yaml(fs::path(config.out) / "sweep.yaml", std::ios::trunc);
+    yaml << sweep_yaml(config, plan.sha256);
+  }
+  const auto pending = pending_runs(config, plan, rows);
+  const std::size_t total = plan.grid.size() * static_cast<std::size_t>(config.seeds);
+  {
+    ProgressBar bar(err, config.live ? "sweep (live)" : "sweep (offline)", progress_bar_wanted(stderr_is_terminal(), false));
+    bar.update(static_cast<std::int64_t>(rows.size()), static_cast<std::int64_t>(total));
+    if (config.live) run_live(config, plan, pending, rows, bar, total, err);
+    else run_offline(config, plan, pending, rows, bar, total, err);
+  }
+  write_outputs(config, plan, rows, assets);
+  int status = check_points(config, plan, rows, err) ? 0 : 1;
+  const auto failed = static_cast<std::size_t>(std::count_if(rows.begin(), rows.end(), [](const RunRow& r) { return !r.ok; }));
+  if (failed > 0) {
+    err << "netkf sweep: " << failed << " run(s) could not run (status failed in runs.csv)\n";
+    status = 1;
+  }
+  if (rows.size() < total) {
+    err << "netkf sweep: stopped with " << rows.size() << " of " << total << " runs done; finish with netkf sweep --resume "
+        << config.out << "\n";
+    status = 1;
+  }
+  return status;
+}
+
+}  // namespace netkf::cli::sweep
