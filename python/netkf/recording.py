@@ -41,7 +41,10 @@ def period_columns(n, fuse_within=False):
 
 def _ids(text):
     """'1;3' -> (1, 3); '' -> ()."""
-    return tuple(int(v) for v in text.split(";") if v != "")
+    try:
+        return tuple(int(v) for v in text.split(";") if v != "")
+    except ValueError:
+        raise ValueError("fused %r is not a list of sensor ids (ID;ID;...)" % text) from None
 
 
 def _late_samples(text):
@@ -50,8 +53,11 @@ def _late_samples(text):
     for item in text.split(";"):
         if item == "":
             continue
-        period, sensor = item.split(":")
-        out.append((int(period), int(sensor)))
+        try:
+            period, sensor = item.split(":")
+            out.append((int(period), int(sensor)))
+        except ValueError:
+            raise ValueError("late_samples item %r is not PERIOD:SENSOR" % item) from None
     return tuple(out)
 
 
@@ -84,6 +90,8 @@ def _read_csv(path, converters, dtypes):
 
 
 def _check_numeric(path, df, columns, integer=()):
+    if len(df) == 0:  # a header alone (stopped before the first period): nothing to check
+        return
     for c in columns:
         if not pd.api.types.is_numeric_dtype(df[c]):
             raise FormatError("%s: column %s holds values that are not numbers" % (path, c))
