@@ -96,7 +96,7 @@ def test_csv_and_mcap_of_one_run_are_equal_frames(live, run):
     """The attached recorder (started once the launch recorded its first period) holds a
     stretch of the run: every one of its periods is the launch's, the same doubles."""
     attached, launch = attached_and_launch(live, run)
-    assert len(attached) > 50 and set(attached["k"]) <= set(launch["k"])
+    assert len(attached) >= 10 and set(attached["k"]) <= set(launch["k"])
     same = launch[launch["k"].isin(attached["k"])].reset_index(drop=True)
     same.attrs = attached.attrs = {}
     pd.testing.assert_frame_equal(attached, same, check_exact=True)
@@ -121,7 +121,7 @@ def test_attached_samples_csv_and_mcap_are_the_launchs(live, run):
     key = ["k", "sensor_id"]
     m = netkf.read_mcap_samples(path(live, run, "A.mcap"), fuse_within=fuse_within)
     a = netkf.read_samples(path(live, run, "AS.csv"))
-    assert len(m) > 50 and a.attrs["fuse_within"] == fuse_within
+    assert len(m) >= 10 and a.attrs["fuse_within"] == fuse_within
     m = m.sort_values(key).reset_index(drop=True)
     a = a.sort_values(key).reset_index(drop=True)
     m.attrs = a.attrs = {}
