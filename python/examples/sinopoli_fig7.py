@@ -109,7 +109,7 @@ def theory_bracket(t):
     return (unstable.max() if len(unstable) else math.nan, stable.min() if len(stable) else math.nan)
 
 
-def plot(t, lam_c, path):
+def plot(t, lam_c, gains, plant, design_rate, path):
     try:
         import matplotlib
         matplotlib.use("Agg")
@@ -121,15 +121,17 @@ def plot(t, lam_c, path):
                 label="time-varying filter (netkf, mean ± s.e. over seeds)")
     ax.plot(t["lambda"], t["V_bar"], "--", label="V̄ (upper bound)")
     ax.plot(t["lambda"], t["S_bar"], ":", label="S̄ (lower bound)")
-    for col, label in (("static_K_SS", "static K_SS"), ("static_K_A_over_C", "static K = A/C"),
-                       ("static_K_lambda", "static K_λ (λ = 0.6)")):
-        ax.plot(t["lambda"], t[col].where(np.isfinite(t[col])), "-", alpha=0.6, label=label)
+    grid = np.linspace(0.0, 1.0, 501)  # the static gains' closed form, drawn densely
+    for (name, K), label in zip(gains.items(), ("static K_SS", "static K = A/C", "static K_λ (λ = %g)" % design_rate)):
+        y = np.array([static_steady_state(K, l, *plant) for l in grid])
+        ax.plot(grid, np.where(np.isfinite(y), y, np.nan), "-", alpha=0.6, label=label)
     ax.axvline(lam_c, color="r", lw=1, label="λ_c = %.3g" % lam_c)
     ax.set_xlabel("arrival rate λ")
-    ax.set_ylabel("E[P_{k|k-1}]")
+    ax.set_ylabel(r"$E[P_{k|k-1}]$")
     ax.set_yscale("log")
     ax.set_xlim(0, 1)
-    ax.legend(fontsize=8)
+    ax.set_ylim(0.5, 1e3)
+    ax.legend(fontsize=8, loc="upper right")
     ax.set_title("Sinopoli et al. 2004, Fig. 7, from a netkf sweep")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
@@ -161,7 +163,7 @@ def main():
     with pd.option_context("display.width", 200, "display.max_columns", 20):
         print(t.to_string(index=False, float_format=lambda v: "%.4g" % v))
     print("wrote %s.csv" % args.out)
-    if plot(t, lam_c, args.out + ".png"):
+    if plot(t, lam_c, gains, (A, C, Q, R), args.design_rate, args.out + ".png"):
         print("wrote %s.png" % args.out)
     else:
         print("no plot: python3-matplotlib is not installed (apt-get install python3-matplotlib)")
