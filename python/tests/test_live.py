@@ -157,7 +157,9 @@ def test_mcap_periods_are_the_summarys_periods(live):
     assert m.header == {"profile": "", "library": "netkf"}
     estimates = netkf.read_mcap_topic(m, "netkf/estimate")
     assert int((estimates["revision"] == 0).sum()) == s["periods"]
-    assert len(netkf.read_mcap_periods(m)) == s["periods"]
+    frame = netkf.read_recording(path(live, "mcap", "R.mcap"))  # by the extension
+    assert len(frame) == s["periods"] and frame["k"].iloc[0] == 0
+    assert close(rms(frame, "xhat"), s["rms_error"]) and close(frame["trace_P"].mean(), s["mean_trace_P"])
     assert (estimates["log_time"] == (estimates["t"] * 1e9).round().astype(np.int64)).all()
 
 
