@@ -10,7 +10,7 @@ packages=(
   libeigen3-dev libboost-dev libboost-system-dev libspdlog-dev
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libsdp-dev gnuplot-nox python3-numpy python3-yaml
+  libsdp-dev gnuplot-nox python3-numpy python3-yaml python3-pandas python3-pytest
   iproute2 util-linux tcpdump procps openssl
   prometheus-cpp-dev prometheus chromium
   cyclonedds-dev cyclonedds-tools systemd

@@ -1,0 +1,279 @@
+"""Recordings of `netkf launch --record` / `netkf record --out` as pandas DataFrames.
+
+The formats are docs/recording.md's (written by cli/recording/record_csv.cpp and
+record_mcap.cpp). A CSV recording and an MCAP recording of the same run give equal frames:
+read_periods(run.csv) and read_mcap_periods(run.mcap) have the same columns, dtypes and
+values (the doubles are the same: the CSV writes 17 significant digits, read back exactly).
+
+Period frame columns, one row per period k:
+  k, t, x0..x{n-1} (truth), xhat0..xhat{n-1} (in-time estimate x̂_{k|k}), trace_P (Tr P_{k|k}),
+  fused (tuple of the fused sensor ids), late (samples counted late in this estimate),
+  state ('ok' / 'diverging'), late_samples (tuple of (period, sensor id) of each late sample);
+  with late_policy fuse_within also revisions, xhat_final0.., trace_P_final, fused_final.
+Samples frame columns, one row per delivered sample:
+  k, sensor_id, stamp, fused (bool), [fused_in_time (bool), with fuse_within], y0..y{m-1}
+  (NaN past a sensor's own measurement size).
+"""
+import csv
+import math
+import re
+
+import numpy as np
+import pandas as pd
+
+from .mcap import McapFile
+
+
+class FormatError(ValueError):
+    """A file that is not what netkf writes (names the file and what is wrong)."""
+
+
+_BASE_TAIL = ["trace_P", "fused", "late", "state", "late_samples"]
+
+
+def period_columns(n, fuse_within=False):
+    """The period CSV's header for state size n (record_csv.cpp's PeriodCsvRecorder::header)."""
+    cols = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + _BASE_TAIL
+    if fuse_within:
+        cols += ["revisions"] + ["xhat_final%d" % i for i in range(n)] + ["trace_P_final", "fused_final"]
+    return cols
+
+
+def _ids(text):
+    """'1;3' -> (1, 3); '' -> ()."""
+    try:
+        return tuple(int(v) for v in text.split(";") if v != "")
+    except ValueError:
+        raise ValueError("fused %r is not a list of sensor ids (ID;ID;...)" % text) from None
+
+
+def _late_samples(text):
+    """'29:1;29:3' -> ((29, 1), (29, 3))."""
+    out = []
+    for item in text.split(";"):
+        if item == "":
+            continue
+        try:
+            period, sensor = item.split(":")
+            out.append((int(period), int(sensor)))
+        except ValueError:
+            raise ValueError("late_samples item %r is not PERIOD:SENSOR" % item) from None
+    return tuple(out)
+
+
+def _header(path):
+    with open(path, newline="") as f:
+        try:
+            return next(csv.reader(f))
+        except StopIteration:
+            raise FormatError("%s: empty file (no header)" % path)
+
+
+def _state_dim(path, header):
+    xs = [c for c in header if re.fullmatch(r"x\d+", c)]
+    n = len(xs)
+    for fuse_within in (False, True):
+        if header == period_columns(n, fuse_within):
+            return n, fuse_within
+    raise FormatError("%s: not a netkf period recording; its header is %s, expected %s" %
+                      (path, ",".join(header), ",".join(period_columns(n))))
+
+
+def _read_csv(path, converters, dtypes):
+    try:
+        # round_trip: the exact double of each 17-digit field (pandas' default parser can be
+        # one ulp off), so a CSV and an MCAP of one run compare equal.
+        return pd.read_csv(path, converters=converters, dtype=dtypes, float_precision="round_trip",
+                           keep_default_na=False, na_values=["nan", "NaN", ""])
+    except (ValueError, pd.errors.ParserError) as e:
+        raise FormatError("%s: %s" % (path, e)) from e
+
+
+def _check_numeric(path, df, columns, integer=()):
+    if len(df) == 0:  # a header alone (stopped before the first period): nothing to check
+        return
+    for c in columns:
+        if not pd.api.types.is_numeric_dtype(df[c]):
+            raise FormatError("%s: column %s holds values that are not numbers" % (path, c))
+    for c in integer:
+        if df[c].isna().any() or not pd.api.types.is_integer_dtype(df[c]):
+            raise FormatError("%s: column %s holds values that are not integers" % (path, c))
+
+
+def read_periods(path):
+    """A period CSV (`--record FILE.csv`) as a DataFrame (columns: the module's docstring).
+
+    attrs: state_dim (n), fuse_within (whether the final-estimate columns are there), path."""
+    header = _header(path)
+    n, fuse_within = _state_dim(path, header)
+    converters = {"fused": _ids, "late_samples": _late_samples}
+    if fuse_within:
+        converters["fused_final"] = _ids
+    try:
+        df = _read_csv(path, converters, {"state": str})
+    except (ValueError, TypeError) as e:
+        raise FormatError("%s: %s" % (path, e)) from e
+    floats = [c for c in df.columns if c == "t" or re.fullmatch(r"(x|xhat|xhat_final)\d+", c) or
+              c.startswith("trace_P")]
+    ints = ["k", "late"] + (["revisions"] if fuse_within else [])
+    _check_numeric(path, df, floats + ints, integer=ints)
+    for c in floats:
+        df[c] = df[c].astype(np.float64)
+    for c in ints:
+        df[c] = df[c].astype(np.int64)
+    df["state"] = df["state"].astype(str)
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, path=str(path))
+    return df
+
+
+def read_samples(path):
+    """A samples CSV (`--record-samples FILE`) as a DataFrame (module docstring).
+
+    attrs: measurement_dim (m, the widest sensor's), fuse_within, path."""
+    header = _header(path)
+    fuse_within = header[:5] == ["k", "sensor_id", "stamp", "fused", "fused_in_time"]
+    fixed = 5 if fuse_within else 4
+    ys = header[fixed:]
+    expected = ["k", "sensor_id", "stamp", "fused"] + (["fused_in_time"] if fuse_within else []) + \
+        ["y%d" % i for i in range(len(ys))]
+    if header != expected:
+        raise FormatError("%s: not a netkf samples recording; its header is %s, expected %s" %
+                          (path, ",".join(header), ",".join(expected)))
+    df = _read_csv(path, None, None)
+    flags = ["fused"] + (["fused_in_time"] if fuse_within else [])
+    _check_numeric(path, df, ["stamp"] + ys + flags + ["k", "sensor_id"], integer=["k", "sensor_id"] + flags)
+    for c in flags:
+        if not df[c].isin([0, 1]).all():
+            raise FormatError("%s: column %s holds values other than 0 and 1" % (path, c))
+        df[c] = df[c].astype(bool)
+    for c in ["stamp"] + ys:
+        df[c] = df[c].astype(np.float64)
+    for c in ["k", "sensor_id"]:
+        df[c] = df[c].astype(np.int64)
+    df.attrs.update(measurement_dim=len(ys), fuse_within=fuse_within, path=str(path))
+    return df
+
+
+# ---- MCAP --------------------------------------------------------------------------------
+
+TRUTH = "netkf/truth"
+ESTIMATE = "netkf/estimate"
+DELIVERED = "netkf/measurement/delivered"
+
+
+def read_mcap(path):
+    """The MCAP file itself (netkf.mcap.McapFile): channels, schemas, raw and decoded messages."""
+    return McapFile(path)
+
+
+def read_mcap_topic(path_or_file, topic):
+    """Every message of one channel as a DataFrame: log_time (ns) and the JSON message's
+    top-level fields (arrays stay Python lists)."""
+    m = path_or_file if isinstance(path_or_file, McapFile) else McapFile(path_or_file)
+    rows = [dict(msg, log_time=t) for t, msg in m.decoded(topic)]
+    return pd.DataFrame(rows)
+
+
+def _estimates(m):
+    """k -> (in-time estimate, final estimate): the first revision 0 and the highest revision
+    (as the CSV recorder keeps them)."""
+    in_time, final = {}, {}
+    for _, e in m.decoded(ESTIMATE):
+        k = int(e["k"])
+        rev = int(e.get("revision", 0))
+        if rev == 0:
+            in_time.setdefault(k, e)
+        if k not in final or rev >= int(final[k].get("revision", 0)):
+            final[k] = e
+    return in_time, final
+
+
+def _vector(path, what, k, values, n):
+    if len(values) != n:
+        raise FormatError("%s: %s of period %d has %d components, not %d" % (path, what, k, len(values), n))
+    return [float(v) if v is not None else math.nan for v in values]
+
+
+def read_mcap_periods(path, fuse_within=None):
+    """The period frame of an MCAP recording: truth and in-time estimate joined by period, as
+    the CSV recorder joins them (only periods that have both). fuse_within: add the final
+    columns (True), not (False), or only when an estimate was revised (None)."""
+    m = path if isinstance(path, McapFile) else McapFile(path)
+    truths = {}
+    for _, tr in m.decoded(TRUTH):
+        truths.setdefault(int(tr["k"]), tr)
+    in_time, final = _estimates(m)
+    if fuse_within is None:
+        fuse_within = any(int(e.get("revision", 0)) > 0 for e in final.values())
+    ks = sorted(k for k in in_time if k in truths)
+    n = len(truths[ks[0]]["x"]) if ks else 0
+    rows = []
+    for k in ks:
+        tr, e = truths[k], in_time[k]
+        row = [k, float(tr["t"])] + _vector(m.path, "truth", k, tr["x"], n) + \
+            _vector(m.path, "estimate", k, e["x_hat"], n)
+        row += [float(e["trace_P"]), tuple(int(i) for i in e["fused"]), int(e["late"]), str(e["state"]),
+                tuple((int(s["k"]), int(s["sensor_id"])) for s in e.get("late_samples", []))]
+        if fuse_within:
+            f = final[k]
+            row += [int(f.get("revision", 0))] + _vector(m.path, "final estimate", k, f["x_hat"], n) + \
+                [float(f["trace_P"]), tuple(int(i) for i in f["fused"])]
+        rows.append(row)
+    df = pd.DataFrame(rows, columns=period_columns(n, fuse_within))
+    for c in ("k", "late") + (("revisions",) if fuse_within else ()):
+        df[c] = df[c].astype(np.int64)
+    for c in df.columns:
+        if c == "t" or c.startswith("trace_P") or re.fullmatch(r"(x|xhat|xhat_final)\d+", c):
+            df[c] = df[c].astype(np.float64)
+    df["state"] = df["state"].astype(str)
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, path=str(m.path))
+    return df
+
+
+def read_mcap_samples(path, fuse_within=None):
+    """The samples frame of an MCAP recording made with --record-samples (the
+    netkf/measurement/delivered channel). `fused` is whether the sensor is in its period's
+    final estimate, `fused_in_time` (fuse_within) in the in-time one, as in the samples CSV;
+    rows in the file's order."""
+    m = path if isinstance(path, McapFile) else McapFile(path)
+    in_time, final = _estimates(m)
+    if fuse_within is None:
+        fuse_within = any(int(e.get("revision", 0)) > 0 for e in final.values())
+    msgs = [s for _, s in m.decoded(DELIVERED)]
+    width = max((len(s["y"]) for s in msgs), default=0)
+    rows = []
+    for s in msgs:
+        k, sid = int(s["k"]), int(s["sensor_id"])
+        row = [k, sid, float(s["stamp"]), sid in final.get(k, {}).get("fused", [])]
+        if fuse_within:
+            row.append(sid in in_time.get(k, {}).get("fused", []))
+        y = [float(v) for v in s["y"]]
+        rows.append(row + y + [math.nan] * (width - len(y)))
+    cols = ["k", "sensor_id", "stamp", "fused"] + (["fused_in_time"] if fuse_within else []) + \
+        ["y%d" % i for i in range(width)]
+    df = pd.DataFrame(rows, columns=cols)
+    for c in ("k", "sensor_id"):
+        df[c] = df[c].astype(np.int64)
+    for c in ["fused"] + (["fused_in_time"] if fuse_within else []):
+        df[c] = df[c].astype(bool)
+    for c in ["stamp"] + cols[len(cols) - width:]:
+        df[c] = df[c].astype(np.float64)
+    df.attrs.update(measurement_dim=width, fuse_within=fuse_within, path=str(m.path))
+    return df
+
+
+# ---- helpers on a period frame -----------------------------------------------------------
+
+def states(df, prefix="x"):
+    """The (periods × n) array of x (truth), xhat or xhat_final."""
+    return df[["%s%d" % (prefix, i) for i in range(df.attrs.get("state_dim") or _count(df, prefix))]].to_numpy()
+
+
+def _count(df, prefix):
+    return sum(1 for c in df.columns if re.fullmatch(r"%s\d+" % prefix, c))
+
+
+def fused_matrix(df, column="fused"):
+    """A boolean frame, index k, one column per sensor id seen: whether the sensor was fused."""
+    ids = sorted({i for f in df[column] for i in f})
+    return pd.DataFrame({i: [i in f for f in df[column]] for i in ids}, index=df["k"].to_numpy())

@@ -1,0 +1,255 @@
+"""The readers on hand-written files (python/tests/data): every column of the formats in
+docs/recording.md, the values as written, and bad input refused with the file named."""
+import json
+import math
+import os
+import struct
+import zlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import netkf
+from netkf import mcap
+
+
+def data(data_dir, name):
+    return os.path.join(data_dir, name)
+
+
+# ---- period CSV --------------------------------------------------------------------------
+
+def test_period_csv_with_fuse_within_columns(data_dir):
+    df = netkf.read_periods(data(data_dir, "periods_fuse_within.csv"))
+    assert df.attrs["state_dim"] == 3 and df.attrs["fuse_within"]
+    assert list(df.columns) == ["k", "t", "x0", "x1", "x2", "xhat0", "xhat1", "xhat2", "trace_P", "fused", "late",
+                                "state", "late_samples", "revisions", "xhat_final0", "xhat_final1", "xhat_final2",
+                                "trace_P_final", "fused_final"]
+    assert df["k"].tolist() == [0, 1, 2] and df["k"].dtype == np.int64
+    assert df["fused"].tolist() == [(3,), (), (1, 3, 12)]
+    assert df["fused_final"].tolist() == [(3,), (12,), (1, 3, 12)]
+    assert df["late_samples"].tolist() == [(), ((0, 1), (0, 12)), ()]
+    assert df["late"].tolist() == [0, 2, 0] and df["revisions"].tolist() == [0, 1, 2]
+    assert df["state"].tolist() == ["ok", "ok", "diverging"]
+    # Exact doubles, the non-finite spellings of format_double, subnormal and extreme values.
+    assert df.loc[1, "x0"] == 0.1 and df.loc[1, "xhat0"] == 0.09999999999999999
+    assert df.loc[2, "x0"] == math.inf and df.loc[2, "x1"] == -math.inf and math.isnan(df.loc[2, "x2"])
+    assert df.loc[2, "xhat0"] == 1e-300 and df.loc[2, "xhat1"] == -2.2250738585072014e-308
+    assert df.loc[2, "xhat2"] == 1.7976931348623157e308 and df.loc[2, "trace_P"] == 12345.678901234567
+    assert netkf.states(df, "xhat_final").tolist() == [[0.5, -0.25, 0.0], [0.1, 1.95, 2.9], [1.0, 2.0, 3.0]]
+    m = netkf.fused_matrix(df, "fused_final")
+    assert list(m.columns) == [1, 3, 12] and m.loc[1].tolist() == [False, False, True]
+
+
+@pytest.mark.parametrize("name,why", [
+    ("periods_bad_header.csv", "not a netkf period recording"),
+    ("periods_bad_value.csv", "xhat0"),
+    ("periods_bad_row.csv", "periods_bad_row.csv"),
+    ("periods_bad_late.csv", "PERIOD:SENSOR"),
+])
+def test_bad_period_csv_is_refused_naming_the_file(data_dir, name, why):
+    with pytest.raises(netkf.FormatError) as e:
+        netkf.read_periods(data(data_dir, name))
+    assert name in str(e.value) and why in str(e.value)
+
+
+def test_empty_and_headerless_files(tmp_path):
+    p = tmp_path / "empty.csv"
+    p.write_text("")
+    with pytest.raises(netkf.FormatError, match="empty"):
+        netkf.read_periods(p)
+    p.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n")
+    assert len(netkf.read_periods(p)) == 0  # a recording stopped before its first period
+    q = tmp_path / "fused.csv"
+    q.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n0,0,1,1,1,1;x,0,ok,\n")
+    with pytest.raises(netkf.FormatError, match="sensor id"):
+        netkf.read_periods(q)
+
+
+# ---- samples CSV -------------------------------------------------------------------------
+
+def test_samples_csv_with_two_measurement_sizes(data_dir):
+    s = netkf.read_samples(data(data_dir, "samples_fuse_within.csv"))
+    assert list(s.columns) == ["k", "sensor_id", "stamp", "fused", "fused_in_time", "y0", "y1"]
+    assert s.attrs == {"measurement_dim": 2, "fuse_within": True, "path": data(data_dir, "samples_fuse_within.csv")}
+    assert s["fused"].tolist() == [True, False, True] and s["fused_in_time"].tolist() == [True, False, False]
+    assert s["y0"].tolist() == [-0.036672748747188261, 1.5, 0.25]
+    assert math.isnan(s.loc[0, "y1"]) and s.loc[1, "y1"] == 2.5  # a 1-dim sensor leaves y1 empty
+    assert s.loc[0, "stamp"] == 36026.622009531005
+
+
+def test_bad_samples_csv(tmp_path):
+    p = tmp_path / "s.csv"
+    p.write_text("k,sensor_id,stamp,fused,y0\n0,1,0.5,2,1\n")
+    with pytest.raises(netkf.FormatError, match="other than 0 and 1"):
+        netkf.read_samples(p)
+    p.write_text("k,sensor,stamp,fused,y0\n")
+    with pytest.raises(netkf.FormatError, match="not a netkf samples recording"):
+        netkf.read_samples(p)
+
+
+# ---- summary -----------------------------------------------------------------------------
+
+def test_summary_flattened_like_check_names(tmp_path):
+    s = {"scenario": "x", "end": "duration reached", "periods": 10, "rms_error": 0.5, "rms_error_final": 0.5,
+         "mean_trace_P": None, "link": {"10": {"late": 1, "observed_loss": None}, "2": {"late": 0}},
+         "checks": [{"check": "rms_error<1", "name": "rms_error", "operator": "<", "threshold": 1, "value": 0.5,
+                     "verdict": "PASS"}], "passed": True}
+    p = tmp_path / "s.json"
+    p.write_text(json.dumps(s))
+    flat = netkf.summary_series(str(p))
+    assert flat["periods"] == 10 and math.isnan(flat["mean_trace_P"])
+    assert [k for k in flat.index if k.startswith("link.")] == ["link.2.late", "link.10.late", "link.10.observed_loss"]
+    assert flat["link.10.late"] == 1 and math.isnan(flat["link.10.observed_loss"])
+    assert netkf.checks_frame(str(p)).loc[0, "verdict"] == "PASS"
+    assert netkf.read_summaries([str(p), str(p)]).shape[0] == 2
+    p.write_text("[1, 2]")
+    with pytest.raises(netkf.FormatError, match="not a netkf run summary"):
+        netkf.read_summary(str(p))
+    p.write_text("{")
+    with pytest.raises(netkf.FormatError, match="not JSON"):
+        netkf.read_summary(str(p))
+
+
+# ---- MCAP: files built here from the specification's byte layout --------------------------
+
+def record(opcode, content):
+    return bytes([opcode]) + struct.pack("<Q", len(content)) + content
+
+
+def string(s):
+    b = s.encode()
+    return struct.pack("<I", len(b)) + b
+
+
+def schema(sid, name):
+    return record(0x03, struct.pack("<H", sid) + string(name) + string("jsonschema") + string('{"type":"object"}'))
+
+
+def channel(cid, sid, topic, meta=None):
+    entries = b"".join(string(k) + string(v) for k, v in (meta or {}).items())
+    return record(0x04, struct.pack("<HH", cid, sid) + string(topic) + string("json") +
+                  struct.pack("<I", len(entries)) + entries)
+
+
+def message(cid, seq, t, obj):
+    return record(0x05, struct.pack("<HIQQ", cid, seq, t, t) + json.dumps(obj).encode())
+
+
+def chunk(records, crc=None):
+    return record(0x06, struct.pack("<QQQI", 0, 0, len(records), zlib.crc32(records) if crc is None else crc) +
+                  string("") + struct.pack("<I", len(records)) + records)
+
+
+HEADER = mcap.MAGIC + record(0x01, string("") + string("test"))
+FOOTER = record(0x0F, struct.pack("<I", 0)) + record(0x02, struct.pack("<QQI", 0, 0, 0)) + mcap.MAGIC
+
+
+def write(tmp_path, body, name="t.mcap"):
+    p = tmp_path / name
+    p.write_bytes(body)
+    return str(p)
+
+
+def test_mcap_chunks_metadata_and_unknown_records(tmp_path):
+    inner = channel(1, 1, "b") + message(1, 0, 5, {"v": 2})
+    body = HEADER + schema(1, "S") + channel(0, 1, "a", {"k": "v"}) + message(0, 0, 10, {"v": 1}) + \
+        record(0x0C, b"\x00" * 7) + chunk(inner) + message(0, 1, 20, {"v": 3}) + FOOTER
+    m = netkf.read_mcap(write(tmp_path, body))
+    assert m.complete and not m.truncated and m.header == {"profile": "", "library": "test"}
+    assert m.topics() == ["a", "b"] and m.channels[0].metadata == {"k": "v"}
+    assert m.counts() == {"a": 2, "b": 1}
+    assert m.decoded("a") == [(10, {"v": 1}), (20, {"v": 3})] and m.decoded("b") == [(5, {"v": 2})]
+    assert netkf.read_mcap_topic(m, "a")["v"].tolist() == [1, 3]
+
+
+def test_mcap_cut_anywhere_keeps_the_whole_records(tmp_path):
+    """Every prefix of a file (what kill -9 may leave) reads as its whole records; `truncated`
+    says a record (or the closing magic) was cut, `complete` only for the whole file."""
+    parts = [HEADER, schema(1, "S"), channel(0, 1, "a")] + [message(0, i, i, {"i": i}) for i in range(5)] + [FOOTER]
+    full = b"".join(parts)
+    ends = np.cumsum([len(p) for p in parts])
+    message_ends = ends[3:8]
+    # A clean stop between records: after any record up to DataEnd (after the Footer, the
+    # closing magic is missing: cut).
+    boundaries = set(ends[:-1].tolist()) | {int(ends[-2]) + len(record(0x0F, struct.pack("<I", 0)))}
+    for cut in range(len(HEADER), len(full) + 1):
+        m = netkf.read_mcap(write(tmp_path, full[:cut]))
+        assert len(m.messages) == int((message_ends <= cut).sum()), cut
+        assert m.complete == (cut == len(full)), cut
+        assert m.truncated == (cut not in boundaries and cut != len(full)), cut
+
+
+@pytest.mark.parametrize("body,why", [
+    (b"\x89MCAX0\r\n", "magic"),
+    (HEADER + message(0, 0, 0, {}) + FOOTER, "no Channel record"),
+    (HEADER + channel(0, 7, "a") + FOOTER, "schema 7"),
+    (HEADER + schema(1, "S") + chunk(channel(0, 1, "a"), crc=1) + FOOTER, "CRC"),
+    (HEADER + record(0x03, b"\x01\x00\xff\xff\xff\xff") + FOOTER, "shorter than its fields"),
+    (HEADER + FOOTER + b"junk", "closing magic"),
+])
+def test_bad_mcap_is_refused(tmp_path, body, why):
+    with pytest.raises(netkf.McapError, match=why):
+        netkf.read_mcap(write(tmp_path, body))
+
+
+def test_mcap_message_that_is_not_json(tmp_path):
+    body = HEADER + schema(1, "S") + channel(0, 1, "a") + record(0x05, struct.pack("<HIQQ", 0, 0, 0, 0) + b"{x") + FOOTER
+    with pytest.raises(netkf.McapError, match="not JSON"):
+        netkf.read_mcap(write(tmp_path, body)).decoded("a")
+
+
+# ---- sweep -------------------------------------------------------------------------------
+
+def test_sweep_fixture(data_dir):
+    s = netkf.read_sweep(data(data_dir, "sweep-sinopoli"))
+    assert s.varied == ["sensors.1.link.loss"] and s.seeds == 3 and s.mode == "offline"
+    assert len(s.runs) == 24 and len(s.points) == 8
+    assert s.quantities[:4] == ["periods", "rms_error", "rms_error_final", "mean_trace_P"]
+    assert "link.1.observed_loss" in s.quantities
+    assert s.points["theory_stable"].tolist() == [True] * 7 + [False]
+    st = s.stats("mean_trace_P")
+    assert list(st.columns[:3]) == ["point", "sensors.1.link.loss", "seeds"]
+    # points.csv's spread equals the spread recomputed from runs.csv
+    for q in ("mean_trace_P", "rms_error", "link.1.observed_loss"):
+        agg = s.aggregate(q)
+        st = s.stats(q).set_index("point")
+        for c in ("mean", "se", "min", "max"):
+            assert np.allclose(agg[c], st[c], rtol=1e-12, atol=0), (q, c)
+    assert s.stats("pipeline_latency_p50_ms")["mean"].isna().all()  # not measured offline
+    with pytest.raises(KeyError):
+        s.stats("no_such_quantity")
+
+
+def copy_sweep(data_dir, tmp_path):
+    d = tmp_path / "sweep"
+    d.mkdir()
+    for n in ("runs.csv", "points.csv", "sweep.yaml"):
+        (d / n).write_text(open(data(data_dir, os.path.join("sweep-sinopoli", n))).read())
+    return d
+
+
+@pytest.mark.parametrize("file,old,new,why", [
+    ("sweep.yaml", "key: sensors.1.link.loss", "key: sensors.2.link.loss", "header starts"),
+    ("points.csv", "theory_trace_V_bar,", "theory_V,", "columns missing: theory_trace_V_bar"),
+    ("points.csv", "\n7,0.69999999999999996,", "\n7,0.75,", "not among sweep.yaml's values"),
+    ("points.csv", ",false,", ",maybe,", "not true/false"),
+    ("runs.csv", "\n0,1,0,ok,300,", "\n9,1,0,ok,300,", r"points \[9\]"),
+    ("runs.csv", "\n0,1,0,ok,300,0.8", "\n0,1,0,ok,300,x0.8", "rms_error"),
+    ("sweep.yaml", "vary:", "varied:", "`vary` must be"),
+])
+def test_bad_sweep_is_refused(data_dir, tmp_path, file, old, new, why):
+    d = copy_sweep(data_dir, tmp_path)
+    text = (d / file).read_text()
+    assert old in text
+    (d / file).write_text(text.replace(old, new, 1))
+    with pytest.raises(netkf.FormatError, match=why):
+        netkf.read_sweep(d)
+
+
+def test_missing_sweep_file(data_dir, tmp_path):
+    d = copy_sweep(data_dir, tmp_path)
+    (d / "points.csv").unlink()
+    with pytest.raises(netkf.FormatError, match="points.csv: missing"):
+        netkf.read_sweep(d)

@@ -1,0 +1,200 @@
+"""The reader against files written by the real launch (conftest.py's `live` fixture).
+
+Independent expectations: the launch's own summary (computed in C++ from the estimates it
+received), a second recording of the same run in the other format (an attached `netkf
+record`), and a second MCAP implementation (@mcap/core, tests/e2e/mcap_read.mjs).
+"""
+import math
+import os
+import shutil
+import subprocess
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import netkf
+from conftest import REPO
+
+
+def path(live, run, name):
+    return os.path.join(live[run]["dir"], name)
+
+
+def rms(df, prefix):
+    e = netkf.states(df, "x") - netkf.states(df, prefix)
+    return math.sqrt(float(np.mean(np.sum(e * e, axis=1))))
+
+
+def close(a, b):
+    return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-15)
+
+
+@pytest.mark.parametrize("run", ["csv", "late"])
+def test_csv_rows_are_the_summarys_periods_from_period_0(live, run):
+    df = netkf.read_periods(path(live, run, "R.csv"))
+    summary = netkf.read_summary(path(live, run, "J.json"))
+    assert summary["periods"] > 50
+    assert len(df) == summary["periods"]
+    assert df["k"].iloc[0] == 0 and df["k"].is_monotonic_increasing and df["k"].is_unique
+    assert np.allclose(df["t"], df["k"] * 0.01, rtol=0, atol=1e-9)  # period_ms 10 in both scenarios
+
+
+@pytest.mark.parametrize("run", ["csv", "late"])
+def test_summary_quantities_recomputed_from_the_csv(live, run):
+    df = netkf.read_periods(path(live, run, "R.csv"))
+    s = netkf.read_summary(path(live, run, "J.json"))
+    assert close(rms(df, "xhat"), s["rms_error"])
+    final = "xhat_final" if df.attrs["fuse_within"] else "xhat"
+    assert close(rms(df, final), s["rms_error_final"])
+    assert close(df["trace_P"].mean(), s["mean_trace_P"])
+    assert int((df["state"] == "diverging").sum()) == s["periods_diverging"]
+    sensors = sorted(s["link"], key=int)
+    fused = netkf.fused_matrix(df)
+    assert close(fused.to_numpy().sum() / (len(df) * len(sensors)), s["fused_fraction"])
+    late_by_sensor = {}
+    for samples in df["late_samples"]:
+        for _, sensor in samples:
+            late_by_sensor[sensor] = late_by_sensor.get(sensor, 0) + 1
+    for lid in sensors:
+        assert int(fused[int(lid)].sum()) == s["link"][lid]["fused"], "link %s fused" % lid
+        assert late_by_sensor.get(int(lid), 0) == s["link"][lid]["late"], "link %s late" % lid
+    assert (df["late"] == df["late_samples"].map(len)).all()
+    delivered = sum(s["link"][lid]["delivered"] for lid in sensors)
+    assert close(df["late"].sum() / delivered, s["late_fraction"])
+
+
+def test_late_fusion_columns(live):
+    df = netkf.read_periods(path(live, "late", "R.csv"))
+    assert df.attrs["fuse_within"] and df.attrs["state_dim"] == 1
+    revised = df[df["revisions"] > 0]
+    assert len(revised) > 0, "a fuse_within run over a link delayed by 0-20 ms at 10 ms revises some periods"
+    # A revision only adds samples; an unrevised period repeats the in-time estimate.
+    assert all(set(a) <= set(b) for a, b in zip(df["fused"], df["fused_final"]))
+    plain = df[df["revisions"] == 0]
+    assert (plain["xhat_final0"] == plain["xhat0"]).all() and (plain["fused_final"] == plain["fused"]).all()
+    # Some revision fused a late sample into its own period (a revision of a later period, re-run
+    # from an earlier one, keeps its fused set).
+    assert (revised["fused_final"].map(len) > revised["fused"].map(len)).any()
+    assert (df["fused_final"].map(len) > df["fused"].map(len)).sum() <= len(revised)
+
+
+def attached_and_launch(live, run):
+    """(attached recorder's period frame, launch's period frame) of one run, in the two formats."""
+    launch_name, attached_name = ("R.mcap", "A.csv") if run == "mcap" else ("R.csv", "A.mcap")
+    def read(name, fuse_within=None):
+        p = path(live, run, name)
+        return netkf.read_periods(p) if name.endswith(".csv") else netkf.read_mcap_periods(p, fuse_within)
+    launch = read(launch_name, run == "late")
+    attached = read(attached_name, run == "late")
+    return attached, launch
+
+
+@pytest.mark.parametrize("run", ["csv", "mcap", "late"])
+def test_csv_and_mcap_of_one_run_are_equal_frames(live, run):
+    """The attached recorder (started once the launch recorded its first period) holds a
+    stretch of the run: every one of its periods is the launch's, the same doubles."""
+    attached, launch = attached_and_launch(live, run)
+    assert len(attached) >= 10 and set(attached["k"]) <= set(launch["k"])
+    same = launch[launch["k"].isin(attached["k"])].reset_index(drop=True)
+    same.attrs = attached.attrs = {}
+    pd.testing.assert_frame_equal(attached, same, check_exact=True)
+
+
+def test_launch_mcap_samples_equal_its_samples_csv(live):
+    m = netkf.read_mcap_samples(path(live, "mcap", "R.mcap"), fuse_within=False)
+    s = netkf.read_samples(path(live, "mcap", "S.csv"))
+    assert len(m) > 50
+    key = ["k", "sensor_id"]
+    m.attrs = s.attrs = {}
+    pd.testing.assert_frame_equal(s.sort_values(key).reset_index(drop=True), m.sort_values(key).reset_index(drop=True),
+                                  check_exact=True)
+
+
+@pytest.mark.parametrize("run", ["csv", "late"])
+def test_attached_samples_csv_and_mcap_are_the_launchs(live, run):
+    """The attached recorder's samples, from its MCAP and its CSV, are equal, and each is the
+    launch's sample of that (period, sensor) from its second period on (in its first it may have
+    seen a sample but not the estimate that says whether it was fused)."""
+    fuse_within = run == "late"
+    key = ["k", "sensor_id"]
+    m = netkf.read_mcap_samples(path(live, run, "A.mcap"), fuse_within=fuse_within)
+    a = netkf.read_samples(path(live, run, "AS.csv"))
+    assert len(m) >= 10 and a.attrs["fuse_within"] == fuse_within
+    m = m.sort_values(key).reset_index(drop=True)
+    a = a.sort_values(key).reset_index(drop=True)
+    m.attrs = a.attrs = {}
+    pd.testing.assert_frame_equal(a, m, check_exact=True)
+    launch = netkf.read_samples(path(live, run, "S.csv"))
+    launch.attrs = {}
+    first = netkf.read_mcap_periods(path(live, run, "A.mcap"))["k"].min()
+    mine = a[a["k"] > first].reset_index(drop=True)
+    theirs = launch.merge(mine[key], on=key).sort_values(key).reset_index(drop=True)
+    pd.testing.assert_frame_equal(mine, theirs, check_exact=True)
+
+
+@pytest.mark.parametrize("run", ["csv", "late"])
+def test_samples_fused_flags_are_the_periods_fused_sets(live, run):
+    df = netkf.read_periods(path(live, run, "R.csv"))
+    s = netkf.read_samples(path(live, run, "S.csv"))
+    final = "fused_final" if df.attrs["fuse_within"] else "fused"
+    by_k = s[s["fused"]].groupby("k")["sensor_id"].apply(lambda ids: tuple(sorted(ids)))
+    assert len(by_k) > 50
+    expected = df.set_index("k")[final]
+    assert all(by_k[k] == tuple(sorted(expected[k])) for k in by_k.index if k in expected.index)
+    assert all(expected[k] == () for k in expected.index if k not in by_k.index)
+    if df.attrs["fuse_within"]:
+        in_time = s[s["fused_in_time"]].groupby("k")["sensor_id"].apply(lambda ids: tuple(sorted(ids)))
+        assert all(in_time[k] == tuple(sorted(df.set_index("k")["fused"][k])) for k in in_time.index
+                   if k in expected.index)
+
+
+def test_mcap_periods_are_the_summarys_periods(live):
+    m = netkf.read_mcap(path(live, "mcap", "R.mcap"))
+    s = netkf.read_summary(path(live, "mcap", "J.json"))
+    assert m.complete and not m.truncated
+    assert m.header == {"profile": "", "library": "netkf"}
+    estimates = netkf.read_mcap_topic(m, "netkf/estimate")
+    assert int((estimates["revision"] == 0).sum()) == s["periods"]
+    frame = netkf.read_recording(path(live, "mcap", "R.mcap"))  # by the extension
+    assert len(frame) == s["periods"] and frame["k"].iloc[0] == 0
+    assert close(rms(frame, "xhat"), s["rms_error"]) and close(frame["trace_P"].mean(), s["mean_trace_P"])
+    assert (estimates["log_time"] == (estimates["t"] * 1e9).round().astype(np.int64)).all()
+
+
+def mcap_core(mcap_path):
+    """@mcap/core's reading of the file (tests/e2e/mcap_read.mjs), or a skip when Node.js or
+    the package is missing outside ctest."""
+    node = shutil.which("node")
+    if not node or not os.path.isdir(os.path.join(REPO, "node_modules", "@mcap", "core")):
+        if os.environ.get("NETKF_BIN_DIR"):
+            pytest.fail("node and node_modules/@mcap/core are needed (scripts/deps.sh installs them)")
+        pytest.skip("node or node_modules/@mcap/core missing")
+    r = subprocess.run([node, os.path.join(REPO, "tests", "e2e", "mcap_read.mjs"), mcap_path], cwd=REPO,
+                       capture_output=True, text=True, timeout=120)
+    return json.loads(r.stdout)
+
+
+@pytest.mark.parametrize("cut", [False, True])
+def test_mcap_reader_agrees_with_mcap_core(live, tmp_path, cut):
+    src = path(live, "mcap", "R.mcap")
+    if cut:  # what kill -9 leaves: no footer, the last record cut short
+        with open(src, "rb") as f:
+            data = f.read()
+        src = str(tmp_path / "cut.mcap")
+        with open(src, "wb") as f:
+            f.write(data[:len(data) * 2 // 3 + 5])
+    theirs = mcap_core(src)
+    assert theirs["problems"] == []
+    mine = netkf.read_mcap(src)
+    assert mine.complete == theirs["complete"] == (not cut)
+    assert mine.truncated == cut
+    assert mine.header == theirs["header"]
+    assert [(c.id, c.topic, mine.schemas[c.schema_id].name, mine.schemas[c.schema_id].encoding, c.message_encoding)
+            for c in mine.channels.values()] == \
+        [(c["id"], c["topic"], c["schemaName"], c["schemaEncoding"], c["messageEncoding"]) for c in theirs["channels"]]
+    assert mine.counts() == theirs["counts"]
+    ours = [{"k": e["k"], "t": e["t"], "x_hat": e["x_hat"], "trace_P": e["trace_P"], "log_time": str(t)}
+            for t, e in mine.decoded("netkf/estimate")]
+    assert ours == theirs["estimates"]
