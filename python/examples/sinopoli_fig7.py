@@ -74,6 +74,8 @@ def find_scenario(sweep, given):
     if given:
         return given
     s = sweep.config.get("scenario")
+    if isinstance(s, dict):  # netkf sweep writes {path, sha256}
+        s = s.get("path")
     if not s:
         sys.exit("%s: sweep.yaml names no scenario; pass --scenario" % sweep.directory)
     for base in (os.getcwd(), sweep.directory, os.path.dirname(os.path.dirname(HERE))):
