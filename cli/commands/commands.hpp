@@ -11,6 +11,7 @@ void add_record_command(CLI::App& app);
 void add_analyze_command(CLI::App& app);
 void add_simulate_command(CLI::App& app);
 void add_fit_command(CLI::App& app);
+void add_trace_command(CLI::App& app);
 void add_security_command(CLI::App& app);
 
 }  // namespace netkf::cli
