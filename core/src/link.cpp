@@ -187,7 +187,10 @@ TraceLink apply_trace_keys(const LinkSpec& current, const KeyMap& keys, bool reb
   } else if (rebuild) {
     throw LinkError("trace", "a trace link needs trace (a trace file: k,delivered[,delay_ms])");
   }
-  if (!t.rows) t.rows = trace_rows(t.path, current, preloaded);
+  // A trace link known only by its description (the wire's: path, no rows) stays so when only
+  // its loop, offset or delay change: the channel, which has the rows, checks them.
+  const bool described_only = !rebuild && !keys.has("trace") && !t.rows;
+  if (!t.rows && !described_only) t.rows = trace_rows(t.path, current, preloaded);
   if (keys.has("loop")) {
     const std::string& w = keys.word("loop");
     if (w != "true" && w != "false") throw LinkError("loop", "loop must be true or false, got '" + w + "'");
@@ -197,11 +200,12 @@ TraceLink apply_trace_keys(const LinkSpec& current, const KeyMap& keys, bool reb
     const double o = keys.number("offset");
     if (!(o >= 0.0) || o != std::floor(o))
       throw LinkError("offset", "offset must be a whole number of rows >= 0, got " + number_text(o));
-    if (o >= static_cast<double>(t.rows->size()))
+    if (t.rows && o >= static_cast<double>(t.rows->size()))
       throw LinkError("offset", "offset " + number_text(o) + " is past the trace's last row (" + t.path + " has " +
                                     std::to_string(t.rows->size()) + " rows)");
     t.offset = static_cast<std::uint64_t>(o);
   }
+  if (described_only) return t;
   if (t.offset >= t.rows->size())
     throw LinkError("offset", "offset " + std::to_string(t.offset) + " is past the trace's last row (" + t.path +
                                   " has " + std::to_string(t.rows->size()) + " rows)");
@@ -323,8 +327,8 @@ LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys, const Tr
   if (map.has("delay_distribution")) out.delay.distribution = parse_delay_distribution(map.word("delay_distribution"));
   if (to_trace) {
     out.trace = apply_trace_keys(current, map, rebuild, preloaded);
-    out.loss = empirical_link_model(*out.trace->rows);
-    if (out.trace->rows->has_delay) {
+    out.loss = out.trace->rows ? empirical_link_model(*out.trace->rows) : current.loss;
+    if (out.trace->rows && out.trace->rows->has_delay) {
       // The trace's delay column gives every delivered sample's delay: a drawn delay too would be two delays.
       for (const char* k : {"delay_ms", "jitter_ms"})
         if (map.has(k) && map.number(k) != 0.0)

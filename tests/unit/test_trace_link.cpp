@@ -9,6 +9,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <set>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 #include <vector>
@@ -17,6 +20,8 @@
 #include "netkf/link_trace.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/scenario.hpp"
+#include "mcap_writer.hpp"
+#include "trace_extract.hpp"
 
 namespace {
 
@@ -230,6 +235,63 @@ TEST_F(TraceFiles, TimelineSwitchesToATraceReadAtStart) {
   ASSERT_EQ(changes.size(), 1u);
   EXPECT_TRUE(changes[0].failure.empty()) << changes[0].failure;
   EXPECT_EQ(changes[0].at_period, 3);
+}
+
+// `netkf trace extract`: the delivered (sensor, period) pairs written here come back as the
+// link's trace, period for period, from a samples CSV and from an MCAP file (written by the
+// project's McapWriter, cut inside its last record as by kill -9).
+TEST_F(TraceFiles, ExtractGivesTheLinkTraceFromSamplesCsvAndMcap) {
+  // Link 1 delivered periods 3, 4, 6; link 2 every period 2..8.
+  const std::vector<std::pair<int, int>> delivered = {{2, 2}, {3, 1}, {3, 2}, {4, 1}, {4, 2}, {5, 2},
+                                                      {6, 1}, {6, 2}, {7, 2}, {8, 2}};
+  std::string csv = "k,sensor_id,stamp,fused,y0\n";
+  for (const auto& [k, id] : delivered) csv += std::to_string(k) + "," + std::to_string(id) + ",1.5,1,0.25\n";
+  const std::string csv_path = write("samples.csv", csv);
+
+  const auto mcap_path = dir_ / "run.mcap";
+  {
+    std::ofstream out(mcap_path, std::ios::binary);
+    netkf::cli::McapWriter w(out);
+    const auto schema = w.add_schema("netkf.wire.Measurement", "jsonschema", "{}");
+    const auto other = w.add_channel(schema, "netkf/truth", "json");
+    const auto channel = w.add_channel(schema, "netkf/measurement/delivered", "json");
+    for (const auto& [k, id] : delivered) {
+      w.add_message(other, 1, 1, R"({"k": 99, "sensor_id": 1})");
+      w.add_message(channel, 1, 1, "{\"sensor_id\": " + std::to_string(id) + ", \"k\": " + std::to_string(k) + ", \"y\": [0.5]}");
+    }
+    w.finish();
+  }
+  const std::vector<std::uint8_t> link1 = {0, 1, 1, 0, 1, 0, 0};  // periods 2..8
+  for (const std::string path : {csv_path, mcap_path.string()}) {
+    const auto samples = netkf::cli::read_delivered_samples(path);
+    const netkf::LinkTrace t = netkf::cli::extract_link_trace(samples, 1);
+    EXPECT_EQ(t.first_k, 2u) << path;
+    EXPECT_EQ(t.delivered, link1) << path;
+    EXPECT_FALSE(t.has_delay);
+    const netkf::LinkTrace part = netkf::cli::extract_link_trace(samples, 1, 0, 4);
+    EXPECT_EQ(part.delivered, (std::vector<std::uint8_t>{0, 0, 0, 1, 1})) << path;
+    EXPECT_THROW(netkf::cli::extract_link_trace(samples, 9), std::runtime_error);
+    // Written and read back: the trace format of `model: trace` and `netkf fit`.
+    std::ostringstream text;
+    netkf::write_link_trace(text, t, "extracted");
+    std::istringstream in(text.str());
+    const netkf::LinkTrace again = netkf::read_link_trace(in, "again.csv");
+    EXPECT_EQ(again.first_k, t.first_k);
+    EXPECT_EQ(again.delivered, t.delivered);
+  }
+  // A file cut inside its last record reads up to its last whole record.
+  std::string bytes;
+  {
+    std::ifstream in(mcap_path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto cut = dir_ / "cut.mcap";
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 60);
+  const auto partial = netkf::cli::read_delivered_samples(cut.string());
+  EXPECT_EQ(partial.periods_by_sensor.at(1), (std::set<std::int64_t>{3, 4, 6}));
+  // Not a recording: refused with the file's name.
+  EXPECT_THROW(netkf::cli::read_delivered_samples(write("x.csv", "k,delivered\n0,1\n")), std::runtime_error);
+  EXPECT_THROW(netkf::cli::read_delivered_samples(write("x.mcap", "not mcap")), std::runtime_error);
 }
 
 }  // namespace
