@@ -68,7 +68,7 @@ a1 = events[0]["at_period"] if len(events) == 2 else 10 ** 9
 a2 = events[1]["at_period"] if len(events) == 2 else 10 ** 9
 if len(events) == 2:
     check(events[0]["set"].get("model") == "bernoulli", "first: bernoulli")
-    check(events[1]["set"].get("model") == "trace" and events[1]["set"].get("trace") == trace_path
+    check(events[1]["set"].get("model") == "trace" and os.path.normpath(str(events[1]["set"].get("trace"))) == os.path.normpath(trace_path)
           and events[1]["set"].get("offset") == 100 and events[1]["set"].get("loop") in (False, "false"),
           "second: the trace, offset 100, no loop (%s)" % events[1]["set"])
 
