@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <set>
 #include <sstream>
 #include <string>
@@ -262,7 +261,7 @@ TEST_F(TraceFiles, ExtractGivesTheLinkTraceFromSamplesCsvAndMcap) {
     w.finish();
   }
   const std::vector<std::uint8_t> link1 = {0, 1, 1, 0, 1, 0, 0};  // periods 2..8
-  for (const std::string path : {csv_path, mcap_path.string()}) {
+  for (const std::string& path : {csv_path, mcap_path.string()}) {
     const auto samples = netkf::cli::read_delivered_samples(path);
     const netkf::LinkTrace t = netkf::cli::extract_link_trace(samples, 1);
     EXPECT_EQ(t.first_k, 2u) << path;
@@ -280,11 +279,9 @@ TEST_F(TraceFiles, ExtractGivesTheLinkTraceFromSamplesCsvAndMcap) {
     EXPECT_EQ(again.delivered, t.delivered);
   }
   // A file cut inside its last record reads up to its last whole record.
-  std::string bytes;
-  {
-    std::ifstream in(mcap_path, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::ostringstream whole;
+  whole << std::ifstream(mcap_path, std::ios::binary).rdbuf();
+  const std::string bytes = whole.str();
   const auto cut = dir_ / "cut.mcap";
   std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 60);
   const auto partial = netkf::cli::read_delivered_samples(cut.string());
