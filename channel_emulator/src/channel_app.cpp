@@ -192,9 +192,27 @@ class ChannelApp::Impl {
   void on_control(const wire::LinkControl& c) {
     LinkChangeResult result;
     LinkSpec applied;
+    const LinkKeys keys = dds::link_keys_of(c);
+    // A trace is read here, outside the lock the sample path takes (a request is rare; the
+    // trace is bounded, docs/scenario-format.md). A file that cannot be read rejects the request.
+    TraceRows traces;
+    for (const auto& key : keys) {
+      if (key.name != "trace" || !std::holds_alternative<std::string>(key.value)) continue;
+      try {
+        traces.emplace(std::get<std::string>(key.value), read_link_trace_for(std::get<std::string>(key.value)));
+      } catch (const LinkError& e) {
+        result = links_reject(c, e.what());
+      }
+    }
+    if (!result.reason.empty()) {
+      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), c.sensor_id(), result.reason);
+      reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, false, result.reason));
+      publish_status();
+      return;
+    }
     {
       const std::lock_guard lock(mutex_);
-      result = links_.request(c.request_id(), c.sensor_id(), dds::link_keys_of(c));
+      result = links_.request(c.request_id(), c.sensor_id(), keys, &traces);
       if (result.applied) applied = links_.report(c.sensor_id())->link;
     }
     if (result.applied) {
@@ -205,6 +223,11 @@ class ChannelApp::Impl {
     }
     reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, result.applied, result.reason));
     publish_status();
+  }
+
+  LinkChangeResult links_reject(const wire::LinkControl& c, const std::string& reason) {
+    const std::lock_guard lock(mutex_);
+    return links_.reject(c.request_id(), c.sensor_id(), reason);
   }
 
   // io thread

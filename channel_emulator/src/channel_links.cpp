@@ -1,7 +1,10 @@
 #include "netkf/nodes/channel_links.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
+
+#include "netkf/link_trace.hpp"
 
 namespace netkf::nodes {
 
@@ -22,10 +25,22 @@ ChannelLinks::ChannelLinks(const Scenario& scenario) : deadline_ms_(scenario.dea
   for (const std::size_t i : event_application_order(scenario.events)) {
     const LinkEvent& e = scenario.events[i];
     if (auto it = links_.find(e.link); it != links_.end()) it->second.timeline.push_back(e);
+    for (const auto& key : e.keys) {
+      if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
+      const std::string& path = std::get<std::string>(key.value);
+      try {
+        timeline_traces_.emplace(path, read_link_trace_for(path));
+      } catch (const LinkError&) {
+        // The loader read it already; if it has gone since, the event fails when due (journaled).
+      }
+    }
   }
 }
 
 void ChannelLinks::set_link(Link& link, const LinkSpec& spec, bool reset_statistics) {
+  // A link that becomes a trace link, or another trace/offset/loop, replays from its offset
+  // again, starting with the next sample's period; a delay change on a trace link does not.
+  if (spec.trace && spec.trace != link.report.link.trace) link.trace_restart = true;
   link.loss.set_model(spec.loss);  // keeps a Gilbert-Elliott chain's state (unlike netem)
   link.report.link = spec;
   if (reset_statistics) {
@@ -47,7 +62,7 @@ void ChannelLinks::apply_due(Link& link, std::int64_t k) {
     AppliedLinkChange change{id, k, AppliedLinkChange::Origin::timeline, 0, link.report.link, {}};
     try {
       if (e.kind == LinkEvent::Kind::set || e.ramp_periods == 0) {
-        change.link = apply_link_keys(link.report.link, e.keys);
+        change.link = apply_link_keys(link.report.link, e.keys, &timeline_traces_);
         set_link(link, change.link, true);
         link.ramp.reset();  // a set ends a running ramp: the latest instruction wins
       } else {
@@ -99,12 +114,26 @@ SampleFate ChannelLinks::on_sample(int sensor_id, std::int64_t k) {
   apply_due(link, k);
   step_ramp(link, k);
   ++link.samples_seen;
-  const bool dropped = link.loss.next_dropped();
+  bool dropped = false;
+  double trace_delay_ms = std::nan("");
+  if (const auto& trace = link.report.link.trace) {
+    if (link.trace_restart) {
+      link.trace_start = k;
+      link.trace_restart = false;
+    }
+    // A sample of a period before the start (out of order) gets the first row.
+    const TraceSample s = trace_sample(*trace, static_cast<std::uint64_t>(std::max<std::int64_t>(0, k - link.trace_start)));
+    dropped = !s.delivered;
+    trace_delay_ms = s.delay_ms;
+  } else {
+    dropped = link.loss.next_dropped();
+  }
   link.report.stats.record(dropped);
   link.report.lifetime.record(dropped);
   link.recent.record(dropped);
   if (dropped) return {Verdict::dropped, 0.0};
-  const double delay_ms = link.delay.next_delay_ms(link.report.link.delay);
+  const double delay_ms =
+      std::isnan(trace_delay_ms) ? link.delay.next_delay_ms(link.report.link.delay) : trace_delay_ms;
   if (delay_ms > deadline_ms_) ++link.report.past_deadline;
   return {Verdict::delivered, delay_ms};
 }
@@ -114,13 +143,14 @@ ChannelLinks::Verdict ChannelLinks::on_sample(int sensor_id) {
   return on_sample(sensor_id, it == links_.end() ? 0 : it->second.samples_seen).verdict;
 }
 
-LinkChangeResult ChannelLinks::request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys) {
+LinkChangeResult ChannelLinks::request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys,
+                                       const TraceRows* preloaded) {
   auto it = links_.find(sensor_id);
   if (it == links_.end()) return reject(request_id, sensor_id, "unknown sensor id " + std::to_string(sensor_id));
   Link& link = it->second;
   LinkSpec next;
   try {
-    next = apply_link_keys(link.report.link, keys);  // validates; throws and changes nothing when invalid
+    next = apply_link_keys(link.report.link, keys, preloaded);  // validates; throws and changes nothing when invalid
   } catch (const LinkError& e) {
     return reject(request_id, sensor_id, e.what());
   }

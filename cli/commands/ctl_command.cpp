@@ -3,6 +3,7 @@
 
 #include <boost/asio/io_context.hpp>
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -34,9 +35,13 @@ struct CtlOptions {
   std::optional<double> delay;
   std::optional<double> jitter;
   std::optional<std::string> distribution;
+  std::optional<std::string> trace;
   std::vector<std::string> set;  // KEY=VALUE
   bool json = false;
 };
+
+LinkKeys absolute_trace_paths(LinkKeys keys);
+LinkKeys checked_link_keys(const LinkKeys& keys);
 
 /// The link keys a `ctl set-link` asks for. Names and number syntax are checked here (exit 2);
 /// whether they make a valid link with the link's current state is the channel's answer.
@@ -64,6 +69,10 @@ LinkKeys ctl_link_keys(const CtlOptions& o) {
   if (o.delay) keys.push_back({"delay_ms", *o.delay});
   if (o.jitter) keys.push_back({"jitter_ms", *o.jitter});
   if (o.distribution) keys.push_back({"delay_distribution", *o.distribution});
+  if (o.trace) {
+    keys.push_back({"model", std::string("trace")});
+    keys.push_back({"trace", *o.trace});
+  }
   for (const auto& kv : o.set) {
     const auto eq = kv.find('=');
     if (eq == std::string::npos || eq == 0) fail(ExitCode::bad_usage, "--set takes KEY=VALUE, got '" + kv + "'");
@@ -86,14 +95,34 @@ LinkKeys ctl_link_keys(const CtlOptions& o) {
   if (keys.empty())
     fail(ExitCode::bad_usage, "give what to change: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD LOSS_BAD], --loss, "
             "--mean-burst, --delay, --jitter, --distribution, --model or --set KEY=VALUE");
-  // Names, duplicates and word/number kinds: the link type's own check, on a link of the
-  // model asked for (or of each model) so that only the current state is left to the channel.
+  return checked_link_keys(absolute_trace_paths(std::move(keys)));
+}
+
+/// A trace file is named from here: the channel gets its absolute path (it reads it on its
+/// host, which for a local session is this one).
+LinkKeys absolute_trace_paths(LinkKeys keys) {
+  for (auto& key : keys) {
+    if (key.name != "trace" || !std::holds_alternative<std::string>(key.value)) continue;
+    const std::string& name = std::get<std::string>(key.value);
+    std::error_code ec;
+    if (!name.empty()) key.value = std::filesystem::absolute(name, ec).lexically_normal().string();
+  }
+  return keys;
+}
+
+/// Names, duplicates and word/number kinds: the link type's own check, on a link of the
+/// model asked for (or of each model) so that only the current state is left to the channel.
+/// A trace file is read here too: an unreadable or malformed one is refused before it is sent.
+LinkKeys checked_link_keys(const LinkKeys& keys) {
+  const bool has_model = std::any_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; });
   std::string first_problem;
   for (const LinkSpec& probe : {LinkSpec(BernoulliLink{0.5}), LinkSpec(GilbertElliottLink{0.1, 0.5, 0.0, 1.0})}) {
     try {
       (void)apply_link_keys(probe, keys);
       return keys;
     } catch (const LinkError& e) {
+      // loop or offset alone change a trace link the channel has: only it can check them.
+      if (!has_model && (e.key() == "loop" || e.key() == "offset")) return keys;
       if (first_problem.empty()) first_problem = e.what();
     }
   }
@@ -204,7 +233,8 @@ void add_ctl_command(CLI::App& app) {
                              "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
                  ->expected(2, 4);
   b->excludes(ge);
-  set->add_option("--model", o->model, "bernoulli or gilbert_elliott (with the keys of that model)");
+  set->add_option("--model", o->model, "bernoulli, gilbert_elliott or trace (with the keys of that model)");
+  set->add_option("--trace", o->trace, "Replay a trace file (k,delivered[,delay_ms]): model trace; --set loop=, offset=");
   set->add_option("--loss", o->loss,
                   "Loss: a bernoulli link's P(drop), or a gilbert_elliott link's stationary loss (with --mean-burst)");
   set->add_option("--mean-burst", o->mean_burst,

@@ -205,7 +205,12 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
     std::string problem;
     for (const auto& [param, value] : values) {
       // A model equal to the link's changes nothing by itself (a panel sends it along).
-      if (param == "model" && value.is_string() && value.get<std::string>() == link_model_name(link->link.loss)) continue;
+      if (param == "model" && value.is_string() && value.get<std::string>() == link_kind(link->link)) continue;
+      // A browser does not name files on the host: a trace link is made by a scenario or `netkf ctl`.
+      if (param == "trace" || (param == "model" && value.is_string() && value.get<std::string>() == "trace")) {
+        problem = "a trace link is set by the scenario or `netkf ctl set-link ID --trace FILE`, not from the dashboard";
+        break;
+      }
       if (value.is_string()) {
         keys.push_back({param, value.get<std::string>().substr(0, 64)});
       } else if (value.is_number()) {

@@ -63,7 +63,8 @@ using ClientMessage = std::variant<Subscribe, Unsubscribe, GetParameters, SetPar
 ClientMessage parse_client_message(std::string_view text);
 
 // ---- parameters: link.ID.KEY for every link key (docs/scenario-format.md, "Links"): model,
-// loss, p, r, loss_good, loss_bad, mean_burst, delay_ms, jitter_ms, delay_distribution
+// loss, p, r, loss_good, loss_bad, mean_burst, delay_ms, jitter_ms, delay_distribution (a trace
+// link is not made from the dashboard: trace, model trace are refused)
 /// The links' current parameters (each link's keys; a Gilbert-Elliott link in both forms);
 /// `names` empty: all of them; names that do not exist are left out.
 nlohmann::json parameter_values(const std::vector<LinkView>& links, const std::vector<std::string>& names,

@@ -2,6 +2,8 @@
 // delay distributions and the effective loss model the theory uses.
 #include "netkf/link.hpp"
 
+#include "netkf/link_trace.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -74,6 +76,13 @@ std::string expected_keys() {
   return out;
 }
 
+std::string word_choices(const std::string& key) {
+  if (key == "model") return "bernoulli, gilbert_elliott or trace";
+  if (key == "trace") return "a trace file";
+  if (key == "loop") return "true or false";
+  return "uniform, normal, pareto or paretonormal";
+}
+
 // The keys of one change, checked for names, duplicates and types.
 class KeyMap {
  public:
@@ -87,9 +96,7 @@ class KeyMap {
       const bool is_word = std::holds_alternative<std::string>(key.value);
       if (link_key_is_word(key.name) && !is_word)
         throw LinkError(key.name, key.name + " must be a name (" +
-                                      (key.name == "model" ? std::string("bernoulli or gilbert_elliott")
-                                                           : std::string("uniform, normal, pareto or paretonormal")) +
-                                      ")");
+                                      word_choices(key.name) + ")");
       if (!link_key_is_word(key.name)) {
         if (is_word)
           throw LinkError(key.name, key.name + " must be a number, got '" + std::get<std::string>(key.value) + "'");
@@ -124,7 +131,7 @@ LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
     return b;
   }
   if (model != "gilbert_elliott")
-    throw LinkError("model", "unknown link model '" + model + "' (expected bernoulli or gilbert_elliott)");
+    throw LinkError("model", "unknown link model '" + model + "' (expected bernoulli, gilbert_elliott or trace)");
 
   const GilbertElliottLink* now = rebuild ? nullptr : std::get_if<GilbertElliottLink>(&current);
   const bool user_form = keys.has("loss") || keys.has("mean_burst");
@@ -152,6 +159,57 @@ LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
   if (keys.has("loss_good")) g.loss_good = keys.number("loss_good");
   if (keys.has("loss_bad")) g.loss_bad = keys.number("loss_bad");
   return g;
+}
+
+// The loss model's keys, which a trace link refuses: its trace gives the drops.
+constexpr const char* kLossKeys[] = {"loss", "p", "r", "loss_good", "loss_bad", "mean_burst"};
+constexpr const char* kTraceKeys[] = {"trace", "loop", "offset"};
+
+std::shared_ptr<const LinkTrace> trace_rows(const std::string& path, const LinkSpec& current, const TraceRows* preloaded) {
+  if (current.trace && current.trace->path == path && current.trace->rows) return current.trace->rows;
+  if (preloaded) {
+    if (const auto it = preloaded->find(path); it != preloaded->end() && it->second) return it->second;
+  }
+  return read_link_trace_for(path);
+}
+
+TraceLink apply_trace_keys(const LinkSpec& current, const KeyMap& keys, bool rebuild, const TraceRows* preloaded) {
+  for (const char* k : kLossKeys)
+    if (keys.has(k))
+      throw LinkError(k, std::string(k) + " is not a key of a trace link (its trace gives the drops; give model: "
+                                          "bernoulli or gilbert_elliott to leave the trace)");
+  TraceLink t;
+  if (!rebuild && current.trace) t = *current.trace;
+  if (keys.has("trace")) {
+    t.path = keys.word("trace");
+    t.rows = nullptr;
+    if (t.path.empty()) throw LinkError("trace", "trace must name a trace file, got an empty name");
+  } else if (rebuild) {
+    throw LinkError("trace", "a trace link needs trace (a trace file: k,delivered[,delay_ms])");
+  }
+  // A trace link known only by its description (the wire's: path, no rows) stays so when only
+  // its loop, offset or delay change: the channel, which has the rows, checks them.
+  const bool described_only = !rebuild && !keys.has("trace") && !t.rows;
+  if (!t.rows && !described_only) t.rows = trace_rows(t.path, current, preloaded);
+  if (keys.has("loop")) {
+    const std::string& w = keys.word("loop");
+    if (w != "true" && w != "false") throw LinkError("loop", "loop must be true or false, got '" + w + "'");
+    t.loop = w == "true";
+  }
+  if (keys.has("offset")) {
+    const double o = keys.number("offset");
+    if (!(o >= 0.0) || o != std::floor(o))
+      throw LinkError("offset", "offset must be a whole number of rows >= 0, got " + number_text(o));
+    if (t.rows && o >= static_cast<double>(t.rows->size()))
+      throw LinkError("offset", "offset " + number_text(o) + " is past the trace's last row (" + t.path + " has " +
+                                    std::to_string(t.rows->size()) + " rows)");
+    t.offset = static_cast<std::uint64_t>(o);
+  }
+  if (described_only) return t;
+  if (t.offset >= t.rows->size())
+    throw LinkError("offset", "offset " + std::to_string(t.offset) + " is past the trace's last row (" + t.path +
+                                  " has " + std::to_string(t.rows->size()) + " rows)");
+  return t;
 }
 
 // Φ, the standard normal CDF.
@@ -248,21 +306,43 @@ std::string link_error_at(const std::string& path, const LinkError& error) {
 
 const std::vector<std::string>& link_key_names() {
   static const std::vector<std::string> names = {"model",     "loss",     "p",         "r",
-                                                 "loss_good", "loss_bad", "mean_burst", "delay_ms",
-                                                 "jitter_ms", "delay_distribution"};
+                                                 "loss_good", "loss_bad", "mean_burst", "trace",
+                                                 "loop",      "offset",   "delay_ms",  "jitter_ms",
+                                                 "delay_distribution"};
   return names;
 }
 
-bool link_key_is_word(const std::string& name) { return name == "model" || name == "delay_distribution"; }
+bool link_key_is_word(const std::string& name) {
+  return name == "model" || name == "delay_distribution" || name == "trace" || name == "loop";
+}
 
-LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys) {
+LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys, const TraceRows* preloaded) {
   const KeyMap map(keys);
+  const bool rebuild = map.has("model");
+  const bool to_trace = rebuild ? map.word("model") == "trace" : current.trace.has_value();
   LinkSpec out;
-  out.loss = apply_loss_keys(current.loss, map);
   out.delay = current.delay;
   if (map.has("delay_ms")) out.delay.delay_ms = map.number("delay_ms");
   if (map.has("jitter_ms")) out.delay.jitter_ms = map.number("jitter_ms");
   if (map.has("delay_distribution")) out.delay.distribution = parse_delay_distribution(map.word("delay_distribution"));
+  if (to_trace) {
+    out.trace = apply_trace_keys(current, map, rebuild, preloaded);
+    out.loss = out.trace->rows ? empirical_link_model(*out.trace->rows) : current.loss;
+    if (out.trace->rows && out.trace->rows->has_delay) {
+      // The trace's delay column gives every delivered sample's delay: a drawn delay too would be two delays.
+      for (const char* k : {"delay_ms", "jitter_ms"})
+        if (map.has(k) && map.number(k) != 0.0)
+          throw LinkError(k, std::string(k) + " cannot be given for a trace with a delay_ms column (" +
+                                 out.trace->path + " gives each sample's delay)");
+      out.delay = LinkDelay{};
+    }
+  } else {
+    for (const char* k : kTraceKeys)
+      if (map.has(k))
+        throw LinkError(k, std::string(k) + " is a key of a trace link (give model: trace)");
+    // Leaving a trace: its loss field is the trace's empirical model, not a model to edit.
+    out.loss = apply_loss_keys(current.trace ? LinkModel{BernoulliLink{}} : current.loss, map);
+  }
   validate_link(out);
   return out;
 }
@@ -270,13 +350,19 @@ LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys) {
 LinkSpec link_from_keys(const LinkKeys& keys) {
   const bool has_model =
       std::any_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; });
-  if (!has_model) throw LinkError("model", "a link needs model (bernoulli or gilbert_elliott)");
+  if (!has_model) throw LinkError("model", "a link needs model (bernoulli, gilbert_elliott or trace)");
   return apply_link_keys(LinkSpec{}, keys);
 }
 
 LinkKeys link_keys(const LinkSpec& link) {
-  LinkKeys keys{{"model", link_model_name(link.loss)}};
-  for (const auto& [name, value] : link_parameters(link.loss)) keys.push_back({name, value});
+  LinkKeys keys{{"model", link_kind(link)}};
+  if (link.trace) {
+    keys.push_back({"trace", link.trace->path});
+    keys.push_back({"loop", std::string(link.trace->loop ? "true" : "false")});
+    keys.push_back({"offset", static_cast<double>(link.trace->offset)});
+  } else {
+    for (const auto& [name, value] : link_parameters(link.loss)) keys.push_back({name, value});
+  }
   keys.push_back({"delay_ms", link.delay.delay_ms});
   keys.push_back({"jitter_ms", link.delay.jitter_ms});
   keys.push_back({"delay_distribution", delay_distribution_name(link.delay.distribution)});
@@ -287,7 +373,8 @@ double link_key_value(const LinkSpec& link, const std::string& name) {
   if (name == "delay_ms") return link.delay.delay_ms;
   if (name == "jitter_ms") return link.delay.jitter_ms;
   if (name == "loss") return stationary_loss(link.loss);
-  const auto* g = std::get_if<GilbertElliottLink>(&link.loss);
+  if (link.trace && name == "offset") return static_cast<double>(link.trace->offset);
+  const auto* g = link.trace ? nullptr : std::get_if<GilbertElliottLink>(&link.loss);
   if (g) {
     if (name == "p") return g->p;
     if (name == "r") return g->r;
@@ -296,7 +383,7 @@ double link_key_value(const LinkSpec& link, const std::string& name) {
     if (name == "mean_burst") return mean_burst_length(*g);
   }
   if (link_key_is_word(name)) throw LinkError(name, name + " is a name, not a number");
-  throw LinkError(name, "link key '" + name + "' does not apply to a " + link_model_name(link.loss) + " link");
+  throw LinkError(name, "link key '" + name + "' does not apply to a " + link_kind(link) + " link");
 }
 
 // ---- validation -------------------------------------------------------------------
@@ -317,6 +404,8 @@ void validate_link_model(const LinkModel& model) {
 
 void validate_link(const LinkSpec& link) {
   validate_link_model(link.loss);
+  if (link.trace && link.trace->rows && link.trace->offset >= link.trace->rows->size())
+    throw LinkError("offset", "offset " + std::to_string(link.trace->offset) + " is past the trace's last row");
   for (const auto& [name, value] : {std::pair{"delay_ms", link.delay.delay_ms}, {"jitter_ms", link.delay.jitter_ms}}) {
     if (!(value >= 0.0 && value <= kMaxDelayMs))
       throw LinkError(name, std::string(name) + " must be in [0, " + number_text(kMaxDelayMs) + "] ms, got " +
@@ -363,6 +452,51 @@ double mean_burst_length(const LinkModel& model) {
   return drops / burst_starts;
 }
 
+std::string link_kind(const LinkSpec& link) { return link.trace ? "trace" : link_model_name(link.loss); }
+
+LinkModel empirical_link_model(const LinkTrace& trace) {
+  const std::size_t n = trace.size();
+  if (n == 0) throw LinkError("trace", "trace is empty (a trace needs at least one row)");
+  std::size_t drops = 0, bursts = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (trace.delivered[i]) continue;
+    ++drops;
+    if (i == 0 || trace.delivered[i - 1]) ++bursts;
+  }
+  if (drops == 0) return BernoulliLink{0.0};
+  if (drops == n) return BernoulliLink{1.0};
+  // loss = drops/n and mean burst = drops/bursts, so r = 1/mean burst = bursts/drops and
+  // p = r·loss/(1 − loss) = bursts / delivered: at most 1 but for a trace that starts with
+  // a burst and then alternates (bursts = delivered + 1).
+  const double r = static_cast<double>(bursts) / static_cast<double>(drops);
+  const double p = std::min(1.0, static_cast<double>(bursts) / static_cast<double>(n - drops));
+  return GilbertElliottLink{p, r, 0.0, 1.0};
+}
+
+std::shared_ptr<const LinkTrace> read_link_trace_for(const std::string& path) {
+  try {
+    return std::make_shared<const LinkTrace>(read_link_trace_file(path));
+  } catch (const TraceError& e) {
+    throw LinkError("trace", std::string("trace ") + e.what());
+  }
+}
+
+TraceSample trace_sample(const TraceLink& trace, std::uint64_t periods_since_start) {
+  TraceSample out;
+  const std::uint64_t n = trace.rows ? trace.rows->size() : 0;
+  if (n == 0) return out;
+  std::uint64_t row = trace.offset + periods_since_start;
+  if (row < periods_since_start) return out;  // beyond 2^64 rows: no trace is that long
+  if (row >= n) {
+    if (!trace.loop) return out;  // past the end without loop: every sample is dropped
+    row %= n;                     // loop: after the last row comes row 0, not the offset
+  }
+  out.delivered = trace.rows->delivered[row] != 0;
+  out.delay_ms = trace.rows->has_delay && out.delivered ? trace.rows->delay_ms[row]
+                                                         : std::numeric_limits<double>::quiet_NaN();
+  return out;
+}
+
 std::string link_model_name(const LinkModel& model) {
   return std::holds_alternative<BernoulliLink>(model) ? "bernoulli" : "gilbert_elliott";
 }
@@ -390,7 +524,16 @@ std::string describe_link_model(const LinkModel& model) {
 }
 
 std::string describe_link(const LinkSpec& link) {
-  std::string text = describe_link_model(link.loss);
+  std::string text;
+  if (link.trace) {
+    text = "trace " + link.trace->path + " offset=" + std::to_string(link.trace->offset) +
+           (link.trace->loop ? " loop" : " no loop");
+    if (link.trace->rows) text += " (" + std::to_string(link.trace->rows->size()) + " rows)";
+    text += ", empirical " + describe_link_model(link.loss);
+    if (link.trace->rows && link.trace->rows->has_delay) return text + ", delay from the trace";
+  } else {
+    text = describe_link_model(link.loss);
+  }
   if (!link.delay.none()) {
     char delay[96];
     std::snprintf(delay, sizeof delay, ", delay %.4g±%.4g ms %s", link.delay.delay_ms, link.delay.jitter_ms,

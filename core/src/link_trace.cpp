@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -175,6 +176,29 @@ std::size_t LinkTrace::delivered_count() const {
 
 LinkTrace read_link_trace(std::istream& in, const std::string& name, std::size_t max_samples) {
   return TraceParser(in, name, max_samples).parse();
+}
+
+void write_link_trace(std::ostream& out, const LinkTrace& trace, const std::string& comment) {
+  std::size_t start = 0;
+  while (!comment.empty() && start <= comment.size()) {
+    const std::size_t end = comment.find('\n', start);
+    out << "# " << comment.substr(start, end == std::string::npos ? std::string::npos : end - start) << "\n";
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  out << (trace.has_delay ? "k,delivered,delay_ms\n" : "k,delivered\n");
+  char delay[40];
+  for (std::size_t i = 0; i < trace.size(); ++i) {
+    out << trace.first_k + i << ',' << int{trace.delivered[i]};
+    if (trace.has_delay) {
+      out << ',';
+      if (trace.delivered[i]) {
+        std::snprintf(delay, sizeof delay, "%.17g", trace.delay_ms[i]);
+        out << delay;
+      }
+    }
+    out << '\n';
+  }
 }
 
 LinkTrace read_link_trace_file(const std::string& path) {

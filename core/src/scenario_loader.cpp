@@ -372,13 +372,26 @@ class Loader {
     for (const auto& name : link_key_names()) {
       if (!m.has(name)) continue;
       const std::string path = child(at, name);
-      if (link_key_is_word(name)) {
+      if (name == "trace") {
+        keys.push_back({name, resolve_trace_path(read_string(m.values.at(name), path))});
+      } else if (link_key_is_word(name)) {
         keys.push_back({name, read_string(m.values.at(name), path)});
       } else {
         keys.push_back({name, read_double(m.values.at(name), path)});
       }
     }
     return keys;
+  }
+
+  // A trace file is named relative to the scenario file's directory (a scenario that is not
+  // a file: the working directory), and kept absolute, so that the link means the same file
+  // in the channel, a journal's replay or a copy of the scenario written elsewhere.
+  std::string resolve_trace_path(const std::string& name) const {
+    const std::filesystem::path p(name);
+    if (name.empty() || p.is_absolute()) return name;
+    std::error_code ec;
+    const auto full = std::filesystem::absolute(std::filesystem::path(source_).parent_path() / p, ec);
+    return (ec ? std::filesystem::path(source_).parent_path() / p : full).lexically_normal().string();
   }
 
   [[noreturn]] void fail_link(const LinkError& e, const YAML::Node& node, const std::string& at) const {
@@ -389,7 +402,7 @@ class Loader {
     const YAML::Mark where = mark_of(node, at);
     const LinkKeys keys = read_link_keys(node, at, where);
     if (std::none_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; }))
-      fail(where, "missing required key '" + at + ".model' (bernoulli or gilbert_elliott)");
+      fail(where, "missing required key '" + at + ".model' (bernoulli, gilbert_elliott or trace)");
     try {
       return link_from_keys(keys);
     } catch (const LinkError& e) {

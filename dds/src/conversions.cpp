@@ -174,9 +174,20 @@ Estimate from_wire(const wire::Estimate& e, int state_dim) {
 
 wire::LinkSpec to_wire(const LinkSpec& link) {
   wire::LinkSpec w;
-  w.model(link_model_name(link.loss));
+  w.model(link_kind(link));
+  if (link.trace) {
+    w.trace(link.trace->path);
+    w.loop(link.trace->loop);
+    w.offset(link.trace->offset);
+  }
   if (const auto* b = std::get_if<BernoulliLink>(&link.loss)) {
     w.loss(b->loss);
+    if (link.trace) {  // a trace's empirical model is a chain on the wire, whatever its form
+      w.p(b->loss);
+      w.r(1.0 - b->loss);
+      w.loss_good(0.0);
+      w.loss_bad(1.0);
+    }
   } else {
     const auto& g = std::get<GilbertElliottLink>(link.loss);
     w.p(g.p);
@@ -190,7 +201,31 @@ wire::LinkSpec to_wire(const LinkSpec& link) {
   return w;
 }
 
+namespace {
+// A trace link as the wire describes it: its file's path (not read here: a status or journal
+// entry describes a link, the channel alone replays it) and its empirical model.
+LinkSpec trace_link_from_wire(const wire::LinkSpec& w) {
+  constexpr std::size_t kMaxTracePath = 4096;
+  if (w.trace().empty() || w.trace().size() > kMaxTracePath)
+    throw ConversionError("link: a trace link needs its trace path (1 to 4096 characters), got " +
+                          std::to_string(w.trace().size()) + " characters");
+  LinkSpec link;
+  link.trace = TraceLink{w.trace(), w.loop(), w.offset(), nullptr};
+  link.loss = GilbertElliottLink{w.p(), w.r(), w.loss_good(), w.loss_bad()};
+  link.delay.delay_ms = w.delay_ms();
+  link.delay.jitter_ms = w.jitter_ms();
+  try {
+    link.delay.distribution = parse_delay_distribution(w.delay_distribution());
+    validate_link(link);
+  } catch (const LinkError& e) {
+    throw ConversionError(std::string("link: ") + e.what());
+  }
+  return link;
+}
+}  // namespace
+
 LinkSpec from_wire(const wire::LinkSpec& w) {
+  if (w.model() == "trace") return trace_link_from_wire(w);
   // Through the link's keys: the same names, checks and messages as a file or `ctl`.
   LinkKeys keys{{"model", w.model()}};
   if (w.model() == "bernoulli") {

@@ -425,15 +425,15 @@ TEST(LinkType, RefusalsNameTheKeyAndTheReason) {
        "r is a gilbert_elliott key; a bernoulli link has only loss"},
       // names
       {"unknown key", bernoulli, {num("burst", 3.0)}, "burst",
-       "unknown link key 'burst' (expected one of: model, loss, p, r, loss_good, loss_bad, mean_burst, delay_ms, "
-       "jitter_ms, delay_distribution)"},
+       "unknown link key 'burst' (expected one of: model, loss, p, r, loss_good, loss_bad, mean_burst, trace, loop, "
+       "offset, delay_ms, jitter_ms, delay_distribution)"},
       {"duplicate key", bernoulli, {num("loss", 0.1), num("loss", 0.2)}, "loss", "link key 'loss' given twice"},
       {"unknown model", bernoulli, {word("model", "markov"), num("loss", 0.1)}, "model",
-       "unknown link model 'markov' (expected bernoulli or gilbert_elliott)"},
+       "unknown link model 'markov' (expected bernoulli, gilbert_elliott or trace)"},
       {"unknown distribution", bernoulli, {word("delay_distribution", "gaussian")}, "delay_distribution",
        "unknown delay_distribution 'gaussian'"},
       // words and numbers
-      {"model as number", bernoulli, {num("model", 1.0)}, "model", "model must be a name (bernoulli or gilbert_elliott)"},
+      {"model as number", bernoulli, {num("model", 1.0)}, "model", "model must be a name (bernoulli, gilbert_elliott or trace)"},
       {"distribution as number", bernoulli, {num("delay_distribution", 2.0)}, "delay_distribution",
        "delay_distribution must be a name (uniform, normal, pareto or paretonormal)"},
       {"loss as word", bernoulli, {word("loss", "high")}, "loss", "loss must be a number, got 'high'"},
@@ -880,7 +880,7 @@ TEST(LinkEvents, ErrorsGiveFileLineColumnAndWhatIsWrong) {
       {{"  - { at_period: 5, link: 1, set: { delay_ms: -3 } }"}, 0, "delay_ms",
        {"events[0].set.delay_ms must be in [0, 60000] ms, got -3"}},
       {{"  - { at_period: 5, link: 1, set: { model: 2 } }"}, 0, "model",
-       {"events[0].set: unknown link model '2' (expected bernoulli or gilbert_elliott)"}},
+       {"events[0].set: unknown link model '2' (expected bernoulli, gilbert_elliott or trace)"}},
       {{"  - { at_period: 5, link: 2, set: { loss: 0.9 } }"}, 0, "loss",
        {"events[0].set.loss 0.9 with mean_burst 5 needs p = 1.8 > 1"}},
       // A key that does not apply to the link at that point.

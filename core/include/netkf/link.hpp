@@ -10,6 +10,9 @@
 // period is late and never fused, so for the estimator a link with deadline D delivers a
 // sample with probability (1 - loss) · P(delay <= D): see effective_loss_model().
 #include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -17,6 +20,8 @@
 #include <vector>
 
 namespace netkf {
+
+struct LinkTrace;  // netkf/link_trace.hpp
 
 /// i.i.d. drops: each sample is lost with probability `loss` (arrival rate λ = 1 - loss).
 struct BernoulliLink {
@@ -55,10 +60,40 @@ struct LinkDelay {
   bool none() const { return delay_ms == 0.0 && jitter_ms == 0.0; }
 };
 
-/// One link: loss model and delay.
+/// A link that replays a measured arrival trace (docs/scenario-format.md, "Trace links"):
+/// the sample of the n-th period since the trace link took effect gets the trace's row
+/// offset + n; past the last row the trace starts again at row 0 (loop) or drops every
+/// sample (no loop). The rows are read once, when the link is made (never per sample).
+struct TraceLink {
+  std::string path;                        // the trace file as read (a scenario's is resolved against its directory)
+  bool loop = true;                        // past the end: start again at row 0, else drop everything
+  std::uint64_t offset = 0;                // the row of the first period (< the trace's rows)
+  std::shared_ptr<const LinkTrace> rows;   // the trace; null for a link described by the wire only
+  // Two trace links are the same link when they name the same file the same way.
+  bool operator==(const TraceLink& o) const { return path == o.path && loop == o.loop && offset == o.offset; }
+};
+
+/// The fate of one sample on a trace link.
+struct TraceSample {
+  bool delivered = false;
+  double delay_ms = 0.0;  // the row's delay_ms (NaN when the trace has no delay column or the row is lost)
+};
+/// The trace's row for the sample `periods_since_start` periods after the trace link took
+/// effect (row offset + n; loop or drop past the end, as TraceLink says).
+TraceSample trace_sample(const TraceLink& trace, std::uint64_t periods_since_start);
+
+/// Traces already read, by path: lets a link change switch to a trace without reading a file
+/// where that must not happen (the channel's sample path; its timeline is read at start).
+using TraceRows = std::map<std::string, std::shared_ptr<const LinkTrace>>;
+
+/// One link: loss model and delay, or a trace. For a trace link `loss` is the trace's
+/// empirical model (empirical_link_model: the theory's view of the trace) and the channel
+/// replays `trace` instead of drawing from it; `delay` is used only when the trace has no
+/// delay_ms column.
 struct LinkSpec {
   LinkModel loss;
   LinkDelay delay;
+  std::optional<TraceLink> trace;
 
   LinkSpec() = default;
   // Implicit: a loss model alone is a link without delay.
@@ -92,9 +127,22 @@ struct LinkKey {
 };
 using LinkKeys = std::vector<LinkKey>;
 
+/// The model a link is, as a person writes it: "bernoulli", "gilbert_elliott" or "trace".
+std::string link_kind(const LinkSpec& link);
+
+/// The theory's model of a trace: the simple Gilbert channel (loss_good 0, loss_bad 1) with
+/// the trace's own loss and mean burst (r = 1/mean burst, p = r·loss/(1 − loss)), which
+/// is Bernoulli when the trace's drops are i.i.d.; bernoulli 0 or 1 for a trace that
+/// delivers everything or nothing. Throws LinkError("trace") on an empty trace.
+LinkModel empirical_link_model(const LinkTrace& trace);
+
+/// Read a trace file for a link (link_trace.hpp's reader). Throws LinkError("trace", ...)
+/// carrying the trace's FILE:LINE:COL message.
+std::shared_ptr<const LinkTrace> read_link_trace_for(const std::string& path);
+
 /// Every key a link understands, in the order documented.
 const std::vector<std::string>& link_key_names();
-/// True for keys whose value is a word (model, delay_distribution).
+/// True for keys whose value is a word (model, delay_distribution, trace, loop).
 bool link_key_is_word(const std::string& name);
 
 /// The link `current` with `keys` applied; the keys not given keep their values. Rules
@@ -104,7 +152,9 @@ bool link_key_is_word(const std::string& name);
 /// user's form loss + mean_burst (the simple Gilbert channel: loss_good 0, loss_bad 1,
 /// r = 1/mean_burst, p = r·loss/(1 − loss)); the forms do not mix. The result is validated.
 /// Throws LinkError naming the first offending key; `current` is unchanged either way.
-LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys);
+/// A trace link (model: trace, trace: FILE) reads FILE here, unless it is the current link's
+/// file or in `preloaded`.
+LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys, const TraceRows* preloaded = nullptr);
 /// A link from keys alone (`model` required).
 LinkSpec link_from_keys(const LinkKeys& keys);
 /// The whole link as keys (model, its parameters, delay_ms, jitter_ms, delay_distribution):

@@ -17,6 +17,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <istream>
+#include <ostream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -47,6 +48,9 @@ struct LinkTrace {
 /// Parse a trace; `name` is the FILE of error messages. Throws TraceError, also for a
 /// trace longer than `max_samples` rows.
 LinkTrace read_link_trace(std::istream& in, const std::string& name, std::size_t max_samples = max_trace_samples);
+/// Write a trace in the format read_link_trace() reads (`# comment` lines first, when given;
+/// delays with 17 significant digits): read_link_trace(write_link_trace(t)) == t.
+void write_link_trace(std::ostream& out, const LinkTrace& trace, const std::string& comment = "");
 /// Read a trace file. Throws TraceError (also when the file cannot be opened).
 LinkTrace read_link_trace_file(const std::string& path);
 

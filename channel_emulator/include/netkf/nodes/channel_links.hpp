@@ -75,7 +75,10 @@ class ChannelLinks {
   /// A live change (ctl, dashboard): `keys` are applied to the link's current spec (only the
   /// keys given change) and take effect from the link's next sample. Invalid keys or unknown
   /// sensors change nothing and are rejected with the reason.
-  LinkChangeResult request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys);
+  /// A trace the keys name is taken from `preloaded` when there (read by the caller outside
+  /// any lock), else read here.
+  LinkChangeResult request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys,
+                           const TraceRows* preloaded = nullptr);
   /// Record a request that could not even be decoded.
   LinkChangeResult reject(std::uint64_t request_id, int sensor_id, const std::string& reason);
 
@@ -104,6 +107,9 @@ class ChannelLinks {
     std::optional<Ramp> ramp;
     std::int64_t samples_seen = 0;
     analysis::RecentArrivals recent;  // emptied with `report.stats`
+    // A trace link's period 0: the sample of period k gets the trace's row offset + (k − trace_start).
+    std::int64_t trace_start = 0;
+    bool trace_restart = false;  // a change made it a (new) trace link: its start is the next sample's period
   };
 
   void set_link(Link& link, const LinkSpec& spec, bool reset_statistics);
@@ -111,6 +117,7 @@ class ChannelLinks {
   void step_ramp(Link& link, std::int64_t k);
 
   std::map<int, Link> links_;
+  TraceRows timeline_traces_;  // the traces the timeline switches to, read at start (never per sample)
   double deadline_ms_ = 0.0;  // a sample delayed longer is late whatever else happens
   std::vector<AppliedLinkChange> changes_;
   std::uint64_t unknown_sensor_samples_ = 0;

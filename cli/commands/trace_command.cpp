@@ -1,0 +1,62 @@
+// `netkf trace extract RUN.csv|RUN.mcap --link ID -o link.csv`: the arrival trace a link had
+// in a recording, for `netkf fit` or a `model: trace` link (docs/cli.md, "netkf trace extract").
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "commands.hpp"
+#include "netkf/link_trace.hpp"
+#include "trace_extract.hpp"
+
+namespace netkf::cli {
+namespace {
+
+struct ExtractArgs {
+  std::string recording, output;
+  int link = 0;
+  std::optional<std::int64_t> first, last;
+};
+
+[[noreturn]] void fail(int status, const std::string& message) {
+  std::cerr << "netkf trace extract: error: " << message << "\n";
+  throw CLI::RuntimeError(status);
+}
+
+void run_extract(const ExtractArgs& a) {
+  LinkTrace trace;
+  try {
+    trace = extract_link_trace(read_delivered_samples(a.recording), a.link, a.first, a.last);
+  } catch (const std::exception& e) {
+    fail(2, e.what());
+  }
+  const std::string comment = "netkf trace extract: link " + std::to_string(a.link) + " of " + a.recording +
+                              ", periods " + std::to_string(trace.first_k) + ".." +
+                              std::to_string(trace.first_k + trace.size() - 1) + " (k = period)";
+  std::ofstream out(a.output, std::ios::binary);
+  if (!out) fail(1, a.output + ": cannot write the trace");
+  write_link_trace(out, trace, comment);
+  out.close();
+  if (!out) fail(1, a.output + ": error while writing the trace");
+  std::cout << "wrote " << a.output << ": link " << a.link << ", " << trace.size() << " periods, "
+            << trace.delivered_count() << " delivered\n";
+}
+
+}  // namespace
+
+void add_trace_command(CLI::App& app) {
+  auto* trace = app.add_subcommand("trace", "Link traces: extract the trace a link had in a recording");
+  trace->require_subcommand(1);
+  auto a = std::make_shared<ExtractArgs>();
+  auto* cmd = trace->add_subcommand("extract", "Write the arrival trace (k,delivered) a link had in a recording");
+  cmd->add_option("recording", a->recording, "a samples CSV (--record-samples) or an MCAP recorded with samples")
+      ->required();
+  cmd->add_option("--link", a->link, "the link (sensor id)")->required();
+  cmd->add_option("-o,--output", a->output, "the trace CSV to write")->required();
+  cmd->add_option("--first", a->first, "first period (default: the first period any link delivered in)");
+  cmd->add_option("--last", a->last, "last period (default: the last period any link delivered in)");
+  cmd->callback([a] { run_extract(*a); });
+}
+
+}  // namespace netkf::cli

@@ -1,0 +1,33 @@
+#pragma once
+// `netkf trace extract`: the arrival trace a link had in a recording (docs/cli.md,
+// "netkf trace extract"). The samples CSV (`--record-samples`) and the MCAP's
+// `netkf/measurement/delivered` channel list every sample the channel delivered; a link's
+// trace says, for each period of the recording, whether its sample was among them.
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+
+#include "netkf/link_trace.hpp"
+
+namespace netkf::cli {
+
+/// The delivered (sensor, period) pairs of a recording.
+struct DeliveredSamples {
+  std::map<int, std::set<std::int64_t>> periods_by_sensor;
+  std::optional<std::int64_t> first_k, last_k;  // over every sensor: the periods the recording saw
+};
+
+/// A recording's delivered samples: a samples CSV (header `k,sensor_id,...`) or an MCAP file
+/// (by its name's `.mcap`). Throws std::runtime_error naming FILE (and LINE for a CSV).
+DeliveredSamples read_delivered_samples(const std::string& path);
+
+/// Link `sensor_id`'s trace over the periods first..last (default: the first and last period
+/// any sensor delivered in; a period after the last delivered sample of every link is unknown).
+/// Throws std::runtime_error for a link with no sample, an empty range or one above
+/// max_trace_samples.
+LinkTrace extract_link_trace(const DeliveredSamples& samples, int sensor_id, std::optional<std::int64_t> first = {},
+                             std::optional<std::int64_t> last = {});
+
+}  // namespace netkf::cli

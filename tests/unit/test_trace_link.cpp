@@ -1,0 +1,294 @@
+// Trace links (docs/scenario-format.md, "Trace links"): `model: trace` replays a measured
+// arrival trace. The expectations are written out by hand from the rows of small traces
+// (which row each period gets with an offset, with and without loop), and the empirical
+// model from counts done here (loss = drops / rows, mean burst = drops / runs of drops).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+#include "netkf/link.hpp"
+#include "netkf/link_trace.hpp"
+#include "netkf/nodes/channel_links.hpp"
+#include "netkf/scenario.hpp"
+#include "mcap_writer.hpp"
+#include "trace_extract.hpp"
+
+namespace {
+
+using ::testing::HasSubstr;
+using netkf::LinkKeys;
+using netkf::LinkSpec;
+using netkf::TraceLink;
+
+// A scratch directory of this test process, removed at the end.
+class TraceFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("netkf-trace-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_ / "traces");
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string write(const std::string& name, const std::string& text) const {
+    const auto path = dir_ / name;
+    std::ofstream(path) << text;
+    return path.string();
+  }
+  std::filesystem::path dir_;
+};
+
+// Rows 0..4 delivered 1,0,0,1,1 with delays 3, -, -, 7.5, 2.
+const char* const kTrace =
+    "# five rows\n"
+    "k,delivered,delay_ms\n"
+    "10,1,3\n"
+    "11,0,\n"
+    "12,0,\n"
+    "13,1,7.5\n"
+    "14,1,2\n";
+
+std::vector<int> delivered_per_period(const TraceLink& t, int periods) {
+  std::vector<int> out;
+  for (int n = 0; n < periods; ++n) out.push_back(netkf::trace_sample(t, n).delivered ? 1 : 0);
+  return out;
+}
+
+TEST_F(TraceFiles, PeriodNGetsRowOffsetPlusNAndLoopRestartsAtRowZero) {
+  TraceLink t{write("t.csv", kTrace), true, 2, netkf::read_link_trace_for(write("t.csv", kTrace))};
+  // Rows 2,3,4, then 0,1,2,3,4 again.
+  EXPECT_EQ(delivered_per_period(t, 8), (std::vector<int>{0, 1, 1, 1, 0, 0, 1, 1}));
+  t.loop = false;
+  // Rows 2,3,4, then past the end: every sample dropped.
+  EXPECT_EQ(delivered_per_period(t, 8), (std::vector<int>{0, 1, 1, 0, 0, 0, 0, 0}));
+  t.offset = 0;
+  t.loop = true;
+  EXPECT_EQ(delivered_per_period(t, 11), (std::vector<int>{1, 0, 0, 1, 1, 1, 0, 0, 1, 1, 1}));
+}
+
+TEST_F(TraceFiles, DelayColumnGivesTheDelayOfDeliveredSamples) {
+  const TraceLink t{"t.csv", true, 0, netkf::read_link_trace_for(write("t.csv", kTrace))};
+  EXPECT_DOUBLE_EQ(netkf::trace_sample(t, 0).delay_ms, 3.0);
+  EXPECT_TRUE(std::isnan(netkf::trace_sample(t, 1).delay_ms));
+  EXPECT_DOUBLE_EQ(netkf::trace_sample(t, 3).delay_ms, 7.5);
+  EXPECT_DOUBLE_EQ(netkf::trace_sample(t, 9).delay_ms, 2.0);  // row 4 of the second pass
+  // Without the column the link's own delay draws apply: no delay from the trace.
+  const TraceLink plain{"p.csv", true, 0, netkf::read_link_trace_for(write("p.csv", "k,delivered\n0,1\n"))};
+  EXPECT_TRUE(std::isnan(netkf::trace_sample(plain, 0).delay_ms));
+}
+
+TEST_F(TraceFiles, EmpiricalModelHasTheTracesLossAndMeanBurst) {
+  // 1 0 0 1 0 1 1 1 0 0 0 1: 12 rows, 6 drops in 3 runs (2, 1, 3).
+  std::string text = "k,delivered\n";
+  const int rows[] = {1, 0, 0, 1, 0, 1, 1, 1, 0, 0, 0, 1};
+  for (int i = 0; i < 12; ++i) text += std::to_string(i) + "," + std::to_string(rows[i]) + "\n";
+  const auto trace = netkf::read_link_trace_for(write("e.csv", text));
+  const netkf::LinkModel m = netkf::empirical_link_model(*trace);
+  EXPECT_NEAR(netkf::stationary_loss(m), 6.0 / 12.0, 1e-12);
+  EXPECT_NEAR(netkf::mean_burst_length(m), 6.0 / 3.0, 1e-12);
+  EXPECT_EQ(netkf::empirical_link_model(*netkf::read_link_trace_for(write("a.csv", "k,delivered\n0,1\n1,1\n"))),
+            netkf::LinkModel(netkf::BernoulliLink{0.0}));
+  EXPECT_EQ(netkf::empirical_link_model(*netkf::read_link_trace_for(write("n.csv", "k,delivered\n0,0\n1,0\n"))),
+            netkf::LinkModel(netkf::BernoulliLink{1.0}));
+}
+
+TEST_F(TraceFiles, KeysBuildTraceLinksAndRoundTrip) {
+  const std::string path = write("t.csv", kTrace);
+  const LinkSpec l = netkf::link_from_keys(
+      {{"model", std::string("trace")}, {"trace", path}, {"loop", std::string("false")}, {"offset", 3.0}});
+  ASSERT_TRUE(l.trace);
+  EXPECT_EQ(l.trace->path, path);
+  EXPECT_FALSE(l.trace->loop);
+  EXPECT_EQ(l.trace->offset, 3u);
+  EXPECT_EQ(netkf::link_kind(l), "trace");
+  EXPECT_NEAR(netkf::stationary_loss(l.loss), 2.0 / 5.0, 1e-12);
+  EXPECT_EQ(netkf::apply_link_keys(LinkSpec(netkf::BernoulliLink{0.5}), netkf::link_keys(l)), l);
+  // Changing only the offset keeps the file; leaving the trace needs a model's keys.
+  EXPECT_EQ(netkf::apply_link_keys(l, {{"offset", 1.0}}).trace->offset, 1u);
+  const LinkSpec b = netkf::apply_link_keys(l, {{"model", std::string("bernoulli")}, {"loss", 0.25}});
+  EXPECT_FALSE(b.trace);
+  EXPECT_EQ(b.loss, netkf::LinkModel(netkf::BernoulliLink{0.25}));
+}
+
+TEST_F(TraceFiles, KeysAreRefusedWithTheirNames) {
+  const std::string path = write("t.csv", kTrace);
+  const auto error_of = [](const LinkKeys& keys) -> std::string {
+    try {
+      (void)netkf::link_from_keys(keys);
+    } catch (const netkf::LinkError& e) {
+      return e.key() + ": " + e.what();
+    }
+    return "no error";
+  };
+  const std::string model = "trace";
+  EXPECT_THAT(error_of({{"model", model}}), HasSubstr("trace: a trace link needs trace"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", path}, {"loss", 0.1}}), HasSubstr("loss: loss is not a key of a trace link"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", path}, {"offset", 5.0}}), HasSubstr("offset: offset 5 is past"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", path}, {"offset", 1.5}}), HasSubstr("offset: offset must be a whole"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", path}, {"loop", std::string("yes")}}), HasSubstr("loop: loop must be true or false"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", path}, {"delay_ms", 4.0}}), HasSubstr("delay_ms: delay_ms cannot be given"));
+  EXPECT_THAT(error_of({{"model", std::string("bernoulli")}, {"loss", 0.1}, {"offset", 1.0}}),
+              HasSubstr("offset: offset is a key of a trace link"));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", (dir_ / "missing.csv").string()}}), HasSubstr("trace: trace "));
+  EXPECT_THAT(error_of({{"model", model}, {"trace", write("bad.csv", "k,delivered\n0,1\n1,2\n")}}),
+              HasSubstr("bad.csv:3:3:"));
+}
+
+// A scenario in dir_ whose link 1 replays traces/t.csv (named relative to the scenario).
+std::string scenario_text(const std::string& link) {
+  return "period_ms: 10\n"
+         "seed: 7\n"
+         "plant: { A: [[0.5]], Q: [[1.0]] }\n"
+         "sensors:\n"
+         "  - { id: 1, C: [[1.0]], R: [[1.0]], link: " + link + " }\n";
+}
+
+TEST_F(TraceFiles, ScenarioNamesTheTraceRelativeToItselfAndErrorsCarryBothPositions) {
+  write("traces/t.csv", kTrace);
+  const std::string yaml = write("s.yaml", scenario_text("{ model: trace, trace: traces/t.csv, offset: 1 }"));
+  const netkf::Scenario s = netkf::load_scenario_file(yaml);
+  ASSERT_TRUE(s.sensors[0].link.trace);
+  EXPECT_EQ(std::filesystem::path(s.sensors[0].link.trace->path), std::filesystem::absolute(dir_ / "traces/t.csv"));
+  EXPECT_TRUE(s.sensors[0].link.trace->loop);  // the default
+
+  const auto error_of = [&](const std::string& link, const std::string& trace_text) -> std::string {
+    write("traces/t.csv", trace_text);
+    try {
+      (void)netkf::load_scenario_file(write("s.yaml", scenario_text(link)));
+    } catch (const netkf::ScenarioError& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  // The scenario's position of the key, then the trace's own FILE:LINE:COL.
+  const std::string bad = error_of("{ model: trace, trace: traces/t.csv }", "k,delivered\n0,1\n1,x\n");
+  EXPECT_THAT(bad, HasSubstr("s.yaml:5:"));
+  EXPECT_THAT(bad, HasSubstr("sensors[0].link.trace"));
+  EXPECT_THAT(bad, HasSubstr("t.csv:3:3:"));
+  EXPECT_THAT(error_of("{ model: trace, trace: traces/t.csv }", "# nothing\nk,delivered\n"), HasSubstr("t.csv:"));
+  EXPECT_THAT(error_of("{ model: trace, trace: traces/t.csv }", "k,delivered,delay_ms\n0,1,nan\n"), HasSubstr("t.csv:2:"));
+  EXPECT_THAT(error_of("{ model: trace, trace: traces/t.csv, mean_burst: 3 }", kTrace),
+              HasSubstr("sensors[0].link.mean_burst is not a key of a trace link"));
+  EXPECT_THAT(error_of("{ model: trace, trace: traces/t.csv, looping: true }", kTrace), HasSubstr("looping"));
+}
+
+// The channel replays the trace period for period, and a switch to a model and back
+// restarts the trace at its offset from the period the switch took effect.
+TEST_F(TraceFiles, ChannelReplaysTheTraceAndSwitchesToAModelAndBack) {
+  write("traces/t.csv", kTrace);
+  const netkf::Scenario s =
+      netkf::load_scenario_file(write("s.yaml", scenario_text("{ model: trace, trace: traces/t.csv, offset: 2 }")));
+  netkf::nodes::ChannelLinks links(s);
+  using V = netkf::nodes::SampleFate::Verdict;
+  // Rows 2,3,4,0,1: dropped, delivered (7.5 ms), delivered (2 ms), delivered (3 ms), dropped.
+  const std::vector<V> expected = {V::dropped, V::delivered, V::delivered, V::delivered, V::dropped};
+  const std::vector<double> delays = {0.0, 7.5, 2.0, 3.0, 0.0};
+  for (int k = 0; k < 5; ++k) {
+    const auto fate = links.on_sample(1, k);
+    EXPECT_EQ(fate.verdict, expected[k]) << "period " << k;
+    EXPECT_DOUBLE_EQ(fate.delay_ms, delays[k]) << "period " << k;
+  }
+  ASSERT_TRUE(links.request(1, 1, {{"model", std::string("bernoulli")}, {"loss", 1.0}}).applied);
+  for (int k = 5; k < 8; ++k) EXPECT_EQ(links.on_sample(1, k).verdict, V::dropped);
+  const std::string trace = s.sensors[0].link.trace->path;
+  ASSERT_TRUE(links.request(2, 1, {{"model", std::string("trace")}, {"trace", trace}, {"loop", std::string("false")}}).applied);
+  // From period 8 on: rows 0..4 (offset 0, the keys given rebuild the link), then nothing.
+  const std::vector<V> again = {V::delivered, V::dropped, V::dropped, V::delivered, V::delivered, V::dropped, V::dropped};
+  for (int k = 8; k < 15; ++k) EXPECT_EQ(links.on_sample(1, k).verdict, again[k - 8]) << "period " << k;
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[0].at_period, 5);
+  EXPECT_FALSE(changes[0].link.trace);
+  EXPECT_EQ(changes[1].at_period, 8);
+  ASSERT_TRUE(changes[1].link.trace);
+  EXPECT_EQ(changes[1].link.trace->path, trace);
+  // A request naming a file that is not there is refused, and the link stays as it was.
+  const auto refused = links.request(3, 1, {{"model", std::string("trace")}, {"trace", (dir_ / "gone.csv").string()}});
+  EXPECT_FALSE(refused.applied);
+  EXPECT_THAT(refused.reason, HasSubstr("gone.csv"));
+  EXPECT_EQ(links.report(1)->link.trace->path, trace);
+}
+
+TEST_F(TraceFiles, TimelineSwitchesToATraceReadAtStart) {
+  write("traces/t.csv", kTrace);
+  const netkf::Scenario s = netkf::load_scenario_file(write(
+      "s.yaml", scenario_text("{ model: bernoulli, loss: 0 }") +
+                    "events:\n  - { at_period: 3, link: 1, set: { model: trace, trace: traces/t.csv, offset: 1 } }\n"));
+  netkf::nodes::ChannelLinks links(s);
+  std::filesystem::remove(dir_ / "traces/t.csv");  // read at start: the sample path never opens it
+  using V = netkf::nodes::SampleFate::Verdict;
+  // Periods 0..2 loss 0; from period 3 rows 1,2,3,4,0.
+  const std::vector<V> expected = {V::delivered, V::delivered, V::delivered, V::dropped,
+                                   V::dropped,   V::delivered, V::delivered, V::delivered};
+  for (int k = 0; k < 8; ++k) EXPECT_EQ(links.on_sample(1, k).verdict, expected[k]) << "period " << k;
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_TRUE(changes[0].failure.empty()) << changes[0].failure;
+  EXPECT_EQ(changes[0].at_period, 3);
+}
+
+// `netkf trace extract`: the delivered (sensor, period) pairs written here come back as the
+// link's trace, period for period, from a samples CSV and from an MCAP file (written by the
+// project's McapWriter, cut inside its last record as by kill -9).
+TEST_F(TraceFiles, ExtractGivesTheLinkTraceFromSamplesCsvAndMcap) {
+  // Link 1 delivered periods 3, 4, 6; link 2 every period 2..8.
+  const std::vector<std::pair<int, int>> delivered = {{2, 2}, {3, 1}, {3, 2}, {4, 1}, {4, 2}, {5, 2},
+                                                      {6, 1}, {6, 2}, {7, 2}, {8, 2}};
+  std::string csv = "k,sensor_id,stamp,fused,y0\n";
+  for (const auto& [k, id] : delivered) csv += std::to_string(k) + "," + std::to_string(id) + ",1.5,1,0.25\n";
+  const std::string csv_path = write("samples.csv", csv);
+
+  const auto mcap_path = dir_ / "run.mcap";
+  {
+    std::ofstream out(mcap_path, std::ios::binary);
+    netkf::cli::McapWriter w(out);
+    const auto schema = w.add_schema("netkf.wire.Measurement", "jsonschema", "{}");
+    const auto other = w.add_channel(schema, "netkf/truth", "json");
+    const auto channel = w.add_channel(schema, "netkf/measurement/delivered", "json");
+    for (const auto& [k, id] : delivered) {
+      w.add_message(other, 1, 1, R"({"k": 99, "sensor_id": 1})");
+      w.add_message(channel, 1, 1, "{\"sensor_id\": " + std::to_string(id) + ", \"k\": " + std::to_string(k) + ", \"y\": [0.5]}");
+    }
+    w.finish();
+  }
+  const std::vector<std::uint8_t> link1 = {0, 1, 1, 0, 1, 0, 0};  // periods 2..8
+  for (const std::string& path : {csv_path, mcap_path.string()}) {
+    const auto samples = netkf::cli::read_delivered_samples(path);
+    const netkf::LinkTrace t = netkf::cli::extract_link_trace(samples, 1);
+    EXPECT_EQ(t.first_k, 2u) << path;
+    EXPECT_EQ(t.delivered, link1) << path;
+    EXPECT_FALSE(t.has_delay);
+    const netkf::LinkTrace part = netkf::cli::extract_link_trace(samples, 1, 0, 4);
+    EXPECT_EQ(part.delivered, (std::vector<std::uint8_t>{0, 0, 0, 1, 1})) << path;
+    EXPECT_THROW(netkf::cli::extract_link_trace(samples, 9), std::runtime_error);
+    // Written and read back: the trace format of `model: trace` and `netkf fit`.
+    std::ostringstream text;
+    netkf::write_link_trace(text, t, "extracted");
+    std::istringstream in(text.str());
+    const netkf::LinkTrace again = netkf::read_link_trace(in, "again.csv");
+    EXPECT_EQ(again.first_k, t.first_k);
+    EXPECT_EQ(again.delivered, t.delivered);
+  }
+  // A file cut inside its last record reads up to its last whole record.
+  std::ostringstream whole;
+  whole << std::ifstream(mcap_path, std::ios::binary).rdbuf();
+  const std::string bytes = whole.str();
+  const auto cut = dir_ / "cut.mcap";
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() - 60);
+  const auto partial = netkf::cli::read_delivered_samples(cut.string());
+  EXPECT_EQ(partial.periods_by_sensor.at(1), (std::set<std::int64_t>{3, 4, 6}));
+  // Not a recording: refused with the file's name.
+  EXPECT_THROW(netkf::cli::read_delivered_samples(write("x.csv", "k,delivered\n0,1\n")), std::runtime_error);
+  EXPECT_THROW(netkf::cli::read_delivered_samples(write("x.mcap", "not mcap")), std::runtime_error);
+}
+
+}  // namespace
