@@ -24,14 +24,21 @@ def data_dir():
     return DATA
 
 
-@pytest.fixture(scope="session")
-def live(tmp_path_factory):
+def netkf_binary():
+    """$NETKF_BIN_DIR/cli/netkf (a missing one fails), else build/default/cli/netkf (a missing
+    one skips the test)."""
     bin_dir = os.environ.get("NETKF_BIN_DIR")
     netkf = os.path.join(bin_dir or os.path.join(REPO, "build", "default"), "cli", "netkf")
     if not os.path.exists(netkf):
         if bin_dir:
             pytest.fail("NETKF_BIN_DIR is set but %s does not exist" % netkf)
-        pytest.skip("netkf is not built (build/default/cli/netkf): the live tests need it")
+        pytest.skip("netkf is not built (build/default/cli/netkf): this test needs it")
+    return netkf
+
+
+@pytest.fixture(scope="session")
+def live(tmp_path_factory):
+    netkf = netkf_binary()
     out = str(tmp_path_factory.mktemp("live"))
     domain = os.environ.get("NETKF_DOMAIN", "94")
     cmd = [os.path.join(REPO, "scripts", "in-netns.sh"), sys.executable, os.path.join(TESTS, "live_runs.py"),

@@ -11,7 +11,7 @@ import sys
 import pytest
 
 import netkf
-from conftest import PYTHON_DIR, REPO
+from conftest import PYTHON_DIR, REPO, netkf_binary
 
 LOSSES = [0.0, 0.3, 0.5, 0.62, 0.66, 0.7]
 SEEDS = 3
@@ -19,12 +19,7 @@ SEEDS = 3
 
 @pytest.fixture(scope="module")
 def real_sweep(tmp_path_factory):
-    bin_dir = os.environ.get("NETKF_BIN_DIR")
-    exe = os.path.join(bin_dir or os.path.join(REPO, "build", "default"), "cli", "netkf")
-    if not os.path.exists(exe):
-        if bin_dir:
-            pytest.fail("NETKF_BIN_DIR is set but %s does not exist" % exe)
-        pytest.skip("netkf is not built (build/default/cli/netkf)")
+    exe = netkf_binary()
     out = str(tmp_path_factory.mktemp("sweep") / "sinopoli")
     cmd = [exe, "sweep", os.path.join(REPO, "deploy", "scenarios", "sinopoli-scalar.yaml"), "--vary",
            "sensors.1.link.loss=" + ",".join(str(v) for v in LOSSES), "--seeds", str(SEEDS), "--periods", "2000",
