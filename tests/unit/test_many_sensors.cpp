@@ -173,28 +173,42 @@ Scenario sixty_four(LinkModel link) {
 }
 
 TEST(ManySensors, SixtyFourBernoulliSensorsMatchTheClosedForm) {
+  // The verdict at three rates (cheap), the whole report at one: its critical-rate bisection
+  // sums 33² count patterns per step (about 1 s here, 600 s under ASan, which the smaller
+  // grouped-versus-enumerated tests above cover).
   for (double rate : {0.02, 0.03, 0.05}) {
     const Scenario s = sixty_four(BernoulliLink{1.0 - rate});
     const double closed = std::max(9.0 * std::pow(1.0 - rate, 64), 2.25 * std::pow(1.0 - rate, 32));
-    const AnalysisReport r = analyze(s);
-    ASSERT_TRUE(r.markov_criterion.has_value()) << rate;
-    EXPECT_NEAR(*r.markov_criterion, closed, 1e-12 * closed) << rate;
-    EXPECT_EQ(r.stable, closed < 1.0 ? Verdict::yes : Verdict::no) << rate;
-    // S̄ = diag(1 / (1 − q a_i²)), q = (1 − λ)^64 (Sinopoli Thm 4 with Q = I, diagonal A).
-    const double q = std::pow(1.0 - rate, 64);
-    double trace = 0.0;
-    for (double a : {3.0, -1.5, 0.5}) trace += 1.0 / (1.0 - q * a * a);
-    ASSERT_EQ(r.lower_trace.has_value(), 9.0 * q < 1.0) << rate;
-    if (r.lower_trace) {
-      EXPECT_NEAR(*r.lower_trace, trace, 1e-9 * trace) << rate;
-    }
-    EXPECT_EQ(r.upper_method, BoundMethod::grouped) << "two (C, R) groups of 32: 33² count patterns";
-    ASSERT_TRUE(r.critical_rate.has_value());
-    const double critical = 1.0 - std::pow(9.0, -1.0 / 64.0);
-    EXPECT_NEAR(r.critical_rate->lower, critical, 1e-12);
-    ASSERT_TRUE(r.critical_rate->exact.has_value());
-    EXPECT_NEAR(*r.critical_rate->exact, critical, 1e-9);
+    const auto c = markov_stability_criterion(s.plant.A, s.sensors);
+    ASSERT_TRUE(c.applies) << rate;
+    EXPECT_NEAR(c.value, closed, 1e-12 * closed) << rate;
+    EXPECT_EQ(decide_stability(s.plant.A, s.plant.Q, s.sensors).stable, closed < 1.0 ? Verdict::yes : Verdict::no)
+        << rate;
   }
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "the report's critical-rate bisection is checked by the release suite (600 s under ASan)";
+#endif
+  const double rate = 0.03;
+  const Scenario s = sixty_four(BernoulliLink{1.0 - rate});
+  const double closed = std::max(9.0 * std::pow(1.0 - rate, 64), 2.25 * std::pow(1.0 - rate, 32));
+  const AnalysisReport r = analyze(s);
+  ASSERT_TRUE(r.markov_criterion.has_value());
+  EXPECT_NEAR(*r.markov_criterion, closed, 1e-12 * closed);
+  EXPECT_EQ(r.stable, closed < 1.0 ? Verdict::yes : Verdict::no);
+  // S̄ = diag(1 / (1 − q a_i²)), q = (1 − λ)^64 (Sinopoli Thm 4 with Q = I, diagonal A).
+  const double q = std::pow(1.0 - rate, 64);
+  double trace = 0.0;
+  for (double a : {3.0, -1.5, 0.5}) trace += 1.0 / (1.0 - q * a * a);
+  ASSERT_EQ(r.lower_trace.has_value(), 9.0 * q < 1.0);
+  if (r.lower_trace) {
+    EXPECT_NEAR(*r.lower_trace, trace, 1e-9 * trace);
+  }
+  EXPECT_EQ(r.upper_method, BoundMethod::grouped) << "two (C, R) groups of 32: 33² count patterns";
+  ASSERT_TRUE(r.critical_rate.has_value());
+  const double critical = 1.0 - std::pow(9.0, -1.0 / 64.0);
+  EXPECT_NEAR(r.critical_rate->lower, critical, 1e-12);
+  ASSERT_TRUE(r.critical_rate->exact.has_value());
+  EXPECT_NEAR(*r.critical_rate->exact, critical, 1e-9);
 }
 
 TEST(ManySensors, SixtyFourGilbertSensorsMatchTheClosedForm) {
