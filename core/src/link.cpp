@@ -457,19 +457,20 @@ std::string link_kind(const LinkSpec& link) { return link.trace ? "trace" : link
 LinkModel empirical_link_model(const LinkTrace& trace) {
   const std::size_t n = trace.size();
   if (n == 0) throw LinkError("trace", "trace is empty (a trace needs at least one row)");
+  // Bursts counted around the loop (a trace link loops by default): a burst that ends the
+  // trace and one that starts it are one. Then every burst follows a delivery, so
+  // bursts <= delivered, and with r = bursts/drops (1/mean burst), p = bursts/delivered the
+  // chain's stationary loss p/(p + r) is exactly drops/n.
   std::size_t drops = 0, bursts = 0;
   for (std::size_t i = 0; i < n; ++i) {
     if (trace.delivered[i]) continue;
     ++drops;
-    if (i == 0 || trace.delivered[i - 1]) ++bursts;
+    if (trace.delivered[i == 0 ? n - 1 : i - 1]) ++bursts;
   }
   if (drops == 0) return BernoulliLink{0.0};
   if (drops == n) return BernoulliLink{1.0};
-  // loss = drops/n and mean burst = drops/bursts, so r = 1/mean burst = bursts/drops and
-  // p = r·loss/(1 − loss) = bursts / delivered: at most 1 but for a trace that starts with
-  // a burst and then alternates (bursts = delivered + 1).
   const double r = static_cast<double>(bursts) / static_cast<double>(drops);
-  const double p = std::min(1.0, static_cast<double>(bursts) / static_cast<double>(n - drops));
+  const double p = static_cast<double>(bursts) / static_cast<double>(n - drops);
   return GilbertElliottLink{p, r, 0.0, 1.0};
 }
 
