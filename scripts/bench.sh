@@ -94,15 +94,21 @@ def span(values, fmt="%.0f"):
     return (fmt + "-" + fmt) % (min(values), max(values))
 
 
-if mode == "fused-update":
-    data = json.load(open(args[0]))
+def medians(path, field):
+    """Google Benchmark medians in µs by (name, first arg, second arg): run names NAME/x:A/y:B."""
     scale = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}
     t = {}
-    for b in data["benchmarks"]:
+    for b in json.load(open(path))["benchmarks"]:
         if b.get("aggregate_name") != "median":
             continue
-        name, n, d = b["run_name"].split("/")  # BM_FusedUpdate_Production/n:2/d:1
-        t[(name.split("_")[-1], int(n[2:]), int(d[2:]))] = b["cpu_time"] * scale[b["time_unit"]]
+        name, first, second = b["run_name"].split("/")
+        t[(name, int(first.split(":")[1]), int(second.split(":")[1]))] = b[field] * scale[b["time_unit"]]
+    return t
+
+
+if mode == "fused-update":
+    # BM_FusedUpdate_Production/n:2/d:1 -> ("Production", 2, 1)
+    t = {(name.split("_")[-1], n, d): v for (name, n, d), v in medians(args[0], "cpu_time").items()}
     print("| n | d (received, m_i=2) | production [µs] | naive stacked inverse [µs] | sequential Joseph [µs] "
           "| naive / production | production per sensor [µs] | production marginal cost per added sensor [µs] |")
     print("|---|---|---|---|---|---|---|---|")
@@ -115,14 +121,7 @@ if mode == "fused-update":
             prev = (d, p)
 
 elif mode == "late-fusion":
-    data = json.load(open(args[0]))
-    scale = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}
-    t = {}
-    for b in data["benchmarks"]:
-        if b.get("aggregate_name") != "median":
-            continue
-        name, n, D = b["run_name"].split("/")  # BM_ReRun_Worst/n:2/D:64
-        t[(name, int(n[2:]), int(D[2:]))] = b["real_time"] * scale[b["time_unit"]]
+    t = medians(args[0], "real_time")  # BM_ReRun_Worst/n:2/D:64
     print("| n | D | sensors (m_i=2) | worst re-run (D periods) [µs] | per re-run period [µs] | one in-time period [µs] |")
     print("|---|---|---|---|---|---|")
     for n in (2, 6, 12):
