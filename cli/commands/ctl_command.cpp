@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "command_options.hpp"
 #include "commands.hpp"
@@ -129,6 +130,34 @@ LinkKeys checked_link_keys(const LinkKeys& keys) {
   fail(ExitCode::bad_usage, "invalid link change: " + first_problem);
 }
 
+namespace {
+// Link status and presence are transient-local: what was discovered arrives in a burst. But
+// processes on other hosts are discovered later (a discovery server relays them one by one):
+// wait until every presence writer discovered was heard and nothing new came for a grace period
+// (400 ms, which alone missed a host's processes under load), at most until `deadline`.
+void settle_status(boost::asio::io_context& io, const LiveBus& bus, const std::map<int, LinkStatusRecord>& links,
+                   Clock::time_point deadline) {
+  constexpr auto grace = std::chrono::milliseconds(400);
+  const auto heard = [&] {
+    std::size_t running = 0;
+    for (const auto& p : bus.processes()) running += p.alive ? 1 : 0;
+    return std::tuple{links.size(), running, bus.presence_announcers()};
+  };
+  auto last = heard();
+  auto quiet_since = Clock::now();
+  while (Clock::now() < deadline) {
+    run_until(io, [] { return false; }, std::chrono::milliseconds(100));
+    const auto now = heard();
+    if (now != last) {
+      last = now;
+      quiet_since = Clock::now();
+    } else if (Clock::now() - quiet_since >= grace && std::get<1>(now) >= static_cast<std::size_t>(std::get<2>(now))) {
+      return;
+    }
+  }
+}
+}  // namespace
+
 int run_ctl_status(const CtlOptions& o) {
   boost::asio::io_context io;
   std::map<int, LinkStatusRecord> links;
@@ -146,9 +175,7 @@ int run_ctl_status(const CtlOptions& o) {
   if (!run_until(io, [&] { return !links.empty(); }, timeout))
     fail(ExitCode::no_network, "no link status received within " + number_text(o.timeout) + " s on DDS domain " +
                 std::to_string(bus->domain()) + " (is a network running? netkf launch)");
-  // Link status is transient-local: the other links arrive in the same burst right
-  // after the first; a short grace period collects them.
-  run_until(io, [] { return false; }, std::chrono::milliseconds(400));
+  settle_status(io, *bus, links, Clock::now() + timeout);
   std::vector<LinkStatusRecord> list;
   for (auto& [id, l] : links) list.push_back(l);
   // The processes of the network, on every host (presence), running ones first.

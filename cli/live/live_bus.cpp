@@ -174,6 +174,10 @@ std::vector<std::pair<std::string, int>> LiveBus::network_writers() const {
 
 std::uint64_t LiveBus::foreign_samples() const { return impl_->participant.foreign_samples(); }
 
+int LiveBus::presence_announcers() const {
+  return impl_->presence_watch ? impl_->presence_watch->announcers() : 0;
+}
+
 std::vector<dds::PresenceRecord> LiveBus::processes() const {
   return impl_->presence_watch ? impl_->presence_watch->processes() : std::vector<dds::PresenceRecord>{};
 }

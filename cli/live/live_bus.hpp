@@ -89,6 +89,8 @@ class LiveBus {
   std::vector<std::pair<std::string, int>> network_writers() const;
   /// Every process whose presence was seen (empty without BusOptions::presence).
   std::vector<dds::PresenceRecord> processes() const;
+  /// Processes announcing their presence that this bus has discovered (0 without BusOptions::presence).
+  int presence_announcers() const;
   /// Tell the others that this process has ended its part (a launch without the plant that
   /// stops, a recorder); no-op without BusOptions::presence.
   void end_presence(const std::string& why);

@@ -73,6 +73,12 @@ PresenceWatcher::PresenceWatcher(Participant& participant) : participant_(partic
 
 PresenceWatcher::~PresenceWatcher() { participant_.subscriber()->delete_datareader(reader_); }
 
+int PresenceWatcher::announcers() const {
+  fdds::SubscriptionMatchedStatus status;
+  if (reader_->get_subscription_matched_status(status) != eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK) return 0;
+  return status.current_count;
+}
+
 std::vector<PresenceRecord> PresenceWatcher::processes() const {
   const std::lock_guard lock(mutex_);
   fdds::LoanableSequence<wire::Presence> samples;

@@ -84,6 +84,9 @@ class PresenceWatcher {
   /// process whose writer left — it ended, was killed, or its host was lost (after the DDS lease)
   /// — reads as not alive.
   std::vector<PresenceRecord> processes() const;
+  /// Presence writers (announcing processes) currently matched: once processes() holds a live
+  /// record for each, every process discovered so far has been heard.
+  int announcers() const;
 
  private:
   Participant& participant_;
