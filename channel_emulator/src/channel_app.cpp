@@ -3,7 +3,10 @@
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <iterator>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -29,6 +32,9 @@ class ChannelApp::Impl {
         status_period_(std::chrono::milliseconds(options.status_period_ms)),
         delivered_(participant, dds::topics::delivered_measurement,
                    static_cast<double>(scenario.sensors.size()) / scenario.period_s()),
+        // At most one batch per sensor process and truth (a batch holds two sensors or more).
+        delivered_batch_(participant, dds::topics::delivered_measurement_batch,
+                         static_cast<double>(scenario.sensors.size() / 2) / scenario.period_s()),
         status_(participant, dds::topics::link_status),
         reply_(participant, dds::topics::link_control_reply),
         journal_(participant, dds::topics::link_change) {
@@ -39,6 +45,8 @@ class ChannelApp::Impl {
     if (!scenario.events.empty()) spdlog::info("timeline: {} link events", scenario.events.size());
     // The readers last: their callbacks use everything above.
     raw_.emplace(participant, dds::topics::raw_measurement, [this](wire::Measurement&& m) { on_raw(m); });
+    raw_batch_.emplace(participant, dds::topics::raw_measurement_batch,
+                       [this](wire::MeasurementBatch&& b) { on_raw_batch(std::move(b)); });
     control_.emplace(participant, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
     presence_.emplace(participant, dds::presence_role::channel, std::vector<int>{}, dds::scenario_hash(scenario));
@@ -52,6 +60,7 @@ class ChannelApp::Impl {
   ~Impl() {
     // The readers first: no callback may run into a half-destroyed object.
     control_.reset();
+    raw_batch_.reset();
     raw_.reset();
   }
 
@@ -85,11 +94,15 @@ class ChannelApp::Impl {
       s.held = held_.size();
       s.unknown_sensor_samples = links_.unknown_sensor_samples();
     }
-    s.delivered_readers = delivered_.matched();
+    s.delivered_readers = std::min(delivered_.matched(), delivered_batch_.matched());
+    s.raw_batches = raw_batch_ ? raw_batch_->received() : 0;
     return s;
   }
 
   void log_summary() const {
+    if (raw_batch_ && raw_batch_->received() > 0)
+      spdlog::info("{} raw samples came in {} batches (sensor processes of several sensors)", batched_samples_.load(),
+                   raw_batch_->received());
     const std::lock_guard lock(mutex_);  // the raw reader still delivers until it is gone
     for (const auto& r : links_.reports()) {
       spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", r.sensor_id,
@@ -148,44 +161,86 @@ class ChannelApp::Impl {
     }
   }
 
+  // What became of one raw sample: decided under mutex_, acted on outside it.
+  struct Routed {
+    SampleFate fate;
+    bool rearm = false;                // a new earliest held sample: the release timer must move
+    std::uint64_t unknown_so_far = 0;  // for the unknown-sensor warning
+  };
+
+  // DDS receive thread, under mutex_: the sample's fate on its link; a delayed one is held.
+  Routed route_locked(const wire::Measurement& m, std::vector<AppliedLinkChange>& changes) {
+    Routed r;
+    r.fate = links_.on_sample(m.sensor_id(), static_cast<std::int64_t>(m.k()));
+    r.unknown_so_far = links_.unknown_sensor_samples();
+    auto taken = links_.take_changes();
+    changes.insert(changes.end(), std::make_move_iterator(taken.begin()), std::make_move_iterator(taken.end()));
+    if (r.fate.verdict == SampleFate::Verdict::delivered && r.fate.delay_ms > 0.0) {
+      const auto release = std::chrono::steady_clock::now() +
+                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double, std::milli>(r.fate.delay_ms));
+      r.rearm = held_.hold(release, m.sensor_id(), m);
+    }
+    return r;
+  }
+
+  // DDS receive thread: the log lines of a sample not relayed now (a delayed one is held).
+  void note_not_relayed(const wire::Measurement& m, const Routed& r) {
+    if (r.fate.verdict == SampleFate::Verdict::dropped) {
+      spdlog::trace("dropped sensor {} period {}", m.sensor_id(), m.k());
+    } else if (r.fate.verdict == SampleFate::Verdict::unknown_sensor) {
+      const std::lock_guard lock(mutex_);  // the throttle's state
+      if (const auto left_out = unknown_log_.allow())
+        spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far){}", m.sensor_id(), m.k(),
+                     r.unknown_so_far, dds::left_out_text(*left_out));
+    }
+  }
+
+  static bool relay_now(const Routed& r) {
+    return r.fate.verdict == SampleFate::Verdict::delivered && r.fate.delay_ms <= 0.0;
+  }
+
   // DDS receive thread
   void on_raw(const wire::Measurement& m) {
-    std::uint64_t unknown_so_far = 0;
-    bool rearm = false;
     std::vector<AppliedLinkChange> changes;
-    const auto fate = [&] {
+    Routed r;
+    {
       const std::lock_guard lock(mutex_);
-      const auto f = links_.on_sample(m.sensor_id(), static_cast<std::int64_t>(m.k()));
-      unknown_so_far = links_.unknown_sensor_samples();
-      changes = links_.take_changes();
-      if (f.verdict == SampleFate::Verdict::delivered && f.delay_ms > 0.0) {
-        const auto release = std::chrono::steady_clock::now() +
-                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                 std::chrono::duration<double, std::milli>(f.delay_ms));
-        rearm = held_.hold(release, m.sensor_id(), m);
-      }
-      return f;
-    }();
+      r = route_locked(m, changes);
+    }
     if (!changes.empty()) publish_changes(changes);
-    switch (fate.verdict) {
-      case SampleFate::Verdict::delivered:
-        if (fate.delay_ms <= 0.0) {
-          delivered_.write(m);  // relayed unchanged (stamp is the sensor's publish time)
-        } else if (rearm) {
-          boost::asio::post(io_, [this] { release_due(); });
-        }
-        break;
-      case SampleFate::Verdict::dropped:
-        spdlog::trace("dropped sensor {} period {}", m.sensor_id(), m.k());
-        break;
-      case SampleFate::Verdict::unknown_sensor: {
-        const std::lock_guard lock(mutex_);  // the throttle's state
-        if (const auto left_out = unknown_log_.allow())
-          spdlog::warn("sample from unknown sensor id {} (period {}) not relayed ({} so far){}", m.sensor_id(), m.k(),
-                       unknown_so_far, dds::left_out_text(*left_out));
-        break;
+    if (relay_now(r)) delivered_.write(m);  // relayed unchanged (stamp is the sensor's publish time)
+    if (r.rearm) boost::asio::post(io_, [this] { release_due(); });
+    note_not_relayed(m, r);
+  }
+
+  // DDS receive thread: each sample of the batch goes its own link's way, in the batch's order
+  // (so every link sees the same sequence as from a process of its own); the ones relayed at
+  // once leave as one batch, delayed ones one by one when due.
+  void on_raw_batch(wire::MeasurementBatch&& batch) {
+    std::vector<AppliedLinkChange> changes;
+    std::vector<Routed> routed;
+    routed.reserve(batch.samples().size());
+    bool rearm = false;
+    {
+      const std::lock_guard lock(mutex_);
+      for (auto& m : batch.samples()) {
+        m.run(batch.run());
+        routed.push_back(route_locked(m, changes));
+        rearm = rearm || routed.back().rearm;
       }
     }
+    batched_samples_.fetch_add(batch.samples().size());
+    if (!changes.empty()) publish_changes(changes);
+    wire::MeasurementBatch now;
+    for (std::size_t i = 0; i < routed.size(); ++i) {
+      if (relay_now(routed[i]))
+        now.samples().push_back(std::move(batch.samples()[i]));
+      else
+        note_not_relayed(batch.samples()[i], routed[i]);
+    }
+    if (!now.samples().empty()) delivered_batch_.write(std::move(now));
+    if (rearm) boost::asio::post(io_, [this] { release_due(); });
   }
 
   // io thread
@@ -252,10 +307,13 @@ class ChannelApp::Impl {
   std::chrono::milliseconds status_period_;
   std::chrono::steady_clock::time_point status_next_;
   dds::Writer<wire::Measurement> delivered_;
+  dds::Writer<wire::MeasurementBatch> delivered_batch_;
   dds::Writer<wire::LinkStatus> status_;
   dds::Writer<wire::LinkControlReply> reply_;
   dds::Writer<wire::LinkChange> journal_;
   std::optional<dds::Reader<wire::Measurement>> raw_;
+  std::optional<dds::Reader<wire::MeasurementBatch>> raw_batch_;
+  std::atomic<std::uint64_t> batched_samples_{0};
   std::optional<dds::Reader<wire::LinkControl>> control_;
   std::optional<dds::PresenceAnnouncer> presence_;
 };

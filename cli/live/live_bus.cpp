@@ -85,6 +85,28 @@ std::unique_ptr<dds::Reader<Wire>> open_reader(dds::Participant& participant, co
       }));
 }
 
+/// The delivered batches (sensor processes of several sensors): each sample is converted and
+/// handled as if it had come alone on the delivered topic.
+std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
+    dds::Participant& participant, boost::asio::io_context::executor_type ex,
+    const std::function<void(DeliveredRecord&&)>& handler, const std::function<void(const std::string&)>& invalid) {
+  if (!handler) return nullptr;
+  return std::make_unique<dds::Reader<wire::MeasurementBatch>>(
+      participant, dds::topics::delivered_measurement_batch,
+      dds::post_to<wire::MeasurementBatch>(ex, [=](wire::MeasurementBatch batch) {
+        for (const auto& m : batch.samples()) {
+          std::optional<DeliveredRecord> record;
+          try {
+            record = to_delivered(m);
+          } catch (const std::exception& e) {
+            invalid(e.what());
+            continue;
+          }
+          handler(std::move(*record));
+        }
+      }));
+}
+
 }  // namespace
 
 struct LiveBus::Impl {
@@ -92,6 +114,7 @@ struct LiveBus::Impl {
   std::unique_ptr<dds::Reader<wire::Truth>> truth;
   std::unique_ptr<dds::Reader<wire::Estimate>> estimate;
   std::unique_ptr<dds::Reader<wire::Measurement>> delivered;
+  std::unique_ptr<dds::Reader<wire::MeasurementBatch>> delivered_batch;
   std::unique_ptr<dds::Reader<wire::LinkStatus>> link_status;
   std::unique_ptr<dds::Reader<wire::LinkChange>> link_change;
   std::unique_ptr<dds::Reader<wire::LinkControlReply>> link_reply;
@@ -108,6 +131,7 @@ struct LiveBus::Impl {
     link_reply.reset();
     link_status.reset();
     link_change.reset();
+    delivered_batch.reset();
     delivered.reset();
     estimate.reset();
     truth.reset();
@@ -139,6 +163,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   impl_->truth = open_reader(p, dds::topics::truth, ex, to_truth, h.truth, invalid, "");
   impl_->estimate = open_reader(p, dds::topics::estimate, ex, to_estimate, h.estimate, invalid, "estimate rejected: ");
   impl_->delivered = open_reader(p, dds::topics::delivered_measurement, ex, to_delivered, h.delivered, invalid, "");
+  impl_->delivered_batch = open_batch_reader(p, ex, h.delivered, invalid);
   impl_->link_status = open_reader(p, dds::topics::link_status, ex, to_link_status, h.link_status, invalid,
                                    "link status rejected: ");
   impl_->link_change = open_reader(p, dds::topics::link_change, ex, to_link_change, h.link_change, invalid,
@@ -168,6 +193,7 @@ std::vector<std::pair<std::string, int>> LiveBus::network_writers() const {
   add(impl_->truth);
   add(impl_->estimate);
   add(impl_->delivered);
+  add(impl_->delivered_batch);
   add(impl_->link_status);
   return out;
 }

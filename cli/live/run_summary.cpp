@@ -78,6 +78,11 @@ const RunQuantity kRunQuantities[] = {
        if (s.periods == 0) return missing(kNoEstimate);
        return value(s.sum_trace_P / static_cast<double>(s.periods));
      }},
+    {"mean_trace_P_pred",
+     [](const RunSummary& s) {
+       if (s.periods == 0) return missing(kNoEstimate);
+       return value(s.sum_trace_P_pred / static_cast<double>(s.periods));
+     }},
     {"late_fraction",
      [](const RunSummary& s) {
        // Without estimates nobody counted late samples: 0 would be a vacuous pass.
@@ -282,6 +287,7 @@ void RunSummaryBuilder::add_estimate(const Estimate& e) {
   }
   ++s.periods;
   s.sum_trace_P += e.trace_P();
+  s.sum_trace_P_pred += e.trace_P_pred;
   s.fused += e.fused.size();
   for (int id : e.fused)
     if (auto* l = link(id)) ++l->fused;

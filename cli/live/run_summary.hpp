@@ -12,6 +12,7 @@
 //   rms_error_final      the same with each period's final estimate (its last revision; with
 //                        late_policy drop there is none and it equals rms_error)
 //   mean_trace_P         mean over periods of Tr P_{k|k}
+//   mean_trace_P_pred    mean over periods of Tr P_{k|k-1}: what the theory's S̄, V̄ bound (Sinopoli Thm 4)
 //   late_fraction        late samples (Σ over estimates of `late`) / samples the channel delivered
 //                        (Σ over links of `delivered`)
 //   fused_fraction       Σ over periods of the number of sensors fused / (periods × sensors)
@@ -70,6 +71,7 @@ struct RunSummary {
   double sum_squared_error_final = 0.0;
   std::uint64_t revisions = 0;        // revised estimates received (late_policy fuse_within)
   double sum_trace_P = 0.0;           // Σ Tr P_{k|k} over the periods
+  double sum_trace_P_pred = 0.0;      // Σ Tr P_{k|k-1} over the periods
   std::uint64_t fused = 0;            // Σ over periods of the sensors fused
   std::uint64_t late = 0;             // Σ over estimates of `late`
   std::uint64_t periods_diverging = 0;

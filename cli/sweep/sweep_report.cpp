@@ -30,7 +30,9 @@ json report_json(const ReportData& d) {
     point["theory"] = {{"stable", t.stable ? json(*t.stable) : json(nullptr)},
                        {"trace_S_bar", number(t.trace_S_bar)},
                        {"trace_V_bar", number(t.trace_V_bar)},
-                       {"critical_margin", number(t.critical_margin)}};
+                       {"critical_margin", number(t.critical_margin)},
+                       {"trace_P_sampled", number(t.trace_P_sampled)},
+                       {"trace_P_sampled_se", number(t.trace_P_sampled_se)}};
     j["points"].push_back(std::move(point));
   }
   return j;
@@ -115,7 +117,7 @@ constexpr const char* kScript = R"(
                     { label: '+se', stroke: c, width: 0.5 }, { label: '-se', stroke: c, width: 0.5 },
                     { label: 'min', stroke: c, dash: [4, 4], width: 1 }, { label: 'max', stroke: c, dash: [4, 4], width: 1 });
         bands.push({ series: [base + 1, base + 2], fill: c + '33' });
-        if (q === 'mean_trace_P') {
+        if (q === 'mean_trace_P_pred') {
           const S = xs.map((_, i) => at(pts[i], p => p.theory.trace_S_bar));
           const V = xs.map((_, i) => at(pts[i], p => p.theory.trace_V_bar));
           if (S.some(v => v != null) || V.some(v => v != null)) {
@@ -123,6 +125,16 @@ constexpr const char* kScript = R"(
             data.push(V, S);
             series.push({ label: 'theory Tr V̄', stroke: '#444', dash: [8, 3] }, { label: 'theory Tr S̄', stroke: '#444', dash: [2, 3] });
             bands.push({ series: [tb, tb + 1], fill: '#8882' });
+          }
+          // Links with memory: the simulated E[Tr P] ± 2 standard errors (an estimate, not a bound).
+          const E = xs.map((_, i) => at(pts[i], p => p.theory.trace_P_sampled));
+          if (E.some(v => v != null)) {
+            const tb = data.length, two = (i, s) => at(pts[i], p => p.theory.trace_P_sampled == null ? null :
+                                                                   p.theory.trace_P_sampled + 2 * s * (p.theory.trace_P_sampled_se || 0));
+            data.push(E, xs.map((_, i) => two(i, 1)), xs.map((_, i) => two(i, -1)));
+            series.push({ label: 'theory E[Tr P] (sampled)', stroke: '#444', dash: [6, 2, 2, 2] },
+                        { label: '+2se', stroke: '#444', width: 0.5 }, { label: '-2se', stroke: '#444', width: 0.5 });
+            bands.push({ series: [tb + 1, tb + 2], fill: '#8882' });
           }
         }
       });
@@ -135,13 +147,13 @@ constexpr const char* kScript = R"(
   });
   const table = document.getElementById('points');
   const head = el('tr');
-  ['point', ...D.keys, 'seeds', 'theory stable', 'Tr S̄', 'Tr V̄', 'critical margin'].forEach(h => head.appendChild(el('th', h)));
+  ['point', ...D.keys, 'seeds', 'theory stable', 'Tr S̄', 'Tr V̄', 'critical margin', 'E[Tr P] sampled', '± se'].forEach(h => head.appendChild(el('th', h)));
   table.appendChild(head);
   const fmt = v => v == null ? '' : (typeof v === 'number' ? Number(v.toPrecision(6)).toString() : String(v));
   D.points.forEach(p => {
     const tr = el('tr');
     [p.index, ...p.values, p.stats.length ? p.stats[0][4] : 0, p.theory.stable, p.theory.trace_S_bar, p.theory.trace_V_bar,
-     p.theory.critical_margin].forEach(v => tr.appendChild(el('td', fmt(v))));
+     p.theory.critical_margin, p.theory.trace_P_sampled, p.theory.trace_P_sampled_se].forEach(v => tr.appendChild(el('td', fmt(v))));
     table.appendChild(tr);
   });
 })();
@@ -170,9 +182,11 @@ std::string render_report(const ReportData& data, std::string_view uplot_js, std
   html += "\n</script>\n</head><body>\n<h1>netkf sweep: " + escape_html(data.scenario) + "</h1>\n";
   html += "<p class=\"note\">" + escape_html(data.mode) + " runs, " + std::to_string(data.seeds) +
           " seed(s) per point. Each plot: the mean over the seeds (points), a band of &plusmn; one standard "
-          "error, min and max dashed. On mean_trace_P (Tr P<sub>k|k</sub>) the grey band is the theory's "
-          "[Tr S&#772;, Tr V&#772;], the bounds on lim E[P<sub>k|k&minus;1</sub>] (Sinopoli Thm 4), where the "
-          "analysis gives them (every link Bernoulli). Critical margin: 1 &minus; the Markov criterion "
+          "error, min and max dashed. On mean_trace_P_pred (Tr P<sub>k|k&minus;1</sub>) the grey band is the "
+          "theory's [Tr S&#772;, Tr V&#772;], the bounds on lim E[P<sub>k|k&minus;1</sub>] (Sinopoli Thm 4), where the "
+          "analysis gives them (every link Bernoulli); with links that have memory (Gilbert-Elliott) it is "
+          "the SAMPLED E[Tr P<sub>k|k&minus;1</sub>] &plusmn; two standard errors, simulated over the links' own "
+          "loss sequences: an estimate, not a bound. Critical margin: 1 &minus; the Markov criterion "
           "(&gt; 0: stable by the multi-sensor Markov criterion, Thm 7/9), plotted first against each key.</p>\n";
   html += "<div id=\"plots\"></div>\n<h2>Points and theory</h2>\n<table id=\"points\"></table>\n";
   html += "<script type=\"application/json\" id=\"sweep-data\">" + script_safe(report_json(data).dump()) + "</script>\n";

@@ -39,6 +39,7 @@ RunSummary offline_summary(const Scenario& scenario, std::int64_t periods) {
     s.sum_squared_error += p.squared_error;
     s.sum_squared_error_final += p.squared_error;
     s.sum_trace_P += p.trace_P;
+    s.sum_trace_P_pred += p.trace_P_pred;
     s.fused += p.fused.size();
     s.periods_diverging += p.diverging;
     for (std::size_t i = 0; i < s.links.size(); ++i) {
@@ -100,6 +101,8 @@ Theory point_theory(const Scenario& scenario) {
   if (r.stable != analysis::Verdict::unknown) t.stable = r.stable == analysis::Verdict::yes;
   t.trace_S_bar = r.lower_trace;
   t.trace_V_bar = r.upper_trace;
+  t.trace_P_sampled = r.sampled_trace;
+  t.trace_P_sampled_se = r.sampled_trace_standard_error;
   if (r.markov_criterion) t.critical_margin = 1.0 - *r.markov_criterion;
   return t;
 }

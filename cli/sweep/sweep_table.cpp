@@ -91,7 +91,8 @@ std::string points_header(const std::vector<Vary>& vary, const std::vector<std::
   for (const auto& v : vary) h += "," + v.key;
   h += ",seeds";
   for (const auto& q : quantities) h += "," + q + "_mean," + q + "_se," + q + "_min," + q + "_max";
-  h += ",theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin";
+  h += ",theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin,theory_trace_P_sampled,"
+       "theory_trace_P_sampled_se";
   return h;
 }
 
@@ -115,6 +116,7 @@ std::string points_line(const Point& point, std::size_t quantities, const std::v
   }
   line += theory.stable ? (*theory.stable ? ",true" : ",false") : ",";
   line += "," + cell(theory.trace_S_bar) + "," + cell(theory.trace_V_bar) + "," + cell(theory.critical_margin);
+  line += "," + cell(theory.trace_P_sampled) + "," + cell(theory.trace_P_sampled_se);
   return line;
 }
 

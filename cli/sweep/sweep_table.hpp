@@ -3,7 +3,8 @@
 // python/netkf/ reads them, so the columns are a contract):
 //   runs.csv    point,seed,<varied keys>,status,<every summary quantity>     one row per run
 //   points.csv  point,<varied keys>,seeds,<q_mean,q_se,q_min,q_max per quantity>,
-//               theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin
+//               theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin,
+//               theory_trace_P_sampled,theory_trace_P_sampled_se
 // An empty cell is a quantity with no value (null in the run's summary).
 #include <iosfwd>
 #include <optional>
@@ -39,6 +40,10 @@ struct Theory {
   std::optional<double> trace_S_bar;   // Tr S̄, lower bound on lim E[P_{k|k−1}] (Sinopoli Thm 4)
   std::optional<double> trace_V_bar;   // Tr V̄, upper bound
   std::optional<double> critical_margin;  // 1 − Markov criterion (> 0: stable; multi-sensor Thm 7/9)
+  // Links with memory (no i.i.d. bound): lim E[Tr P_{k|k−1}] estimated by simulation, ± its
+  // standard error (analysis/sampled_covariance.hpp): an estimate, not a bound.
+  std::optional<double> trace_P_sampled;
+  std::optional<double> trace_P_sampled_se;
 };
 
 /// A number as the files write it: an integer exactly, anything else with 17 significant

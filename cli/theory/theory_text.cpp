@@ -26,7 +26,9 @@ json report_json(const analysis::AnalysisReport& r) {
   j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
                               {"upper_trace", number_or_null(r.upper_trace)},
                               {"upper_method", r.iid_bounds ? json(analysis::to_string(r.upper_method)) : json(nullptr)},
-                              {"upper_trace_standard_error", number_or_null(r.upper_trace_standard_error)}};
+                              {"upper_trace_standard_error", number_or_null(r.upper_trace_standard_error)},
+                              {"sampled_trace", number_or_null(r.sampled_trace)},
+                              {"sampled_trace_standard_error", number_or_null(r.sampled_trace_standard_error)}};
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
     j["critical_rate"] = {{"lower", number_or_null(cr.lower)},
@@ -115,6 +117,9 @@ void print_analysis(std::ostream& out, const Scenario& s, const analysis::Analys
   out << "  Tr S-bar (lower bound)     " << show(r.lower_trace, missing) << "\n";
   out << "  Tr V-bar (upper bound)     " << show_upper(r.upper_trace, missing, r.upper_method, r.upper_trace_standard_error)
       << "\n";
+  if (r.sampled_trace)
+    out << "  E[Tr P] (sampled)          " << show(r.sampled_trace) << " +/- " << show(r.sampled_trace_standard_error)
+        << " (SAMPLED estimate over the links' loss sequences, not a bound)\n";
   out << "  Markov criterion           " << show(r.markov_criterion, "n/a") << "\n";
   out << "  links: id  loss  P(in time)  effective arrival rate (1 - loss) * P(in time)\n";
   for (const auto& l : r.links)

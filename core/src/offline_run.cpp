@@ -68,6 +68,7 @@ void simulate_offline_run(const Scenario& scenario, std::uint64_t seed, std::int
       out.arrived[i] = !dropped;
       if (!dropped) received.push_back({s.sensors[i].id, std::move(v)});
     }
+    out.trace_P_pred = filter.trace_P();  // P_{k|k-1}: the update has not run yet
     out.fused = filter.update(received).fused_ids;
     out.k = k;
     out.squared_error = filter.x().squaredNorm();

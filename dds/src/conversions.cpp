@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <string>
 
 namespace netkf::dds {
@@ -58,6 +59,18 @@ wire::Measurement make_measurement(int sensor_id, std::uint64_t k, std::int64_t 
   m.stamp_ns(stamp_ns);
   m.y(to_wire(y));
   return m;
+}
+
+std::vector<wire::MeasurementBatch> make_measurement_batches(std::vector<wire::Measurement> samples) {
+  std::vector<wire::MeasurementBatch> batches;
+  for (std::size_t first = 0; first < samples.size(); first += kMaxBatchSamples) {
+    const std::size_t end = std::min(samples.size(), first + kMaxBatchSamples);
+    wire::MeasurementBatch batch;
+    batch.samples().assign(std::make_move_iterator(samples.begin() + static_cast<std::ptrdiff_t>(first)),
+                           std::make_move_iterator(samples.begin() + static_cast<std::ptrdiff_t>(end)));
+    batches.push_back(std::move(batch));
+  }
+  return batches;
 }
 
 SensorSample to_sensor_sample(const wire::Measurement& m, int expected_size) {

@@ -6,6 +6,7 @@ namespace netkf::dds {
 template class Writer<wire::Truth>;
 template class Writer<wire::Tick>;
 template class Writer<wire::Measurement>;
+template class Writer<wire::MeasurementBatch>;
 template class Writer<wire::Estimate>;
 template class Writer<wire::ControlInput>;
 template class Writer<wire::LinkControl>;
@@ -16,6 +17,7 @@ template class Writer<wire::Presence>;
 template class Reader<wire::Truth>;
 template class Reader<wire::Tick>;
 template class Reader<wire::Measurement>;
+template class Reader<wire::MeasurementBatch>;
 template class Reader<wire::Estimate>;
 template class Reader<wire::ControlInput>;
 template class Reader<wire::LinkControl>;

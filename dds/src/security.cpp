@@ -87,7 +87,8 @@ const std::vector<std::string_view> &all_topic_names() {
                                                    topics::estimate.name,        topics::control_input.name,
                                                    topics::link_control.name,    topics::link_control_reply.name,
                                                    topics::link_status.name,     topics::link_change.name,
-                                                   topics::presence.name};
+                                                   topics::presence.name,        topics::raw_measurement_batch.name,
+                                                   topics::delivered_measurement_batch.name};
   return names;
 }
 
@@ -97,17 +98,18 @@ const std::vector<RolePolicy> &role_policies() {
   // view or the dashboard shows. Nothing of it is written by an observer.
   const std::vector<std::string_view> observed{truth.name,       estimate.name,    delivered_measurement.name,
                                                link_status.name, link_change.name, link_control_reply.name,
-                                               presence.name};
+                                               presence.name,    delivered_measurement_batch.name};
   // Presence: every process announces itself and may read who else takes part.
   static const std::vector<RolePolicy> table{
       {Role::plant, {truth.name, tick.name, presence.name}, {control_input.name, presence.name}},
-      {Role::sensor, {raw_measurement.name, presence.name}, {truth.name, presence.name}},
+      {Role::sensor, {raw_measurement.name, raw_measurement_batch.name, presence.name}, {truth.name, presence.name}},
       {Role::channel,
-       {delivered_measurement.name, link_status.name, link_control_reply.name, link_change.name, presence.name},
-       {raw_measurement.name, link_control.name, presence.name}},
+       {delivered_measurement.name, delivered_measurement_batch.name, link_status.name, link_control_reply.name,
+        link_change.name, presence.name},
+       {raw_measurement.name, raw_measurement_batch.name, link_control.name, presence.name}},
       {Role::estimator,
        {estimate.name, control_input.name, presence.name},
-       {tick.name, delivered_measurement.name, presence.name}},
+       {tick.name, delivered_measurement.name, delivered_measurement_batch.name, presence.name}},
       // The only writer of link control; reads what an observer reads (a launch
       // serving the dashboard runs as ctl).
       {Role::ctl, {link_control.name, presence.name}, observed},

@@ -40,6 +40,14 @@ class EstimatorApp::Impl {
                   dds::post_to<wire::Tick>(io_.get_executor(), [this](wire::Tick t) { on_tick(t); }));
     delivered_.emplace(participant, dds::topics::delivered_measurement,
                        [this](wire::Measurement&& m) { on_sample(m); });
+    // A batch's samples are handled one by one, exactly as if each had come alone.
+    delivered_batch_.emplace(participant, dds::topics::delivered_measurement_batch,
+                             [this](wire::MeasurementBatch&& b) {
+                               for (auto& m : b.samples()) {
+                                 m.run(b.run());
+                                 on_sample(m);
+                               }
+                             });
     presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, dds::scenario_hash(scenario));
     schedule_status();
   }
@@ -58,6 +66,7 @@ class EstimatorApp::Impl {
 
   ~Impl() {
     // The readers first: no callback may run into a half-destroyed object.
+    delivered_batch_.reset();
     delivered_.reset();
     tick_.reset();
   }
@@ -242,6 +251,7 @@ class EstimatorApp::Impl {
   dds::Writer<wire::ControlInput> control_;
   std::optional<dds::Reader<wire::Tick>> tick_;
   std::optional<dds::Reader<wire::Measurement>> delivered_;
+  std::optional<dds::Reader<wire::MeasurementBatch>> delivered_batch_;
   std::optional<dds::PresenceAnnouncer> presence_;
 };
 

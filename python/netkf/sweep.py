@@ -2,7 +2,8 @@
 
 DIR/runs.csv    point,seed,<varied keys...>,status,<summary quantities...>   one row per run
 DIR/points.csv  point,<varied keys...>,seeds,<Q_mean,Q_se,Q_min,Q_max per quantity Q>,
-                theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin
+                theory_stable,theory_trace_S_bar,theory_trace_V_bar,theory_critical_margin,
+                theory_trace_P_sampled,theory_trace_P_sampled_se
 DIR/sweep.yaml  vary: [{key, values}], seeds, mode, ... (the exact command, scenario hash,
                 netkf version)
 
@@ -21,6 +22,9 @@ from .recording import FormatError
 
 STATS = ("mean", "se", "min", "max")
 THEORY = ["theory_stable", "theory_trace_S_bar", "theory_trace_V_bar", "theory_critical_margin"]
+# Links with memory: the simulated E[Tr P] and its standard error (an estimate, not a bound);
+# absent from sweeps written before they existed.
+THEORY_SAMPLED = ["theory_trace_P_sampled", "theory_trace_P_sampled_se"]
 _TRUE = {"true", "yes", "1", "stable"}
 _FALSE = {"false", "no", "0", "unstable"}
 
@@ -123,9 +127,10 @@ class Sweep:
         has them), plus the theory columns."""
         if quantity not in self.quantities:
             raise KeyError("the sweep has no quantity %r (it has %s)" % (quantity, ", ".join(self.quantities)))
-        cols = ["point"] + self.varied + ["seeds"] + ["%s_%s" % (quantity, s) for s in STATS] + THEORY
+        theory = THEORY + [c for c in THEORY_SAMPLED if c in self.points.columns]
+        cols = ["point"] + self.varied + ["seeds"] + ["%s_%s" % (quantity, s) for s in STATS] + theory
         out = self.points[cols].copy()
-        out.columns = ["point"] + self.varied + ["seeds"] + list(STATS) + THEORY
+        out.columns = ["point"] + self.varied + ["seeds"] + list(STATS) + theory
         return out
 
     def aggregate(self, quantity):

@@ -44,8 +44,13 @@ class SensorApp::Impl {
  public:
   Impl(const Scenario& scenario, dds::Participant& participant, const SensorAppOptions& options)
       : sensors_(make_sensors(scenario, options.sensor_ids)),
-        state_dim_(scenario.state_dim()),
-        raw_(participant, dds::topics::raw_measurement, static_cast<double>(sensors_.size()) / scenario.period_s()) {
+        state_dim_(scenario.state_dim()) {
+    // One sensor writes its samples; several write one batch per truth (fewer DDS samples,
+    // wake-ups and acknowledgements: BENCHMARKS.md, "256 sensors at 100 Hz").
+    if (sensors_.size() == 1)
+      raw_.emplace(participant, dds::topics::raw_measurement, 1.0 / scenario.period_s());
+    else
+      raw_batch_.emplace(participant, dds::topics::raw_measurement_batch, 1.0 / scenario.period_s());
     // The reader last: its callback uses everything above.
     truth_.emplace(participant, dds::topics::truth, [this](wire::Truth&& truth) { on_truth(truth); });
     // Present once it can measure: the plant waits for every sensor's presence.
@@ -77,7 +82,7 @@ class SensorApp::Impl {
       const std::lock_guard lock(mutex_);
       for (const auto& sensor : sensors_) s.sensors.push_back({sensor.id(), sensor.measured(), sensor.skipped()});
     }
-    s.raw_readers = raw_.matched();
+    s.raw_readers = raw_ ? raw_->matched() : raw_batch_->matched();
     return s;
   }
 
@@ -96,6 +101,7 @@ class SensorApp::Impl {
       return;
     }
     const std::lock_guard lock(mutex_);
+    std::vector<wire::Measurement> samples;
     for (auto& sensor : sensors_) {
       std::string why;
       const auto y = sensor.measure(truth.k(), x, &why);
@@ -103,7 +109,12 @@ class SensorApp::Impl {
         spdlog::warn("sensor {}: period {} not measured: {}", sensor.id(), truth.k(), why);
         continue;
       }
-      raw_.write(dds::make_measurement(sensor.id(), truth.k(), dds::steady_now_ns(), *y));
+      samples.push_back(dds::make_measurement(sensor.id(), truth.k(), dds::steady_now_ns(), *y));
+    }
+    if (raw_) {
+      for (auto& m : samples) raw_->write(std::move(m));
+    } else {
+      for (auto& batch : dds::make_measurement_batches(std::move(samples))) raw_batch_->write(std::move(batch));
     }
   }
 
@@ -112,7 +123,8 @@ class SensorApp::Impl {
   mutable std::mutex mutex_;  // sensors_
   std::vector<SensorSimulator> sensors_;
   int state_dim_;
-  dds::Writer<wire::Measurement> raw_;
+  std::optional<dds::Writer<wire::Measurement>> raw_;             // one sensor
+  std::optional<dds::Writer<wire::MeasurementBatch>> raw_batch_;  // several
   std::optional<dds::Reader<wire::Truth>> truth_;
   std::optional<dds::PresenceAnnouncer> presence_;
 };

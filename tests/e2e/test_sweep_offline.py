@@ -38,7 +38,7 @@ for name in ("runs.csv", "points.csv", "sweep.yaml", "report.html"):
     check(os.path.exists(os.path.join(sweep_dir, name)), "it wrote %s" % name)
 
 # ---- runs.csv
-run_q = ["periods", "rms_error", "rms_error_final", "mean_trace_P", "late_fraction", "fused_fraction",
+run_q = ["periods", "rms_error", "rms_error_final", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction",
          "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms"]
 link_q = ["samples", "delivered", "dropped", "observed_loss", "observed_arrival_rate_since_change",
           "observed_arrival_rate_window", "observed_window_samples", "late", "fused"]
@@ -112,6 +112,20 @@ for p, loss in zip(points, losses):
     check(close(lower, p["theory_trace_S_bar"]) and close(upper, p["theory_trace_V_bar"]),
           "point %s: Tr S, Tr V (%s, %s) = analyze's (%s, %s)" % (p["point"], p["theory_trace_S_bar"],
                                                                   p["theory_trace_V_bar"], lower, upper))
+    # Link 3 is Gilbert-Elliott: no i.i.d. bound, the sampled E[Tr P_k|k-1] instead (stable points).
+    sampled = j["expected_covariance"]["sampled_trace"]
+    check((sampled is not None) == (stable == "true") and close(sampled, p["theory_trace_P_sampled"]) and
+          close(j["expected_covariance"]["sampled_trace_standard_error"], p["theory_trace_P_sampled_se"]),
+          "point %s: sampled E[Tr P] %s +/- %s = analyze's %s" % (p["point"], p["theory_trace_P_sampled"],
+                                                                  p["theory_trace_P_sampled_se"], sampled))
+    if sampled is not None:
+        # The offline filter (core's Kalman filter, not the recursion analyze samples) over the
+        # seeds' own loss sequences: its mean Tr P_k|k-1 agrees with the estimate within the
+        # two standard errors (5 of them) and 5 %.
+        got, se = float(p["mean_trace_P_pred_mean"]), float(p["mean_trace_P_pred_se"] or 0)
+        tol = 5 * math.hypot(se, float(p["theory_trace_P_sampled_se"])) + 0.05 * sampled
+        check(abs(got - sampled) <= tol, "point %s: measured mean Tr P_k|k-1 %.5g (se %.2g) agrees with the sampled "
+              "theory %.5g (tolerance %.3g)" % (p["point"], got, se, sampled, tol))
 
 # ---- Tr S̄ and Tr V̄ where they apply (every link Bernoulli): a second sweep over all links' loss
 b3 = os.path.join(REPO, "tests", "e2e", "data", "bernoulli3.yaml")

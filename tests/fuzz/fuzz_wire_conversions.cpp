@@ -71,6 +71,19 @@ void fuzz_measurement(eprosima::fastrtps::rtps::SerializedPayload_t& payload) {
   }
 }
 
+// A batch is read sample by sample as the channel and the estimator read it.
+void fuzz_measurement_batch(eprosima::fastrtps::rtps::SerializedPayload_t& payload) {
+  wire::MeasurementBatch b;
+  if (!deserialize<wire::MeasurementBatch>(payload, b)) return;
+  check(b.samples().size() <= kMaxBatchSamples, "batch: more samples than the bound accepted");
+  for (const auto& m : b.samples()) {
+    try {
+      check(to_sensor_sample(m).y.allFinite(), "batch: non-finite y accepted");
+    } catch (const ConversionError&) {
+    }
+  }
+}
+
 void fuzz_truth(eprosima::fastrtps::rtps::SerializedPayload_t& payload) {
   wire::Truth t;
   if (!deserialize<wire::Truth>(payload, t)) return;
@@ -180,6 +193,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     case WireKind::link_control: fuzz_link_control(payload); break;
     case WireKind::link_status: fuzz_link_status(payload); break;
     case WireKind::link_change: fuzz_link_change(payload); break;
+    case WireKind::measurement_batch: fuzz_measurement_batch(payload); break;
   }
   return 0;
 }

@@ -50,6 +50,11 @@ int main(int argc, char** argv) {
   x << 1.0, 0.1;
   Vector u(1);
   u << -0.3;
+  {
+    std::vector<wire::Measurement> group{make_measurement(1, 42, 123456789, y), make_measurement(3, 42, 123456790, y)};
+    write<wire::MeasurementBatchPubSubType>("measurement_batch", WireKind::measurement_batch,
+                                            make_measurement_batches(std::move(group)).front());
+  }
   write<wire::TruthPubSubType>("truth", WireKind::truth, make_truth(42, 0.42, x, u));
   write<wire::TickPubSubType>("tick", WireKind::tick, make_tick(42, 0.42, u, false));
   write<wire::ControlInputPubSubType>("control_input", WireKind::control_input, make_control_input(42, u));

@@ -16,7 +16,8 @@ enum class WireKind : std::uint8_t {
   link_control,
   link_status,
   link_change,
+  measurement_batch,
 };
-inline constexpr std::uint8_t kWireKinds = 9;
+inline constexpr std::uint8_t kWireKinds = 10;
 
 }  // namespace netkf::fuzz

@@ -184,6 +184,34 @@ TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
   EXPECT_THROW((void)dds::recent_fit_of(bad), dds::ConversionError);
 }
 
+// A group's samples go out in batches of at most kMaxBatchSamples, in their order; that is the
+// bound the IDL gives the sequence (a larger batch cannot be serialized at all).
+TEST(Conversions, MeasurementBatchesKeepTheOrderWithinTheWireBound) {
+  std::vector<netkf::wire::Measurement> samples;
+  for (int id = 1; id <= 250; ++id) samples.push_back(dds::make_measurement(id, 7, id, netkf::Vector{{0.5 * id}}));
+  const auto batches = dds::make_measurement_batches(samples);
+  ASSERT_EQ(batches.size(), 3u);
+  EXPECT_EQ(batches[0].samples().size(), 100u);
+  EXPECT_EQ(batches[1].samples().size(), 100u);
+  EXPECT_EQ(batches[2].samples().size(), 50u);
+  std::vector<netkf::wire::Measurement> joined;
+  for (const auto& b : batches) joined.insert(joined.end(), b.samples().begin(), b.samples().end());
+  EXPECT_EQ(joined, samples);
+  EXPECT_TRUE(dds::make_measurement_batches({}).empty());
+
+  using Payload = eprosima::fastrtps::rtps::SerializedPayload_t;
+  dds::PubSubTypeOf<netkf::wire::MeasurementBatch>::type type;
+  auto full = batches[0];
+  Payload payload(type.getSerializedSizeProvider(&full)());
+  EXPECT_TRUE(type.serialize(&full, &payload));
+  netkf::wire::MeasurementBatch read;
+  ASSERT_TRUE(type.deserialize(&payload, &read));
+  EXPECT_EQ(read.samples(), batches[0].samples());
+  full.samples().push_back(samples.back());  // 101: over the bound
+  Payload too_big(64 * 1024);
+  EXPECT_ANY_THROW(type.serialize(&full, &too_big));
+}
+
 // A received payload Fast CDR cannot read is refused (the sample dropped), never an
 // exception out of the reader (tests/fuzz/corpus/fuzz_wire_conversions/crash-unknown-encapsulation:
 // an encapsulation kind other than CDR BE/LE made the generated deserialize throw).

@@ -96,6 +96,16 @@ TEST(DdsRoundTrip, MeasurementOnBothTopics) {
   EXPECT_EQ(roundtrip(dds::topics::delivered_measurement, sent), sent);
 }
 
+TEST(DdsRoundTrip, MeasurementBatchOnBothTopics) {
+  std::vector<wire::Measurement> samples;
+  for (int id = 1; id <= 3; ++id)
+    samples.push_back(dds::make_measurement(id, 42, 123456789 + id, netkf::Vector::Constant(id, kTricky[id])));
+  auto batches = dds::make_measurement_batches(samples);
+  ASSERT_EQ(batches.size(), 1u);
+  EXPECT_EQ(roundtrip(dds::topics::raw_measurement_batch, batches.front()).samples(), samples);
+  EXPECT_EQ(roundtrip(dds::topics::delivered_measurement_batch, batches.front()).samples(), samples);
+}
+
 TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
   netkf::Estimate r;
   r.k = 5;

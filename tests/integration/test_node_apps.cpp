@@ -122,12 +122,19 @@ TEST(NodeApps, TheFourNodesInOneProcessMatchTheOfflineComputation) {
     if (!seen.truth.emplace(t.k(), x).second) ++seen.duplicates;
     seen.cv.notify_all();
   });
-  dds::Reader<wire::Measurement> delivered(harness, dds::topics::delivered_measurement, [&](wire::Measurement&& m) {
+  const auto on_delivered = [&](const wire::Measurement& m) {
     const auto s = dds::to_sensor_sample(m);
     std::lock_guard lock(seen.m);
     if (!seen.delivered.emplace(std::pair{s.sensor_id, m.k()}, s.y).second) ++seen.duplicates;
     seen.cv.notify_all();
-  });
+  };
+  dds::Reader<wire::Measurement> delivered(harness, dds::topics::delivered_measurement,
+                                           [&](wire::Measurement&& m) { on_delivered(m); });
+  // The sensor process hosts both sensors: its samples travel in batches.
+  dds::Reader<wire::MeasurementBatch> delivered_batches(harness, dds::topics::delivered_measurement_batch,
+                                                        [&](wire::MeasurementBatch&& b) {
+                                                          for (const auto& m : b.samples()) on_delivered(m);
+                                                        });
   dds::Reader<wire::Estimate> estimates(harness, dds::topics::estimate, [&](wire::Estimate&& w) {
     const auto e = dds::from_wire(w, n);
     std::lock_guard lock(seen.m);
@@ -251,6 +258,61 @@ TEST(NodeApps, TheFourNodesInOneProcessMatchTheOfflineComputation) {
     }
   }
   EXPECT_GT(fused_total, 0u);
+}
+
+TEST(NodeApps, ChannelAppDecidesEachSampleOfABatchOnItsOwnLink) {
+  const auto sc = scenario();
+  Running<nodes::ChannelApp> channel("it-channel-batch", sc, nodes::ChannelAppOptions{});
+
+  dds::Participant ends(options("it-batch-ends"));
+  std::mutex m;
+  std::condition_variable cv;
+  std::set<std::pair<int, std::uint64_t>> delivered;
+  std::uint64_t batches_out = 0, singles_out = 0;
+  dds::Reader<wire::MeasurementBatch> sink(ends, dds::topics::delivered_measurement_batch,
+                                           [&](wire::MeasurementBatch&& b) {
+                                             std::lock_guard lock(m);
+                                             ++batches_out;
+                                             for (const auto& s : b.samples()) delivered.emplace(s.sensor_id(), s.k());
+                                             cv.notify_all();
+                                           });
+  dds::Reader<wire::Measurement> single_sink(ends, dds::topics::delivered_measurement, [&](wire::Measurement&&) {
+    std::lock_guard lock(m);
+    ++singles_out;
+  });
+  dds::Writer<wire::MeasurementBatch> raw(ends, dds::topics::raw_measurement_batch);
+  ASSERT_TRUE(raw.wait_for_matched(1, 10s));
+  ASSERT_TRUE(sink.wait_for_matched(1, 10s));
+  ASSERT_TRUE(eventually([&] { return channel.app().stats().delivered_readers >= 1; }, 10s));
+
+  // Each batch: sensors 2, 1 and an unknown id 9, in that order. Offline links see the same
+  // sequence one sample at a time, as from processes of their own.
+  nodes::ChannelLinks offline(sc);
+  std::set<std::pair<int, std::uint64_t>> expected;
+  const std::uint64_t periods = 150;
+  for (std::uint64_t k = 0; k < periods; ++k) {
+    std::vector<wire::Measurement> samples;
+    for (int id : {2, 1, 9}) {
+      if (offline.on_sample(id, static_cast<std::int64_t>(k)).verdict == nodes::SampleFate::Verdict::delivered)
+        expected.emplace(id, k);
+      samples.push_back(dds::make_measurement(id, k, dds::steady_now_ns(), netkf::Vector{{0.5}}));
+    }
+    auto batches = dds::make_measurement_batches(std::move(samples));
+    ASSERT_EQ(batches.size(), 1u);
+    ASSERT_TRUE(raw.write(std::move(batches.front())));
+    std::this_thread::sleep_for(1ms);  // pacing only (a keep-last writer must not outrun the relay)
+  }
+  std::unique_lock lock(m);
+  ASSERT_TRUE(cv.wait_for(lock, 10s, [&] { return delivered.size() >= expected.size(); }));
+  EXPECT_EQ(delivered, expected);
+  EXPECT_EQ(singles_out, 0u) << "no delay: what a batch brought leaves in batches";
+  EXPECT_LE(batches_out, periods);
+  const auto stats = channel.app().stats();
+  EXPECT_EQ(stats.raw_batches, periods);
+  EXPECT_EQ(stats.unknown_sensor_samples, periods) << "id 9 is no sensor of the scenario: counted, never relayed";
+  EXPECT_GT(std::count_if(expected.begin(), expected.end(), [](auto& e) { return e.first == 1; }),
+            std::count_if(expected.begin(), expected.end(), [](auto& e) { return e.first == 2; }))
+      << "the lossless link 1 delivers more than link 2 (loss 0.4)";
 }
 
 TEST(NodeApps, ChannelAppAppliesALinkControlRequest) {

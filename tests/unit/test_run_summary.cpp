@@ -53,6 +53,7 @@ Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trac
   const auto n = static_cast<Eigen::Index>(x_hat.size());
   e.x_hat = Eigen::Map<const Vector>(x_hat.data(), n);
   e.P = Matrix::Identity(n, n) * (trace_P / static_cast<double>(n));
+  e.trace_P_pred = 2.0 * trace_P + 1.0;  // any value above Tr P_{k|k}, distinct per period
   e.fused = std::move(fused);
   e.late = static_cast<std::uint32_t>(late_sensors.size());
   e.late_sensors = std::move(late_sensors);
@@ -112,7 +113,8 @@ TEST(CheckParsing, AcceptsTheFourOperatorsWithOrWithoutSpaces) {
 TEST(CheckParsing, NamesAreTheSummarysPerLinkForTheScenariosIds) {
   const auto names = summary_names({4, 9});
   const std::vector<std::string> expected{
-      "periods", "rms_error", "rms_error_final", "mean_trace_P", "late_fraction", "fused_fraction", "periods_diverging",
+      "periods", "rms_error", "rms_error_final", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction",
+      "periods_diverging",
       "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
       "link.4.samples", "link.4.delivered", "link.4.dropped", "link.4.observed_loss",
       "link.4.observed_arrival_rate_since_change", "link.4.observed_arrival_rate_window", "link.4.observed_window_samples",
@@ -205,6 +207,7 @@ TEST(RunSummary, SmallRunByHand) {
   EXPECT_EQ(value_of(s, "periods"), 5.0);
   EXPECT_DOUBLE_EQ(value_of(s, "rms_error"), std::sqrt((25.0 + 1.0 + 2.0 + 0.0) / 4.0));
   EXPECT_DOUBLE_EQ(value_of(s, "mean_trace_P"), (1.0 + 2.0 + 3.0 + 4.0 + 5.0) / 5.0);
+  EXPECT_DOUBLE_EQ(value_of(s, "mean_trace_P_pred"), (3.0 + 5.0 + 7.0 + 9.0 + 11.0) / 5.0);
   EXPECT_DOUBLE_EQ(value_of(s, "fused_fraction"), (2.0 + 1.0 + 0.0 + 1.0 + 2.0) / (5.0 * 2.0));
   EXPECT_EQ(value_of(s, "periods_diverging"), 2.0);
   // Latencies 2, 1, 4, 3 ms: p50 is the 2nd smallest (ceil(0.5 × 4) = 2), p99 the 4th.
@@ -238,7 +241,7 @@ TEST(RunSummary, NothingToMeasureIsNotAValue) {
   RunSummaryBuilder b(scenario_with({1, 2}));
   const RunSummary& empty = b.summary();
   EXPECT_EQ(value_of(empty, "periods"), 0.0);  // a count of nothing is 0, measured
-  for (const char* name : {"rms_error", "mean_trace_P", "late_fraction", "fused_fraction", "periods_diverging",
+  for (const char* name : {"rms_error", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction", "periods_diverging",
                            "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "link.1.late", "link.1.fused",
                            "link.2.samples", "link.2.observed_loss"}) {
     const Measured m = measure(empty, name);

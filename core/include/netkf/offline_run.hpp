@@ -21,6 +21,7 @@ struct OfflinePeriod {
   std::int64_t k = 0;
   double squared_error = 0.0;     // |x_k − x̂_{k|k}|²
   double trace_P = 0.0;           // Tr P_{k|k}
+  double trace_P_pred = 0.0;      // Tr P_{k|k-1} (before the period's fused update)
   std::vector<int> fused;         // sensor ids fused this period (sorted)
   std::vector<bool> arrived;      // per sensor in scenario order: its sample arrived in time
   bool diverging = false;         // the filter's state is `diverging`

@@ -35,7 +35,8 @@ struct ChannelAppStats {
   std::vector<LinkReport> links;
   std::uint64_t held = 0;             // delayed samples waiting for their release
   std::uint64_t unknown_sensor_samples = 0;
-  int delivered_readers = 0;          // readers matched by the delivered writer (estimator, recorders)
+  int delivered_readers = 0;          // readers matched by both delivered writers, single and batch (estimator, recorders)
+  std::uint64_t raw_batches = 0;      // batches received from sensor processes of several sensors
 };
 
 class ChannelApp {

@@ -61,6 +61,11 @@ struct AnalysisReport {
   bool iid_bounds = false;             // S̄/V̄ were computed (every link Bernoulli); else not reported
   BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed; sampled: an estimate, not a bound
   std::optional<double> upper_trace_standard_error;    // sampled only
+  /// Links with memory (no i.i.d. bound applies) and a stable verdict: lim E[Tr P_{k|k-1}]
+  /// estimated by simulation over the links' own loss sequences (analysis/sampled_covariance.hpp),
+  /// with its standard error. An estimate, not a bound; nullopt otherwise.
+  std::optional<double> sampled_trace;
+  std::optional<double> sampled_trace_standard_error;
   std::optional<CriticalRates> critical_rate;  // all links Bernoulli with one shared rate
   std::optional<double> markov_criterion;      // max_i α_i² limsup P(R_N(i))^{1/N}
   std::optional<double> second_order_criterion;  // Thm 12 closed form (cross-check), when it applies

@@ -41,6 +41,10 @@ bool all_finite(const std::vector<double>& values);
 wire::Measurement make_measurement(int sensor_id, std::uint64_t k, std::int64_t stamp_ns, const Vector& y);
 /// Throws ConversionError on a non-finite value or (expected_size >= 0) a wrong size.
 SensorSample to_sensor_sample(const wire::Measurement& m, int expected_size = -1);
+/// Samples in one wire::MeasurementBatch at most (the bound in idl/netkf.idl).
+inline constexpr std::size_t kMaxBatchSamples = 100;
+/// `samples`, in their order, as batches of at most kMaxBatchSamples (none for no sample).
+std::vector<wire::MeasurementBatch> make_measurement_batches(std::vector<wire::Measurement> samples);
 
 // ---- plant ----
 wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input);

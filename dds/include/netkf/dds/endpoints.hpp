@@ -189,6 +189,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
 extern template class Writer<wire::Truth>;
 extern template class Writer<wire::Tick>;
 extern template class Writer<wire::Measurement>;
+extern template class Writer<wire::MeasurementBatch>;
 extern template class Writer<wire::Estimate>;
 extern template class Writer<wire::ControlInput>;
 extern template class Writer<wire::LinkControl>;
@@ -199,6 +200,7 @@ extern template class Writer<wire::Presence>;
 extern template class Reader<wire::Truth>;
 extern template class Reader<wire::Tick>;
 extern template class Reader<wire::Measurement>;
+extern template class Reader<wire::MeasurementBatch>;
 extern template class Reader<wire::Estimate>;
 extern template class Reader<wire::ControlInput>;
 extern template class Reader<wire::LinkControl>;

@@ -85,6 +85,9 @@ struct PubSubTypeOf;
 template <> struct PubSubTypeOf<wire::Truth> { using type = CheckedPubSubType<wire::TruthPubSubType>; };
 template <> struct PubSubTypeOf<wire::Tick> { using type = CheckedPubSubType<wire::TickPubSubType>; };
 template <> struct PubSubTypeOf<wire::Measurement> { using type = CheckedPubSubType<wire::MeasurementPubSubType>; };
+template <> struct PubSubTypeOf<wire::MeasurementBatch> {
+  using type = CheckedPubSubType<wire::MeasurementBatchPubSubType>;
+};
 template <> struct PubSubTypeOf<wire::Estimate> { using type = CheckedPubSubType<wire::EstimatePubSubType>; };
 template <> struct PubSubTypeOf<wire::ControlInput> { using type = CheckedPubSubType<wire::ControlInputPubSubType>; };
 template <> struct PubSubTypeOf<wire::LinkControl> { using type = CheckedPubSubType<wire::LinkControlPubSubType>; };
@@ -108,6 +111,13 @@ inline constexpr Topic<wire::Measurement> raw_measurement{"netkf/measurement/raw
 // channel emulator -> estimator: the samples the lossy links delivered (one writer for all
 // sensors: at least 4096, and deeper above 5461 samples/s, see history_depth_for_rate).
 inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measurement/delivered", {true, false, 4096}};
+// A sensor process of several sensors -> channel; channel -> estimator: one sample per truth and
+// process (wire::MeasurementBatch) instead of one per sensor, so 256 sensors at 100 Hz cost 400
+// samples a second, not 25 600 (BENCHMARKS.md, "256 sensors at 100 Hz"). The readers of the
+// single topics above read these too.
+inline constexpr Topic<wire::MeasurementBatch> raw_measurement_batch{"netkf/measurement/raw_batch", {true, false, 64}};
+inline constexpr Topic<wire::MeasurementBatch> delivered_measurement_batch{"netkf/measurement/delivered_batch",
+                                                                          {true, false, 256}};
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
 inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
 // estimator -> plant: u_k = -L x̂_{k|k}.

@@ -3,7 +3,8 @@
 // y_{i,k} = C_i x_k + v_{i,k} and publishes it on the raw measurement topic (the channel
 // emulator decides whether it reaches the estimator). It hosts one sensor, or several on one
 // DDS participant (a gateway in front of many sensors, or a dense network on a small machine):
-// each keeps its own C_i, R_i and noise stream and publishes its own samples. Constructed from
+// each keeps its own C_i, R_i and noise stream and its own samples, which go out together as
+// one wire::MeasurementBatch per truth (the channel still decides each on its own link). Constructed from
 // its options on a participant; run() serves until stop(). The integration tests run it in
 // process (tests/integration/test_node_apps.cpp); main.cpp only parses flags.
 //
