@@ -42,6 +42,7 @@ while kill -0 "$launch" 2>/dev/null; do
   elapsed=$((elapsed + 10))
   [ "$elapsed" -lt "$seconds" ] || break
   now=$(usage)
+  kill -0 "$launch" 2>/dev/null || break  # ended while sampling: not a sample of the run
   [ "$elapsed" -eq 30 ] && first=$now
   [ "$elapsed" -ge 30 ] && last=$now
   peak_rss=$(( ${now%% *} > peak_rss ? ${now%% *} : peak_rss ))
@@ -60,6 +61,9 @@ with open(d + "/p.csv") as f:
     for row in csv.DictReader(f):
         fused.append(len([x for x in row["fused"].split(";") if x]))
 mean = sum(fused) / max(1, len(fused))
+thin = [k for k, f in enumerate(fused) if f < 0.45 * n]
+print("periods with fewer than half the expected fused: %d%s" % (len(thin), (" (k = %s)" % thin[:20]) if thin else ""),
+      file=sys.stderr)
 def mb(v): return "%.0f" % (int(v.split()[0]) / 1024) if v else "?"
 def fd(v): return v.split()[1] if v else "?"
 late = s.get("late_fraction")

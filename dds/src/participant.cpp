@@ -318,6 +318,8 @@ void apply_common(Q& q, const TopicQos& qos) {
   q.resource_limits().max_instances = qos.instances;
   q.resource_limits().max_samples_per_instance = qos.depth;
   q.resource_limits().max_samples = qos.depth * qos.instances;
+  if (qos.size_payloads_by_sample)
+    q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
 }
 }  // namespace
 

@@ -3,9 +3,12 @@ sensor_node process. The reference is the same scenario run with one process per
 sensors and links are seeded per id, so both runs must deliver exactly the same samples
 (period, sensor, value, bit for bit) and, where every delivered sample was fused in both,
 record the same estimates. The grouped run must also equal the core filter replayed
-offline (as in the exactness test)."""
+offline (as in the exactness test). A grouped process sends its samples as one batch per period
+(docs/interop.md, "Batches") and the channel decides each on its own link: the channel's log
+must show batches in the grouped run and none in the reference."""
 import json
 import os
+import re
 import subprocess
 
 from e2e_common import DATA, Launch, check, finish, read_periods, read_samples, require_netns, workdir
@@ -15,7 +18,8 @@ scenario = os.path.join(DATA, "groups.yaml")
 runs = {}
 for per_process in (1, 2):
     out = workdir("groups-%d" % per_process)
-    with Launch(scenario, 6, out, samples=True, extra=["--sensors-per-process", str(per_process)]) as run:
+    with Launch(scenario, 6, out, samples=True,
+                extra=["--sensors-per-process", str(per_process), "--log-level", "info"]) as run:
         rc = run.wait(60)
         pids = run.child_pids()
     check(rc == 0, "launch with %d sensor(s) per process exits 0 (rc=%s)" % (per_process, rc))
@@ -26,6 +30,10 @@ sensor_procs = sorted(n for n in grouped[1] if n.startswith("sensor_node"))
 check(sensor_procs == ["sensor_node[1,2]", "sensor_node[3,4]"],
       "two sensor processes hold sensors 1,2 and 3,4 (%s)" % sensor_procs)
 check(len([n for n in single[1] if n.startswith("sensor_node")]) == 4, "the reference run has four sensor processes")
+batches = re.search(r"(\d+) raw samples came in (\d+) batches", grouped[0].output())
+check(batches is not None and int(batches.group(2)) >= 2 * 150 and int(batches.group(1)) >= 1.9 * int(batches.group(2)),
+      "the grouped run's samples reached the channel in batches of two (%s)" % (batches.group(0) if batches else "none"))
+check("raw samples came in" not in single[0].output(), "the reference run sent no batch")
 
 samples = {p: read_samples(runs[p][0].samples) for p in runs}
 periods = {p: read_periods(runs[p][0].record, 2) for p in runs}

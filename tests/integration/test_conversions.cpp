@@ -185,7 +185,8 @@ TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
 }
 
 // A group's samples go out in batches of at most kMaxBatchSamples, in their order; that is the
-// bound the IDL gives the sequence (a larger batch cannot be serialized at all).
+// bound the IDL gives the sequence, so the largest batch netkf writes (each sample at
+// Measurement's own largest, 100 values) fits the payload Fast DDS sizes for the type.
 TEST(Conversions, MeasurementBatchesKeepTheOrderWithinTheWireBound) {
   std::vector<netkf::wire::Measurement> samples;
   for (int id = 1; id <= 250; ++id) samples.push_back(dds::make_measurement(id, 7, id, netkf::Vector{{0.5 * id}}));
@@ -207,9 +208,14 @@ TEST(Conversions, MeasurementBatchesKeepTheOrderWithinTheWireBound) {
   netkf::wire::MeasurementBatch read;
   ASSERT_TRUE(type.deserialize(&payload, &read));
   EXPECT_EQ(read.samples(), batches[0].samples());
-  full.samples().push_back(samples.back());  // 101: over the bound
-  Payload too_big(64 * 1024);
-  EXPECT_ANY_THROW(type.serialize(&full, &too_big));
+
+  std::vector<netkf::wire::Measurement> widest;
+  for (int id = 1; id <= 100; ++id) widest.push_back(dds::make_measurement(id, 7, id, netkf::Vector::Constant(100, 0.5)));
+  auto largest = dds::make_measurement_batches(widest);
+  ASSERT_EQ(largest.size(), 1u);
+  Payload at_type_size(type.m_typeSize);
+  EXPECT_TRUE(type.serialize(&largest.front(), &at_type_size));
+  EXPECT_GT(at_type_size.length, 80000u);
 }
 
 // A received payload Fast CDR cannot read is refused (the sample dropped), never an

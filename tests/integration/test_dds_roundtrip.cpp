@@ -331,6 +331,17 @@ TEST(DdsQos, HeartbeatPeriodAndHistoryDepthFollowTheWriterRate) {
   EXPECT_EQ(applied.history().depth, 2400);
   EXPECT_EQ(applied.resource_limits().max_samples, 2400);
   EXPECT_EQ(applied.reliable_writer_qos().times.heartbeatPeriod, eprosima::fastrtps::Duration_t(0, 250000000u));
+  EXPECT_EQ(applied.endpoint().history_memory_policy, eprosima::fastrtps::rtps::PREALLOCATED_WITH_REALLOC_MEMORY_MODE);
+
+  // Batches: payloads sized by the sample, not by the type's ~84 kB largest, on both ends.
+  netkf::dds::Writer<wire::MeasurementBatch> batches(p, netkf::dds::topics::delivered_measurement_batch, 12800.0);
+  ASSERT_EQ(batches.get()->get_qos(applied), eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(applied.history().depth, 9600);
+  EXPECT_EQ(applied.endpoint().history_memory_policy, eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE);
+  netkf::dds::Reader<wire::MeasurementBatch> batch_reader(p, netkf::dds::topics::delivered_measurement_batch, {});
+  eprosima::fastdds::dds::DataReaderQos reader_applied;
+  ASSERT_EQ(batch_reader.get()->get_qos(reader_applied), eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK);
+  EXPECT_EQ(reader_applied.endpoint().history_memory_policy, eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE);
 }
 
 namespace {

@@ -53,6 +53,11 @@ struct TopicQos {
   std::int32_t depth = 64;
   /// Instances of a keyed type (presence: one per process); 1 for the unkeyed topics.
   std::int32_t instances = 1;
+  /// Allocate each sample's payload at its own size and reuse it (Fast DDS's
+  /// DYNAMIC_REUSABLE_MEMORY_MODE) instead of at the type's largest size: a batch can be ~84 kB
+  /// at most and is ~3 kB for 64 scalar sensors, so a deep history would otherwise reserve
+  /// depth x 84 kB.
+  bool size_payloads_by_sample = false;
 };
 
 template <class T>
@@ -115,9 +120,10 @@ inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measureme
 // process (wire::MeasurementBatch) instead of one per sensor, so 256 sensors at 100 Hz cost 400
 // samples a second, not 25 600 (BENCHMARKS.md, "256 sensors at 100 Hz"). The readers of the
 // single topics above read these too.
-inline constexpr Topic<wire::MeasurementBatch> raw_measurement_batch{"netkf/measurement/raw_batch", {true, false, 64}};
+inline constexpr Topic<wire::MeasurementBatch> raw_measurement_batch{"netkf/measurement/raw_batch",
+                                                                    {true, false, 64, 1, true}};
 inline constexpr Topic<wire::MeasurementBatch> delivered_measurement_batch{"netkf/measurement/delivered_batch",
-                                                                          {true, false, 256}};
+                                                                          {true, false, 256, 1, true}};
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
 inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
 // estimator -> plant: u_k = -L x̂_{k|k}.
