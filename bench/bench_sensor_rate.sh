@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 n=$1 period=$2 seconds=$3 domain=${4:-60} netkf=${5:-build/default/cli/netkf}
 dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
+[ -n "${KEEP:-}" ] || trap 'rm -rf "$dir"' EXIT
 
 {
   printf 'name: rate-%d-%dms\nperiod_ms: %d\nseed: 5\nplant:\n  A: [[0.95, 0.1], [0.0, 0.9]]\n' "$n" "$period" "$period"

@@ -9,8 +9,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity dashboard security recovery multi-host
-       shutdown-aborts)
+names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
+       security recovery multi-host shutdown-aborts)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
@@ -20,6 +20,8 @@ declare -A about=(
   [latency]="pipeline latency against one bare DDS hop, 8 sensors at 100 Hz, auto grouping and one process per sensor (bench_latency)"
   [hop-clock]="the same with the bare hop on the truth's clock and on its own (bench_latency --hop-clock)"
   [capacity]="sensors at 100 Hz without unintended loss, 64 and 128 sensors (bench_latency --capacity)"
+  [sensors-100hz]="256 sensors at 100 Hz for 10 minutes: late share, pipeline latency, RSS and fds (bench/bench_sensor_rate.sh)"
+  [sensor-limit]="the largest live network at 10 Hz, 512 to 2048 sensors for 30 s each (bench/bench_sensor_rate.sh)"
   [dashboard]="the dashboard's cost: pipeline latency and the launch's CPU with a browser or a protocol client (bench/bench_dashboard.sh)"
   [security]="pipeline latency without and with DDS Security (bench_latency --secure-compare)"
   [recovery]="periods lost to a killed or stopped process (e2e fault_estimator, fault_channel; integration DdsRestart)"
@@ -310,6 +312,22 @@ bench_capacity() {
   echo "|---|---|---|---|---|"
   report capacity "auto, 30 s" "$out/capacity-30s.txt"
   report capacity "auto, 60 s" "$out/capacity-60s.txt"
+}
+
+rate_header() {
+  echo "| sensors, rate, run | periods | fused per period (mean; min–max) | expected (0.9 n) | late share | pipeline p50 / p99 | RSS MB at 30 s → end (peak) | fds at 30 s → end | exit |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+}
+
+bench_sensors_100hz() {
+  rate_header
+  bench/bench_sensor_rate.sh 256 10 600 62 "$netkf"
+}
+
+bench_sensor_limit() {
+  local n
+  rate_header
+  for n in 512 1024 1536 2048; do bench/bench_sensor_rate.sh "$n" 100 40 62 "$netkf"; done
 }
 
 bench_dashboard() {

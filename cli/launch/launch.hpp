@@ -33,7 +33,7 @@
 namespace netkf::cli {
 
 /// Sensors a live network runs at most (the largest measured to run: BENCHMARKS.md).
-inline constexpr std::size_t kMaxLiveSensors = 512;
+inline constexpr std::size_t kMaxLiveSensors = 1024;
 
 struct LaunchOptions {
   std::optional<std::string> scenario;

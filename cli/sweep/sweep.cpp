@@ -51,7 +51,7 @@ struct Plan {
   YAML::Node tree;                    // the scenario file's
   std::string sha256;
   std::vector<Point> grid;
-  std::vector<Scenario> scenarios;    // per point, seed 1 (the theory's; the loader's verdict)
+  std::vector<Scenario> scenarios;    // per point, with the file's seed (the theory's, as `netkf analyze` sees it; the loader's verdict)
   std::vector<std::string> quantities;
   std::vector<Check> checks;
   double period_s = 0.0;
@@ -78,7 +78,7 @@ Plan make_plan(const SweepConfig& config) {
     const std::string name = config.scenario_path + " (point " + std::to_string(point.index) + ": " +
                              point_label(config.vary, point) + ")";
     try {
-      plan.scenarios.push_back(parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, 1), name));
+      plan.scenarios.push_back(parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, 0), name));
     } catch (const std::exception& e) {
       // The loader's message names the field; the source name names the point.
       const std::string what = e.what();

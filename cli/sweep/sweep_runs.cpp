@@ -12,8 +12,10 @@ std::string run_scenario_yaml(const YAML::Node& file_tree, const std::vector<Var
                               int seed_index) {
   YAML::Node tree = YAML::Clone(file_tree);
   for (std::size_t i = 0; i < vary.size(); ++i) apply_key(tree, vary[i].key, point.values[i]);
-  const std::uint64_t base = tree["seed"] && tree["seed"].IsScalar() ? parse_seed(tree["seed"].Scalar()) : 0;
-  tree["seed"] = std::to_string(run_seed(base, seed_index));
+  if (seed_index > 0) {
+    const std::uint64_t base = tree["seed"] && tree["seed"].IsScalar() ? parse_seed(tree["seed"].Scalar()) : 0;
+    tree["seed"] = std::to_string(run_seed(base, seed_index));
+  }
   YAML::Emitter out;
   out << tree;
   return std::string(out.c_str()) + "\n";

@@ -20,6 +20,7 @@ namespace netkf::cli::sweep {
 
 /// The scenario of one run: the file's YAML tree with the point's values and `seed` set to
 /// run_seed(the scenario's seed, seed_index), as YAML text for the loader (or a child process).
+/// seed_index 0: the file's own seed (the point's scenario as `netkf analyze` would see it).
 std::string run_scenario_yaml(const YAML::Node& file_tree, const std::vector<Vary>& vary, const Point& point,
                               int seed_index);
 

@@ -56,6 +56,11 @@ std::optional<RecentLossFit> RecentArrivals::fit() const {
                       weighted_log(transitions_[0][1], p) + weighted_log(transitions_[1][0], r) +
                       weighted_log(transitions_[1][1], 1.0 - r);
     const double ll_bernoulli = weighted_log(dropped_, q) + weighted_log(size_ - dropped_, 1.0 - q);
+    // The chain can give the window probability 0: `1 0 0` has p = 0, so its stationary start
+    // is Good and the first drop impossible. Then there is no chain fit (only bernoulli), not
+    // an AIC gain of −∞, which no link status could carry (2048 sensors at 10 Hz had such
+    // statuses rejected at the start of the run, and their links taken for silent).
+    if (!std::isfinite(ll)) return f;
     // AIC = 2 · free parameters − 2 log L: bernoulli has 1, simple_gilbert 2.
     f.aic_gain = (2.0 - 2.0 * ll_bernoulli) - (4.0 - 2.0 * ll);
     if (*f.aic_gain > 2.0) {  // loss_fit.cpp's parsimony: bernoulli unless 2 worse

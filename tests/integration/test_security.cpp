@@ -63,16 +63,19 @@ int sh(const std::string& cmd) { return std::system((cmd + " >/dev/null 2>&1").c
 TEST(SecurityPolicy, PermissionsAllowExactlyTheIntendedTopics) {
   // Presence: every role announces itself and reads who else takes part.
   const std::string presence = "netkf/presence";
-  const std::set<std::string> observed{"netkf/truth",       "netkf/estimate",    "netkf/measurement/delivered",
+  // A sensor process of several sensors sends batches (docs/interop.md, "Batches").
+  const std::string raw = "netkf/measurement/raw", raw_batch = "netkf/measurement/raw_batch";
+  const std::string delivered = "netkf/measurement/delivered", delivered_batch = "netkf/measurement/delivered_batch";
+  const std::set<std::string> observed{"netkf/truth",      "netkf/estimate",    delivered,          delivered_batch,
                                        "netkf/link/status", "netkf/link/change", "netkf/link/reply", presence};
   const std::map<Role, std::pair<std::set<std::string>, std::set<std::string>>> intended{
       {Role::plant, {{"netkf/truth", "netkf/tick", presence}, {"netkf/control", presence}}},
-      {Role::sensor, {{"netkf/measurement/raw", presence}, {"netkf/truth", presence}}},
+      {Role::sensor, {{raw, raw_batch, presence}, {"netkf/truth", presence}}},
       {Role::channel,
-       {{"netkf/measurement/delivered", "netkf/link/status", "netkf/link/reply", "netkf/link/change", presence},
-        {"netkf/measurement/raw", "netkf/link/control", presence}}},
+       {{delivered, delivered_batch, "netkf/link/status", "netkf/link/reply", "netkf/link/change", presence},
+        {raw, raw_batch, "netkf/link/control", presence}}},
       {Role::estimator,
-       {{"netkf/estimate", "netkf/control", presence}, {"netkf/tick", "netkf/measurement/delivered", presence}}},
+       {{"netkf/estimate", "netkf/control", presence}, {"netkf/tick", delivered, delivered_batch, presence}}},
       {Role::ctl, {{"netkf/link/control", presence}, observed}},
       {Role::observer, {{presence}, observed}},
   };

@@ -380,4 +380,15 @@ TEST(RecentLossFit, DegenerateWindowsAndClear) {
   EXPECT_EQ(recent.samples(), 0u);
   EXPECT_FALSE(recent.fit().has_value());
   EXPECT_THROW(RecentArrivals(1), std::invalid_argument);
+
+  // `1 0 0`: transitions out of both states, but the chain's p = 0 makes its stationary start
+  // Good, so the first drop has probability 0 (log-likelihood −∞). No chain fit, no −∞ gain
+  // (a link status carrying it was rejected as malformed by every reader).
+  RecentArrivals first_only(10);
+  for (const bool dropped : {true, false, false}) first_only.record(dropped);
+  f = first_only.fit();
+  ASSERT_TRUE(f.has_value());
+  EXPECT_EQ(f->family, LossFamily::bernoulli);
+  EXPECT_FALSE(f->aic_gain.has_value());
+  EXPECT_DOUBLE_EQ(f->loss(), 1.0 / 3.0);
 }

@@ -28,8 +28,9 @@ struct RecentLossFit {
   std::uint64_t dropped = 0;
   LossFamily family = LossFamily::bernoulli;  // bernoulli or simple_gilbert, by AIC
   LinkModel link;              // the chosen family's link: its keys as a scenario takes them
-  /// AIC(bernoulli) − AIC(simple_gilbert) (> 2 chooses simple_gilbert); none without a
-  /// transition out of both states (then only bernoulli can be fitted).
+  /// AIC(bernoulli) − AIC(simple_gilbert) (> 2 chooses simple_gilbert), always finite; none
+  /// without a transition out of both states, or when the fitted chain gives the window
+  /// probability 0 (e.g. `1 0 0`: p = 0 cannot start in Bad); then only bernoulli is fitted.
   std::optional<double> aic_gain;
 
   double loss() const { return stationary_loss(link); }
