@@ -63,6 +63,29 @@ td, th { border: 1px solid #ccc; padding: .2em .5em; text-align: right; }
 // Builds the plots from DATA: for quantity q and key k, x = k's values, one curve per
 // combination of the other keys' values (mean, ±se band, min/max dashed).
 constexpr const char* kScript = R"(
+const at = (p, f) => p == null ? null : f(p);
+// The theory on mean_trace_P_pred (Tr P_k|k-1, what it speaks of): Sinopoli's [Tr S̄, Tr V̄]
+// where every link is Bernoulli; with links that have memory the simulated E[Tr P] ± 2
+// standard errors (an estimate, not a bound).
+const addTheory = (pts, xs, data, series, bands) => {
+  const S = xs.map((_, i) => at(pts[i], p => p.theory.trace_S_bar));
+  const V = xs.map((_, i) => at(pts[i], p => p.theory.trace_V_bar));
+  if (S.some(v => v != null) || V.some(v => v != null)) {
+    const tb = data.length;
+    data.push(V, S);
+    series.push({ label: 'theory Tr V̄', stroke: '#444', dash: [8, 3] }, { label: 'theory Tr S̄', stroke: '#444', dash: [2, 3] });
+    bands.push({ series: [tb, tb + 1], fill: '#8882' });
+  }
+  const E = xs.map((_, i) => at(pts[i], p => p.theory.trace_P_sampled));
+  if (E.some(v => v != null)) {
+    const tb = data.length, two = (i, s) => at(pts[i], p => p.theory.trace_P_sampled == null ? null :
+                                                           p.theory.trace_P_sampled + 2 * s * (p.theory.trace_P_sampled_se || 0));
+    data.push(E, xs.map((_, i) => two(i, 1)), xs.map((_, i) => two(i, -1)));
+    series.push({ label: 'theory E[Tr P] (sampled)', stroke: '#444', dash: [6, 2, 2, 2] },
+                { label: '+2se', stroke: '#444', width: 0.5 }, { label: '-2se', stroke: '#444', width: 0.5 });
+    bands.push({ series: [tb + 1, tb + 2], fill: '#8882' });
+  }
+};
 (function () {
   const D = JSON.parse(document.getElementById('sweep-data').textContent);
   const colors = ['#1f77b4', '#d62728', '#2ca02c', '#9467bd', '#ff7f0e', '#8c564b', '#e377c2', '#17becf'];
@@ -102,7 +125,6 @@ constexpr const char* kScript = R"(
     }
     D.quantities.forEach((q, qi) => {
       const data = [xs], series = [{ label: key, value: (u, v) => v == null ? '' : (isNum ? v : xsText[v]) }], bands = [];
-      const at = (p, f) => p == null ? null : f(p);
       let g = 0, any = false;
       groups.forEach((pts, label) => {
         const c = colors[g++ % colors.length];
@@ -117,26 +139,7 @@ constexpr const char* kScript = R"(
                     { label: '+se', stroke: c, width: 0.5 }, { label: '-se', stroke: c, width: 0.5 },
                     { label: 'min', stroke: c, dash: [4, 4], width: 1 }, { label: 'max', stroke: c, dash: [4, 4], width: 1 });
         bands.push({ series: [base + 1, base + 2], fill: c + '33' });
-        if (q === 'mean_trace_P_pred') {
-          const S = xs.map((_, i) => at(pts[i], p => p.theory.trace_S_bar));
-          const V = xs.map((_, i) => at(pts[i], p => p.theory.trace_V_bar));
-          if (S.some(v => v != null) || V.some(v => v != null)) {
-            const tb = data.length;
-            data.push(V, S);
-            series.push({ label: 'theory Tr V̄', stroke: '#444', dash: [8, 3] }, { label: 'theory Tr S̄', stroke: '#444', dash: [2, 3] });
-            bands.push({ series: [tb, tb + 1], fill: '#8882' });
-          }
-          // Links with memory: the simulated E[Tr P] ± 2 standard errors (an estimate, not a bound).
-          const E = xs.map((_, i) => at(pts[i], p => p.theory.trace_P_sampled));
-          if (E.some(v => v != null)) {
-            const tb = data.length, two = (i, s) => at(pts[i], p => p.theory.trace_P_sampled == null ? null :
-                                                                   p.theory.trace_P_sampled + 2 * s * (p.theory.trace_P_sampled_se || 0));
-            data.push(E, xs.map((_, i) => two(i, 1)), xs.map((_, i) => two(i, -1)));
-            series.push({ label: 'theory E[Tr P] (sampled)', stroke: '#444', dash: [6, 2, 2, 2] },
-                        { label: '+2se', stroke: '#444', width: 0.5 }, { label: '-2se', stroke: '#444', width: 0.5 });
-            bands.push({ series: [tb + 1, tb + 2], fill: '#8882' });
-          }
-        }
+        if (q === 'mean_trace_P_pred') addTheory(pts, xs, data, series, bands);
       });
       if (!any) return;  // nothing measured (e.g. latency offline)
       const div = el('div'); div.className = 'plot'; box.appendChild(div);
