@@ -224,8 +224,7 @@ class ChannelApp::Impl {
     bool rearm = false;
     {
       const std::lock_guard lock(mutex_);
-      for (auto& m : batch.samples()) {
-        m.run(batch.run());
+      for (const auto& m : batch.samples()) {  // their own run is not read: the writers stamp theirs
         routed.push_back(route_locked(m, changes));
         rearm = rearm || routed.back().rearm;
       }

@@ -63,8 +63,22 @@ LinkReplyRecord to_link_reply(const wire::LinkControlReply& w) {
   return LinkReplyRecord{w.request_id(), w.sensor_id(), w.applied(), w.reason()};
 }
 
+/// One sample converted and handed on; one that fails its conversion is reported as invalid
+/// (`what` + why) instead.
+template <typename Wire, typename Record>
+void convert_and_handle(const Wire& w, Record (*convert)(const Wire&), const std::function<void(Record&&)>& handler,
+                        const std::function<void(const std::string&)>& invalid, const std::string& what) {
+  std::optional<Record> record;
+  try {
+    record = convert(w);
+  } catch (const std::exception& e) {
+    return invalid(what + e.what());
+  }
+  handler(std::move(*record));
+}
+
 /// A reader of `topic` when the command handles it: each sample is converted on the command's
-/// io thread; one that fails its conversion is counted and reported as invalid (`what` + why).
+/// io thread (convert_and_handle).
 template <typename Wire, typename Record>
 std::unique_ptr<dds::Reader<Wire>> open_reader(dds::Participant& participant, const dds::Topic<Wire>& topic,
                                                boost::asio::io_context::executor_type ex,
@@ -73,16 +87,9 @@ std::unique_ptr<dds::Reader<Wire>> open_reader(dds::Participant& participant, co
                                                const std::function<void(const std::string&)>& invalid,
                                                const std::string& what) {
   if (!handler) return nullptr;
-  return std::make_unique<dds::Reader<Wire>>(
-      participant, topic, dds::post_to<Wire>(ex, [=](Wire w) {
-        std::optional<Record> record;
-        try {
-          record = convert(w);
-        } catch (const std::exception& e) {
-          return invalid(what + e.what());
-        }
-        handler(std::move(*record));
-      }));
+  return std::make_unique<dds::Reader<Wire>>(participant, topic, dds::post_to<Wire>(ex, [=](Wire w) {
+                                               convert_and_handle(w, convert, handler, invalid, what);
+                                             }));
 }
 
 /// The delivered batches (sensor processes of several sensors): each sample is converted and
@@ -94,16 +101,7 @@ std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
   return std::make_unique<dds::Reader<wire::MeasurementBatch>>(
       participant, dds::topics::delivered_measurement_batch,
       dds::post_to<wire::MeasurementBatch>(ex, [=](wire::MeasurementBatch batch) {
-        for (const auto& m : batch.samples()) {
-          std::optional<DeliveredRecord> record;
-          try {
-            record = to_delivered(m);
-          } catch (const std::exception& e) {
-            invalid(e.what());
-            continue;
-          }
-          handler(std::move(*record));
-        }
+        for (const auto& m : batch.samples()) convert_and_handle(m, to_delivered, handler, invalid, "");
       }));
 }
 

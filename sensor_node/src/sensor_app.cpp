@@ -47,10 +47,13 @@ class SensorApp::Impl {
         state_dim_(scenario.state_dim()) {
     // One sensor writes its samples; several write one batch per truth (fewer DDS samples,
     // wake-ups and acknowledgements: BENCHMARKS.md, "256 sensors at 100 Hz").
-    if (sensors_.size() == 1)
+    if (sensors_.size() == 1) {
       raw_.emplace(participant, dds::topics::raw_measurement, 1.0 / scenario.period_s());
-    else
-      raw_batch_.emplace(participant, dds::topics::raw_measurement_batch, 1.0 / scenario.period_s());
+    } else {
+      const auto batches = (sensors_.size() + dds::kMaxBatchSamples - 1) / dds::kMaxBatchSamples;  // per truth
+      raw_batch_.emplace(participant, dds::topics::raw_measurement_batch,
+                         static_cast<double>(batches) / scenario.period_s());
+    }
     // The reader last: its callback uses everything above.
     truth_.emplace(participant, dds::topics::truth, [this](wire::Truth&& truth) { on_truth(truth); });
     // Present once it can measure: the plant waits for every sensor's presence.
@@ -102,6 +105,7 @@ class SensorApp::Impl {
     }
     const std::lock_guard lock(mutex_);
     std::vector<wire::Measurement> samples;
+    samples.reserve(sensors_.size());
     for (auto& sensor : sensors_) {
       std::string why;
       const auto y = sensor.measure(truth.k(), x, &why);
