@@ -119,11 +119,12 @@ inline constexpr Topic<wire::Measurement> delivered_measurement{"netkf/measureme
 // A sensor process of several sensors -> channel; channel -> estimator: one sample per truth and
 // process (wire::MeasurementBatch) instead of one per sensor, so 256 sensors at 100 Hz cost 400
 // samples a second, not 25 600 (BENCHMARKS.md, "256 sensors at 100 Hz"). The readers of the
-// single topics above read these too.
+// single topics above read these too. The depths are the single topics': a reader stalled for a
+// while (a loaded recorder) finds at least as much history as it did with single samples.
 inline constexpr Topic<wire::MeasurementBatch> raw_measurement_batch{"netkf/measurement/raw_batch",
-                                                                    {true, false, 64, 1, true}};
+                                                                    {true, false, 256, 1, true}};
 inline constexpr Topic<wire::MeasurementBatch> delivered_measurement_batch{"netkf/measurement/delivered_batch",
-                                                                          {true, false, 256, 1, true}};
+                                                                          {true, false, 4096, 1, true}};
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
 inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
 // estimator -> plant: u_k = -L x̂_{k|k}.
