@@ -78,6 +78,10 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
                   "Seconds to look for another netkf network on the DDS domain before starting (0: skip)")
       ->check(CLI::Range(0.0, 60.0))
       ->capture_default_str();
+  cmd->add_flag("--standby", o->standby,
+                "Run a hot-standby estimator beside the primary: both fuse the same samples, the plant and every "
+                "reader take the primary's inputs and estimates (DDS exclusive ownership) until its liveliness "
+                "lease (5 periods) expires, then the standby's; a dead estimator comes back as the new standby");
   cmd->add_option("--sensor-nice", o->sensor_nice,
                   "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices; a "
                   "positive value lets the channel and the estimator go first on a small machine")
@@ -111,6 +115,9 @@ void add_view_and_check_options(CLI::App* cmd, LaunchOptions* o) {
                   "Pass/fail check at the end of the run on a summary quantity: NAME<VALUE (or <=, >, >=), e.g. "
                   "'rms_error<0.8', 'link.2.observed_loss<0.35'; repeatable; exit 1 when one fails")
       ->allow_extra_args(false);
+  cmd->add_flag("--allow-divergence", o->allow_divergence,
+                "A closed loop that leaves plant.state_bound ends the run with exit 0 (a run started to show an "
+                "unstable loop); without it such a run fails (exit 1) naming what stalled before it");
   cmd->add_option("--summary", o->summary,
                   "Write the run's summary (rms_error, late_fraction, per-link counts, latency, every check's "
                   "verdict) as JSON to FILE at the end of the run");

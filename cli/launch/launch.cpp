@@ -211,8 +211,16 @@ void Launch::open_console() {
 
 void Launch::open_bus() {
   BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
+  outages_ = std::make_unique<OutageWatch>(std::chrono::milliseconds(scenario_.period_ms));
+  handlers.truth = [record = std::move(handlers.truth), this](TruthRecord&& t) {
+    outages_->truth(t.k, Clock::now());
+    record(std::move(t));
+  };
   handlers.estimate = [record = std::move(handlers.estimate), this](Estimate&& e) {
-    if (e.revision == 0) fused_periods_ += e.fused.empty() ? 0 : 1;
+    if (e.revision == 0) {
+      fused_periods_ += e.fused.empty() ? 0 : 1;
+      outages_->estimate(static_cast<std::int64_t>(e.k), e.fused.size(), Clock::now());
+    }
     // The checkpoint: the newest period's best estimate (a revision of an older period is not it).
     if (!last_estimate_ || e.k > last_estimate_->k || (e.k == last_estimate_->k && e.revision > last_estimate_->revision))
       last_estimate_ = e;
@@ -267,12 +275,20 @@ void Launch::start_children() {
                                : std::stoi(o_.sensors_per_process);
   in.sensor_nice = o_.sensor_nice;
   in.ready_timeout_s = o_.ready_timeout;
+  in.estimator_standby = o_.standby;
+  if (o_.standby) estimator_generation_ = 1;
   plan_ = plan_launch(in);
   for (const auto& child : plan_.children) {
     // A restarted estimator resumes from the last estimate this launch saw (written just before
     // the restart, after the backoff, so no estimate of the previous life is still in flight).
-    std::function<void()> before_restart;
-    if (child.estimator) before_restart = [this] { write_checkpoint_for_restart(); };
+    std::function<void(ChildSpec&)> before_restart;
+    if (child.estimator)
+      before_restart = [this](ChildSpec& spec) {
+        write_checkpoint_for_restart();
+        // The new life is weaker than every estimator started before it: with a standby, the one
+        // that took over keeps the plant (launch_plan.hpp).
+        set_ownership_strength(spec.args, estimator_ownership_strength(++estimator_generation_));
+      };
     started_.push_back(supervisor_->start(child.spec, before_restart));
   }
   report(started_);
@@ -372,6 +388,12 @@ bool Launch::serve_step() {
   report(supervisor_->poll());
   recording_->flush();
   const auto now = Clock::now();
+  for (const auto& c : supervisor_->children())
+    outages_->child(c.name, c.pid,
+                    c.running           ? OutageWatch::ChildState::running
+                    : c.restart_pending ? OutageWatch::ChildState::restarting
+                                        : OutageWatch::ChildState::ended,
+                    now);
   if (now - last_presence_look_ >= std::chrono::milliseconds(500)) {
     last_presence_look_ = now;
     const auto processes = refresh_processes();
@@ -392,6 +414,7 @@ bool Launch::serve_step() {
     }
   }
   console_->tick(now);
+  if (facts_.end != RunEnd::running) ended_at_ = now;
   return facts_.end == RunEnd::running;
 }
 
@@ -415,6 +438,13 @@ void Launch::stop() {
   io_.run_for(std::chrono::milliseconds(50));  // let the dashboard's close frames go out
   signals_->cancel();
   if (facts_.end == RunEnd::finished) facts_.finished_why = run_end_.why().value_or(supervisor_->finished_reason());
+  // A closed loop that left plant.state_bound (the plant's presence says so, on any host), and
+  // who stalled in the seconds before: a diverged run names them (RunFacts::diverged).
+  for (const auto& p : bus_->processes())
+    if (p.run == run_id_ && p.diverged()) facts_.diverged = p.detail;
+  outages_->finish(Clock::now());
+  facts_.outages_before = outages_->describe_between(ended_at_ - std::chrono::seconds(5), ended_at_);
+  facts_.allow_divergence = o_.allow_divergence;
   const std::uint64_t foreign_samples = bus_->foreign_samples();
   bus_->end_presence(end_text(facts_));
   bus_.reset();

@@ -23,6 +23,7 @@
 #include "launch_plan.hpp"
 #include "launch_supervisor.hpp"
 #include "live_bus.hpp"
+#include "outage_watch.hpp"
 #include "netkf/dds/participant.hpp"
 #include "netkf/scenario.hpp"
 #include "recording.hpp"
@@ -59,6 +60,8 @@ struct LaunchOptions {
   std::optional<std::uint64_t> run_id;         // --run-id: shared by every host's launch
   std::optional<std::string> serve_discovery;  // --serve-discovery ADDR:PORT
   double ready_timeout = 30.0;  // the plant's wait for the whole network (presence)
+  bool allow_divergence = false;  // a closed loop leaving plant.state_bound ends the run with exit 0
+  bool standby = false;           // a hot-standby estimator beside the primary
 };
 
 /// The scenario file (or the built-in default); CommandError(bad_usage) when it is invalid.
@@ -125,11 +128,14 @@ class Launch {
   std::uint64_t run_id_ = 0;
   std::optional<Estimate> last_estimate_;  // the checkpoint a restarted estimator resumes from
   std::uint64_t fused_periods_ = 0;              // estimates that fused at least one sample
+  int estimator_generation_ = 0;                 // estimators started so far, less one
   std::unique_ptr<Supervisor> supervisor_;
   std::string here_;
   LaunchPlan plan_;
   std::vector<SupervisorEvent> started_;
   RunFacts facts_;
+  std::unique_ptr<OutageWatch> outages_;  // who stalled, for a diverged run's message
+  Clock::time_point ended_at_;            // when the serve loop saw the run end
   std::unique_ptr<boost::asio::signal_set> signals_;
   Clock::time_point start_;
   RunEndWatch run_end_{0, std::chrono::seconds(1)};  // without the plant: its end is ours

@@ -113,6 +113,16 @@ std::uint64_t derived_run_id(std::uint64_t scenario_hash, int domain) {
   return z == 0 ? 1 : z;
 }
 
+std::uint32_t estimator_ownership_strength(int generation) {
+  constexpr std::uint32_t kPrimary = 1000000;
+  return kPrimary - static_cast<std::uint32_t>(generation);
+}
+
+void set_ownership_strength(std::vector<std::string>& args, std::uint32_t strength) {
+  for (std::size_t i = 0; i + 1 < args.size(); ++i)
+    if (args[i] == "--ownership-strength") args[i + 1] = std::to_string(strength);
+}
+
 std::string sensor_process_name(const std::vector<int>& sensor_ids) {
   std::string name = "sensor_node[";
   for (std::size_t i = 0; i < sensor_ids.size(); ++i) name += (i ? "," : "") + std::to_string(sensor_ids[i]);
@@ -140,8 +150,13 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
     plan.children.push_back({{"channel_emulator", executable_of("channel_emulator"), common_args(in)}, false});
   if (in.roles.estimator) {
     auto args = common_args(in);
-    args.insert(args.end(), {"--resume-from", in.checkpoint_file});
+    args.insert(args.end(), {"--resume-from", in.checkpoint_file, "--ownership-strength",
+                             std::to_string(estimator_ownership_strength(0))});
     plan.children.push_back({{"estimator_node", executable_of("estimator_node"), args}, true});
+    if (in.estimator_standby) {
+      set_ownership_strength(args, estimator_ownership_strength(1));
+      plan.children.push_back({{"estimator_node[standby]", executable_of("estimator_node"), args}, true});
+    }
   }
   plan.sensor_groups = sensor_process_groups(in.roles.sensor_ids, in.sensors_per_process);
   for (const auto& group : plan.sensor_groups) {
@@ -156,6 +171,7 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
     auto args = common_args(in);
     // This host's sensor processes and this launch read the truth: counted before their
     // presence arrives (presence adds other hosts' launches and recorders).
+    if (in.estimator_standby) args.insert(args.end(), {"--tick-readers", "2"});
     args.insert(args.end(), {"--wait-for-presence", "--truth-readers", std::to_string(plan.sensor_groups.size() + 1),
                              "--startup-wait-ms", std::to_string(static_cast<long long>(in.ready_timeout_s * 1000.0))});
     plan.children.push_back({{"plant_node", executable_of("plant_node"), args, /*critical=*/true}, false});

@@ -62,12 +62,20 @@ struct LaunchPlanInputs {
   int sensors_per_process = 1;
   int sensor_nice = 0;
   double ready_timeout_s = 30.0;  // the plant's wait for the whole network
+  bool estimator_standby = false;  // a second, hot-standby estimator (--standby)
 };
 
 struct PlannedChild {
   ChildSpec spec;
   bool estimator = false;  // resumes from the checkpoint file when restarted
 };
+
+/// Ownership strength of the estimator started `generation`-th (0: the primary, 1: a standby,
+/// then each restart): every later one is weaker, so a restarted estimator comes back as the
+/// standby of the one that took over, never taking the plant back from it.
+std::uint32_t estimator_ownership_strength(int generation);
+/// Set the value of `--ownership-strength` in an estimator's argv.
+void set_ownership_strength(std::vector<std::string>& args, std::uint32_t strength);
 
 struct LaunchPlan {
   std::vector<std::vector<int>> sensor_groups;  // sensor ids per sensor process

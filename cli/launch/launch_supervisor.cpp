@@ -68,7 +68,7 @@ Supervisor::Supervisor(SupervisorOptions options) : options_(options) {}
 
 Supervisor::~Supervisor() { stop_all(); }
 
-SupervisorEvent Supervisor::start(ChildSpec spec, std::function<void()> before_restart) {
+SupervisorEvent Supervisor::start(ChildSpec spec, std::function<void(ChildSpec&)> before_restart) {
   Child child;
   child.spec = std::move(spec);
   child.before_restart = std::move(before_restart);
@@ -204,7 +204,7 @@ std::vector<SupervisorEvent> Supervisor::poll(Clock::time_point now) {
     for (auto& child : children_) {
       if (child.pid <= 0 && child.restart_at && *child.restart_at <= now) {
         child.restart_at.reset();
-        if (child.before_restart) child.before_restart();
+        if (child.before_restart) child.before_restart(child.spec);
         events.push_back(spawn(child));
       }
     }
@@ -249,7 +249,8 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
 
 std::vector<Supervisor::ChildStatus> Supervisor::children() const {
   std::vector<ChildStatus> out;
-  for (const auto& child : children_) out.push_back({child.spec.name, child.pid, child.pid > 0, child.restarts});
+  for (const auto& child : children_)
+    out.push_back({child.spec.name, child.pid, child.pid > 0, child.restarts, child.restart_at.has_value()});
   return out;
 }
 

@@ -71,7 +71,7 @@ class Supervisor {
   /// Spawn a child now. Returns the event (started or start_failed). `before_restart` runs
   /// before each restart (not the first start), e.g. to write the checkpoint a restarted
   /// estimator resumes from.
-  SupervisorEvent start(ChildSpec spec, std::function<void()> before_restart = {});
+  SupervisorEvent start(ChildSpec spec, std::function<void(ChildSpec&)> before_restart = {});
 
   /// Reap children that ended, apply the policy, start due restarts. Never blocks.
   std::vector<SupervisorEvent> poll(Clock::time_point now = Clock::now());
@@ -95,6 +95,7 @@ class Supervisor {
     pid_t pid = -1;  // -1 when not running
     bool running = false;
     int restarts = 0;
+    bool restart_pending = false;  // dead, to be started again after its back-off
   };
   /// Every child started so far, in start order.
   std::vector<ChildStatus> children() const;
@@ -106,7 +107,7 @@ class Supervisor {
  private:
   struct Child {
     ChildSpec spec;
-    std::function<void()> before_restart;
+    std::function<void(ChildSpec&)> before_restart;  // may change the next life's argv
     pid_t pid = -1;  // -1 when not running
     int restarts = 0;
     std::optional<Clock::time_point> restart_at;

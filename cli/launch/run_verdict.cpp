@@ -1,6 +1,7 @@
 #include "run_verdict.hpp"
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <nlohmann/json.hpp>
 
@@ -30,7 +31,11 @@ void add_snapshot_facts(const LiveSnapshot& s, RunFacts& f) {
 
 std::optional<std::string> incomplete_run(const RunFacts& f) {
   if (f.end == RunEnd::process_failed || f.end == RunEnd::recording_failed) return std::nullopt;
-  if (f.estimates == 0 && f.ran_for_s >= 5) return "no estimate arrived during the run: the network never ran";
+  if (f.estimates == 0) {
+    char ran[32];
+    std::snprintf(ran, sizeof ran, "%.1f", f.ran_for_s);
+    return std::string("no estimate arrived during the run (") + ran + " s): the network never got ready";
+  }
   if (f.estimates >= 10 && !f.silent_sensors.empty()) {
     std::string ids;
     for (int id : f.silent_sensors) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
@@ -42,11 +47,18 @@ std::optional<std::string> incomplete_run(const RunFacts& f) {
   return std::nullopt;
 }
 
+std::string diverged_text(const RunFacts& f) {
+  if (!f.diverged) return {};
+  return *f.diverged + (f.outages_before.empty() ? std::string("; no process of the loop stalled before it")
+                                                 : "; before it: " + f.outages_before);
+}
+
 RunVerdict judge_run(const RunFacts& f) {
   RunVerdict v;
   if (f.end == RunEnd::process_failed || f.end == RunEnd::recording_failed) v.failure = f.failure;
+  else if (f.diverged && !f.allow_divergence) v.failure = diverged_text(f);
   else v.failure = incomplete_run(f);
-  v.summary_end = v.failure ? "failure: " + *v.failure : end_text(f);
+  v.summary_end = v.failure ? "failure: " + *v.failure : f.diverged ? diverged_text(f) + " (allowed)" : end_text(f);
   v.exit = v.failure ? ExitCode::run_failed : ExitCode::ok;
   return v;
 }

@@ -33,6 +33,11 @@ struct RunFacts {
   std::vector<int> silent_sensors;      // links whose sensor never sent a sample to the channel
   bool all_links_drop_everything = false;  // then an estimate without samples is right
   double ran_for_s = 0.0;
+  /// The plant's word that the closed loop left plant.state_bound (its ended presence), and the
+  /// outages of the loop's processes just before (OutageWatch; "" when none was seen).
+  std::optional<std::string> diverged;
+  std::string outages_before;
+  bool allow_divergence = false;  // --allow-divergence: a run started to show an unstable loop
 };
 
 /// The end as a person reads it: "duration reached", "signal", who ended the run, "failure".
@@ -43,6 +48,9 @@ std::string end_text(const RunFacts& facts);
 /// fails loudly rather than ending "ok" (judged once the run had time: 10 estimates).
 std::optional<std::string> incomplete_run(const RunFacts& facts);
 
+/// A diverged closed loop as a person reads it: the plant's words and the outages before it.
+std::string diverged_text(const RunFacts& facts);
+
 /// The facts of a snapshot: silent sensors, whether every link drops every sample.
 void add_snapshot_facts(const LiveSnapshot& snapshot, RunFacts& facts);
 
@@ -52,7 +60,8 @@ struct RunVerdict {
   std::optional<std::string> failure;    // why the run failed (exit run_failed)
 };
 
-/// The verdict before the checks: a failed run keeps its own failure, then an incomplete one.
+/// The verdict before the checks: a failed run keeps its own failure, then a closed loop that
+/// diverged (unless allowed), then an incomplete one.
 RunVerdict judge_run(const RunFacts& facts);
 
 /// The end of a run that asked for checks or a summary: the checks' table on `table`, the

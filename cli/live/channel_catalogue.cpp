@@ -114,7 +114,10 @@ std::vector<Channel> make_channels() {
                               {"trace_P_pred", {{"type", "number"}}}},
                              {"k", "t", "x_hat", "P", "fused", "state", "trace_P", "trace_P_pred"})});
   c.push_back({ChannelId::truth, "netkf/truth", "netkf.wire.Truth",
-               schema_object({{"k", {{"type", "integer"}}}, {"t", {{"type", "number"}}}, {"x", number_array()}},
+               schema_object({{"k", {{"type", "integer"}}},
+                              {"t", {{"type", "number"}}},
+                              {"x", number_array()},
+                              {"u", number_array()}},
                              {"k", "t", "x"})});
   const json status_props = link_status_schema_properties(link_props);
   c.push_back({ChannelId::link_status, "netkf/link/status", "netkf.wire.LinkStatus",
@@ -278,7 +281,11 @@ json estimate_message(const Estimate& e) {
               {"trace_P_pred", number_or_null(e.trace_P_pred)}};
 }
 
-json truth_message(const TruthRecord& t) { return json{{"k", t.k}, {"t", t.t}, {"x", t.x}}; }
+json truth_message(const TruthRecord& t) {
+  json j{{"k", t.k}, {"t", t.t}, {"x", t.x}};
+  if (!t.u.empty()) j["u"] = t.u;  // closed loop: the input u_{k-1} the plant applied to produce x_k
+  return j;
+}
 
 json link_status_json(const LinkStatusRecord& l) {
   json j = link_json(l.link);

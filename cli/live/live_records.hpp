@@ -18,6 +18,7 @@ struct TruthRecord {
   std::int64_t k = 0;
   double t = 0.0;
   std::vector<double> x;
+  std::vector<double> u;  // closed loop: the input u_{k-1} the plant applied to produce x_k (else empty)
 };
 
 /// The estimator's output for period k is the core type `netkf::Estimate` (netkf/estimate.hpp).

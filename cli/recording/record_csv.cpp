@@ -1,7 +1,9 @@
 #include "record_csv.hpp"
 
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <sstream>
 
 #include "period_join.hpp"
@@ -9,8 +11,7 @@
 namespace netkf::cli {
 
 namespace {
-// A period whose partner record never comes (recording started mid-period, or a
-// process restarted) is dropped after this many newer periods, bounding memory.
+// A sample's period whose estimate never comes is dropped after this many newer periods.
 constexpr std::int64_t kJoinWindow = PeriodJoin::kWindow;
 }  // namespace
 
@@ -22,10 +23,10 @@ std::string format_double(double value) {
   return buf;
 }
 
-PeriodCsvRecorder::PeriodCsvRecorder(int state_dim, int max_delay_periods)
-    : n_(state_dim), max_delay_periods_(max_delay_periods) {}
+PeriodCsvRecorder::PeriodCsvRecorder(int state_dim, int max_delay_periods, int input_dim)
+    : n_(state_dim), max_delay_periods_(max_delay_periods), m_(input_dim) {}
 
-std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods) {
+std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods, int input_dim) {
   std::string h = "k,t";
   for (int i = 0; i < state_dim; ++i) h += ",x" + std::to_string(i);
   for (int i = 0; i < state_dim; ++i) h += ",xhat" + std::to_string(i);
@@ -35,16 +36,19 @@ std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods) {
     for (int i = 0; i < state_dim; ++i) h += ",xhat_final" + std::to_string(i);
     h += ",trace_P_final,fused_final";
   }
+  for (int i = 0; i < input_dim; ++i) h += ",u" + std::to_string(i);
   return h;
 }
 
 void PeriodCsvRecorder::add_truth(const TruthRecord& truth) {
-  if (static_cast<int>(truth.x.size()) != n_) {
+  if (static_cast<int>(truth.x.size()) != n_ || (m_ > 0 && static_cast<int>(truth.u.size()) != m_)) {
     ++rejected_;
     return;
   }
+  if (last_written_ && truth.k <= *last_written_) return;  // its row is written (a duplicate)
   truth_[truth.k] = truth;
-  try_complete(truth.k);
+  newest_truth_ = std::max(newest_truth_.value_or(truth.k), truth.k);
+  emit(false);
 }
 
 void PeriodCsvRecorder::add_estimate(const Estimate& estimate) {
@@ -53,6 +57,7 @@ void PeriodCsvRecorder::add_estimate(const Estimate& estimate) {
     return;
   }
   const auto k = static_cast<std::int64_t>(estimate.k);
+  if (last_written_ && k <= *last_written_) return;  // after its row was written without it
   if (max_delay_periods_ == 0) {
     estimates_[k] = estimate;
   } else {
@@ -64,7 +69,7 @@ void PeriodCsvRecorder::add_estimate(const Estimate& estimate) {
     if (f == finals_.end()) finals_.emplace(k, estimate);
     else if (estimate.revision >= f->second.revision) f->second = estimate;
   }
-  try_complete(k);
+  emit(false);
 }
 
 namespace {
@@ -73,66 +78,68 @@ void write_fused(std::ostream& row, const std::vector<int>& fused) {
 }
 }  // namespace
 
-bool PeriodCsvRecorder::write_row(std::int64_t k) {
-  auto t = truth_.find(k);
-  auto e = estimates_.find(k);
-  if (t == truth_.end() || e == estimates_.end()) return false;
+void PeriodCsvRecorder::emit(bool finishing) {
+  while (!truth_.empty() || !estimates_.empty() || !finals_.empty()) {
+    std::int64_t k = std::numeric_limits<std::int64_t>::max();
+    if (!truth_.empty()) k = std::min(k, truth_.begin()->first);
+    if (!estimates_.empty()) k = std::min(k, estimates_.begin()->first);
+    if (!finals_.empty()) k = std::min(k, finals_.begin()->first);
+    const auto t = truth_.find(k);
+    if (t == truth_.end()) {
+      // The plant publishes its periods in order: once a newer one is here, k's truth is lost
+      // (or the recorder joined after it).
+      if (!finishing && (!newest_truth_ || *newest_truth_ < k)) return;
+      estimates_.erase(k);
+      finals_.erase(k);
+      continue;
+    }
+    const auto e = estimates_.find(k);
+    const bool final = e != estimates_.end() &&
+                       (max_delay_periods_ == 0 || finishing || newest_in_time_.value_or(k) >= k + max_delay_periods_ + 1);
+    if (!final && !finishing && *newest_truth_ < k + kGiveUpPeriods) return;
+    write_row(k, t->second, e != estimates_.end() ? &e->second : nullptr);
+    truth_.erase(t);
+    estimates_.erase(k);
+    finals_.erase(k);
+    last_written_ = k;
+  }
+}
+
+void PeriodCsvRecorder::write_row(std::int64_t k, const TruthRecord& truth, const Estimate* e) {
   std::ostringstream row;
   // t is the plant's time of period k (the truth's clock).
-  row << k << ',' << format_double(t->second.t);
-  for (double v : t->second.x) row << ',' << format_double(v);
-  for (double v : e->second.x_hat) row << ',' << format_double(v);
-  row << ',' << format_double(e->second.trace_P()) << ',';
-  write_fused(row, e->second.fused);
-  row << ',' << e->second.late << ',' << to_string(e->second.state) << ',';
-  // Which samples `late` counts: each is for an earlier period, so a reader can tell which
-  // periods lost a sample to its deadline (docs/recording.md).
-  const Estimate& late = e->second;
-  for (std::size_t i = 0; i < late.late_sensors.size() && i < late.late_periods.size(); ++i)
-    row << (i ? ";" : "") << late.late_periods[i] << ':' << late.late_sensors[i];
-  if (max_delay_periods_ > 0) {
-    auto f = finals_.find(k);
-    const Estimate& fin = f != finals_.end() ? f->second : e->second;
-    row << ',' << fin.revision;
-    for (double v : fin.x_hat) row << ',' << format_double(v);
-    row << ',' << format_double(fin.trace_P()) << ',';
-    write_fused(row, fin.fused);
-    if (f != finals_.end()) finals_.erase(f);
+  row << k << ',' << format_double(truth.t);
+  for (double v : truth.x) row << ',' << format_double(v);
+  if (e == nullptr) {
+    // No estimate: empty estimate cells, state `none`.
+    for (int i = 0; i < n_; ++i) row << ',';
+    row << ",,,,none,";
+    if (max_delay_periods_ > 0) row << std::string(static_cast<std::size_t>(n_) + 3, ',');
+    ++rows_without_estimate_;
+  } else {
+    for (double v : e->x_hat) row << ',' << format_double(v);
+    row << ',' << format_double(e->trace_P()) << ',';
+    write_fused(row, e->fused);
+    row << ',' << e->late << ',' << to_string(e->state) << ',';
+    // Which samples `late` counts: each is for an earlier period, so a reader can tell which
+    // periods lost a sample to its deadline (docs/recording.md).
+    for (std::size_t i = 0; i < e->late_sensors.size() && i < e->late_periods.size(); ++i)
+      row << (i ? ";" : "") << e->late_periods[i] << ':' << e->late_sensors[i];
+    if (max_delay_periods_ > 0) {
+      auto f = finals_.find(k);
+      const Estimate& fin = f != finals_.end() ? f->second : *e;
+      row << ',' << fin.revision;
+      for (double v : fin.x_hat) row << ',' << format_double(v);
+      row << ',' << format_double(fin.trace_P()) << ',';
+      write_fused(row, fin.fused);
+    }
   }
+  for (double v : truth.u) row << ',' << format_double(v);
   row << '\n';
   ready_[k] = row.str();
-  truth_.erase(t);
-  estimates_.erase(e);
-  return true;
 }
 
-void PeriodCsvRecorder::complete_final() {
-  if (!newest_in_time_) return;
-  // Period k is final once the in-time estimate of k + D + 1 is out: k's late samples are taken
-  // until k + D is fused or its deadline passes, whichever is later (estimator_core.hpp), and
-  // k + D + 1 is fused after that (its tick comes a period after k + D's).
-  const std::int64_t last_final = *newest_in_time_ - max_delay_periods_ - 1;
-  for (auto it = estimates_.begin(); it != estimates_.end() && it->first <= last_final;) {
-    const std::int64_t k = (it++)->first;
-    write_row(k);
-  }
-}
-
-void PeriodCsvRecorder::finish_pending() {
-  for (auto it = estimates_.begin(); it != estimates_.end();) {
-    const std::int64_t k = (it++)->first;
-    write_row(k);
-  }
-}
-
-void PeriodCsvRecorder::try_complete(std::int64_t k) {
-  if (max_delay_periods_ == 0) write_row(k);
-  else complete_final();
-  // Forget unmatched old halves.
-  while (!truth_.empty() && truth_.begin()->first < k - kJoinWindow) truth_.erase(truth_.begin());
-  while (!estimates_.empty() && estimates_.begin()->first < k - kJoinWindow) estimates_.erase(estimates_.begin());
-  while (!finals_.empty() && finals_.begin()->first < k - kJoinWindow) finals_.erase(finals_.begin());
-}
+void PeriodCsvRecorder::finish_pending() { emit(true); }
 
 std::size_t PeriodCsvRecorder::flush(std::ostream& out) {
   const std::size_t n = ready_.size();

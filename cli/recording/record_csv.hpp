@@ -17,42 +17,56 @@ namespace netkf::cli {
 /// Doubles with 17 significant digits: a reader gets back the exact double.
 std::string format_double(double value);
 
-/// `k,t,x0..x{n-1},xhat0..xhat{n-1},trace_P,fused,late,state,late_samples`, one row per period,
-/// written when both the truth and the estimate of k are known.
-/// With late_policy fuse_within (max_delay_periods D > 0) the row keeps the first (in-time,
-/// revision 0) estimate in those columns and appends the final one:
-/// `...,state,revisions,xhat_final0..xhat_final{n-1},trace_P_final,fused_final`; the row then
-/// waits until k is final (the in-time estimate of k + D + 1 has arrived, after which k is not
-/// revised) or the run ends (finish_pending()).
+/// `k,t,x0..x{n-1},xhat0..xhat{n-1},trace_P,fused,late,state,late_samples`, one row per period
+/// the plant ran, in order of k. With late_policy fuse_within (max_delay_periods D > 0) the row
+/// keeps the first (in-time, revision 0) estimate in those columns and appends the final one:
+/// `...,late_samples,revisions,xhat_final0..xhat_final{n-1},trace_P_final,fused_final`. A closed
+/// loop (input_dim m > 0) appends `u0..u{m-1}`: the input u_{k-1} the plant applied to produce
+/// x_k (zeros at k = 0, and where no input arrived in time).
+/// A row waits until the truth and the estimate of k are known (D > 0: until k is final, i.e.
+/// the in-time estimate of k + D + 1 has arrived, after which k is not revised). A period whose
+/// estimate never comes (the estimator was stopped, or the run ended first) still gets its
+/// truth: a row with the estimate's cells empty and state `none`, written once the truth is
+/// kGiveUpPeriods periods old or the run ends (finish_pending()). A period without truth (the
+/// recorder joined late) is left out.
 class PeriodCsvRecorder {
  public:
-  explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0);
-  static std::string header(int state_dim, int max_delay_periods = 0);
+  /// How many periods a row waits for its estimate before it is written without one: longer
+  /// than an estimator restart or stall, after which the missed periods' estimates do come.
+  static constexpr std::int64_t kGiveUpPeriods = 2000;
+
+  explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0, int input_dim = 0);
+  static std::string header(int state_dim, int max_delay_periods = 0, int input_dim = 0);
 
   void add_truth(const TruthRecord& truth);
   void add_estimate(const Estimate& estimate);
   /// Append the completed rows (in order of k) to `out` and forget them.
   std::size_t flush(std::ostream& out);
-  /// The run ended: the rows still waiting for their final estimate are complete with the last one.
+  /// The run ended: every period still waiting is written (with its last estimate, or none).
   void finish_pending();
 
   std::uint64_t rows_written() const { return rows_written_; }
   /// Records whose vectors had the wrong size (counted, not written).
   std::uint64_t rejected() const { return rejected_; }
+  /// Rows written without an estimate (state `none`).
+  std::uint64_t rows_without_estimate() const { return rows_without_estimate_; }
 
  private:
-  void try_complete(std::int64_t k);
-  void complete_final();  // D > 0: rows whose period is final
-  bool write_row(std::int64_t k);
+  void emit(bool finishing);  // the rows that can be written now, in order of k
+  void write_row(std::int64_t k, const TruthRecord& truth, const Estimate* estimate);
   int n_;
   int max_delay_periods_;
+  int m_;
   std::map<std::int64_t, TruthRecord> truth_;
   std::map<std::int64_t, Estimate> estimates_;  // the first (in-time) estimate of k
   std::map<std::int64_t, Estimate> finals_;     // D > 0: the newest revision of k
-  std::optional<std::int64_t> newest_in_time_;  // D > 0
+  std::optional<std::int64_t> newest_truth_;
+  std::optional<std::int64_t> newest_in_time_;
+  std::optional<std::int64_t> last_written_;    // rows are written in order: older records come too late
   std::map<std::int64_t, std::string> ready_;
   std::uint64_t rows_written_ = 0;
   std::uint64_t rejected_ = 0;
+  std::uint64_t rows_without_estimate_ = 0;
 };
 
 /// Every delivered measurement with whether the estimator fused it:

@@ -15,6 +15,9 @@ int max_measurement_dim(const Scenario& s) {
   return m;
 }
 
+/// The plant's input dimension m (0 without control): a closed loop's rows carry u.
+int input_dim(const Scenario& s) { return s.plant.B ? static_cast<int>(s.plant.B->cols()) : 0; }
+
 void open_or_fail(std::ofstream& out, const std::string& file, std::ios::openmode mode) {
   out.open(file, mode);
   if (!out) fail(ExitCode::bad_usage, "cannot write " + file + ": " + std::strerror(errno));
@@ -24,7 +27,7 @@ void open_or_fail(std::ofstream& out, const std::string& file, std::ios::openmod
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
                      const Scenario& scenario)
-    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods()),
+    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario)),
       samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
       periods_file_(periods_file),
       samples_file_(samples_file) {
@@ -34,7 +37,8 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
     mcap_out_.flush();
   } else if (periods_file) {
     open_or_fail(periods_out_, *periods_file, std::ios::trunc);
-    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods())
+    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
+                                              input_dim(scenario))
                  << "\n";
   }
   if (periods_file) {

@@ -192,7 +192,9 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   std::vector<std::string> args = {config.netkf_exe, "launch", yaml.string(), "--duration", duration,
                                    "--summary", c.summary.string(), "--domain",
                                    std::to_string(live_domain(config, slot)), "--status-interval", "0",
-                                   "--dashboard", "off"};  // no port for parallel runs to fight over
+                                   "--dashboard", "off",  // no port for parallel runs to fight over
+                                   // A point beyond the critical rate diverges: a result, not a failed run.
+                                   "--allow-divergence"};
   const std::string log = run_file(config, run, ".log").string();
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());

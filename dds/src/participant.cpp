@@ -320,12 +320,24 @@ void apply_common(Q& q, const TopicQos& qos) {
   q.resource_limits().max_samples = qos.depth * qos.instances;
   if (qos.size_payloads_by_sample)
     q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+  // Writers and readers must agree on the kind (a SHARED reader does not match an EXCLUSIVE
+  // writer): another vendor's reader asks for EXCLUSIVE too (docs/interop.md).
+  q.ownership().kind = qos.exclusive_ownership ? fdds::EXCLUSIVE_OWNERSHIP_QOS : fdds::SHARED_OWNERSHIP_QOS;
+  if (qos.exclusive_ownership) {
+    // Fast DDS 2.9 tells a reader that a writer lost its liveliness only when the reader asks for
+    // the same kind and lease as it tracks the writer with (WLP::sub_liveliness_changed): readers
+    // and writers alike use kOwnershipLease, MANUAL_BY_TOPIC (asserted by each write and by
+    // Writer::assert_liveliness).
+    q.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+    q.liveliness().lease_duration = to_dds_duration(kOwnershipLease);
+  }
 }
 }  // namespace
 
-fdds::DataWriterQos writer_qos(const TopicQos& qos) {
+fdds::DataWriterQos writer_qos(const TopicQos& qos, const WriterOptions& options) {
   fdds::DataWriterQos q = fdds::DATAWRITER_QOS_DEFAULT;
   apply_common(q, qos);
+  if (qos.exclusive_ownership) q.ownership_strength().value = options.ownership_strength;
   q.reliable_writer_qos().times.heartbeatPeriod = to_dds_duration(kHeartbeatPeriod);
   q.reliable_writer_qos().times.nackSupressionDuration = to_dds_duration(kNackSuppression);
   return q;

@@ -2,6 +2,7 @@
 
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <algorithm>
 #include <chrono>
 #include <mutex>
 #include <vector>
@@ -17,6 +18,7 @@ namespace netkf::nodes {
 
 namespace wire = netkf::wire;
 
+
 class EstimatorApp::Impl {
  public:
   Impl(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options)
@@ -25,8 +27,10 @@ class EstimatorApp::Impl {
         deadline_timer_(io_),
         status_timer_(io_),
         status_period_(std::chrono::milliseconds(options.status_period_ms)),
-        estimate_(participant, dds::topics::estimate),
-        control_(participant, dds::topics::control_input) {
+        liveliness_timer_(io_),
+        estimate_(participant, dds::topics::estimate, dds::WriterOptions{.ownership_strength = options.ownership_strength}),
+        control_(participant, dds::topics::control_input,
+                 dds::WriterOptions{.ownership_strength = options.ownership_strength}) {
     if (options.resume) {
       resumed_ = true;
       core_.resume(*options.resume);
@@ -47,6 +51,7 @@ class EstimatorApp::Impl {
     });
     presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, dds::scenario_hash(scenario));
     schedule_status();
+    schedule_liveliness();
   }
 
   // A restarted estimator publishes the periods it missed at once, as soon as the transient-local
@@ -54,11 +59,26 @@ class EstimatorApp::Impl {
   // by then loses them (e2e fault_estimator once recorded 15 periods too few). So, before the
   // first tick is handled, wait (bounded) until some reader has matched. Ticks and samples that
   // arrive meanwhile wait in the queue and the core; nothing is lost.
-  void wait_for_estimate_readers() {
+  //
+  // In a closed loop the plant's control reader must have matched too: an input written before
+  // that is lost (the topic is volatile), and the plant runs open loop until the first input
+  // reaches it. Under load the control writer matched last, up to a second after the estimate's
+  // readers, so a restarted estimator published inputs into the void while the plant's unstable
+  // modes grew (issue: "a killed estimator must not cost the plant"); waiting here costs nothing,
+  // since no input of this life could reach the plant earlier anyway.
+  void wait_for_readers_after_restart() {
     constexpr auto kWait = std::chrono::seconds(5);
+    const auto started = std::chrono::steady_clock::now();
     if (!estimate_.wait_for_matched(1, kWait))
       spdlog::warn("restart: no reader of {} matched within {} s; publishing anyway", estimate_.topic_name(),
                    kWait.count());
+    const auto estimate_matched = std::chrono::steady_clock::now();
+    if (input_dim_ > 0 && !control_.wait_for_matched(1, kWait))
+      spdlog::warn("restart: the plant's control reader ({}) did not match within {} s; publishing anyway",
+                   control_.topic_name(), kWait.count());
+    const auto ms = [&](auto t) { return std::chrono::duration<double, std::milli>(t - started).count(); };
+    spdlog::info("restart: estimate readers matched after {:.0f} ms, the plant's control reader after {:.0f} ms",
+                 ms(estimate_matched), ms(std::chrono::steady_clock::now()));
   }
 
   ~Impl() {
@@ -69,7 +89,7 @@ class EstimatorApp::Impl {
   }
 
   void run() {
-    if (resumed_) wait_for_estimate_readers();
+    if (resumed_) wait_for_readers_after_restart();
     work_.emplace(io_.get_executor());
     io_.run();
   }
@@ -78,6 +98,7 @@ class EstimatorApp::Impl {
     boost::asio::post(io_, [this] {
       deadline_timer_.cancel();
       status_timer_.cancel();
+      liveliness_timer_.cancel();
       work_.reset();
       io_.stop();
     });
@@ -220,6 +241,20 @@ class EstimatorApp::Impl {
     }
   }
 
+  // The estimate and control writers' liveliness, asserted from the io thread (the one that
+  // handles ticks and deadlines): an estimator whose io thread stops (killed, stopped, hung)
+  // loses its writers after dds::kOwnershipLease and a standby takes over. Writes assert it too;
+  // this covers periods longer than the lease.
+  void schedule_liveliness() {
+    liveliness_timer_.expires_after(dds::kOwnershipLease / 4);
+    liveliness_timer_.async_wait([this](const boost::system::error_code& ec) {
+      if (ec) return;
+      estimate_.assert_liveliness();
+      control_.assert_liveliness();
+      schedule_liveliness();
+    });
+  }
+
   void schedule_status() {
     status_timer_.expires_after(status_period_);
     status_timer_.async_wait([this](const boost::system::error_code& ec) {
@@ -238,6 +273,7 @@ class EstimatorApp::Impl {
   boost::asio::steady_timer deadline_timer_;
   boost::asio::steady_timer status_timer_;
   std::chrono::milliseconds status_period_;
+  boost::asio::steady_timer liveliness_timer_;
   std::optional<std::int64_t> armed_for_;
   std::uint64_t published_ = 0;
   std::uint64_t revisions_ = 0;  // of published_

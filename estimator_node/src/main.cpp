@@ -26,6 +26,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--resume-from", resume_from,
                  "Checkpoint to continue from when the file exists (a restart; `netkf launch` writes it)");
+  app.add_option("--ownership-strength", options.ownership_strength,
+                 "Strength of its estimate and control writers: of several estimators (a hot standby) the plant "
+                 "and every reader take the strongest live one's")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -23,6 +23,10 @@ int main(int argc, char** argv) {
   app.add_option("--truth-readers", options.truth_readers,
                  "Truth readers to wait for before period 0 (default: one per sensor; with sensors grouped "
                  "in processes, one per sensor process; a launcher that also records the truth adds 1)");
+  app.add_option("--tick-readers", options.tick_readers,
+                 "Tick readers (estimators) to wait for before period 0 (2 with a hot standby)")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
   app.add_flag("--wait-for-presence", options.wait_for_presence,
                "Start when netkf/presence shows every sensor, the channel and the estimator of this run (and the "
                "truth has matched every present reader); fail naming the missing after --startup-wait-ms");

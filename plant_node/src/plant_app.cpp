@@ -10,10 +10,12 @@
 #include <string>
 #include <vector>
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/presence.hpp"
+#include "netkf/log_throttle.hpp"
 #include "netkf/nodes/plant_simulator.hpp"
 
 namespace netkf::nodes {
@@ -55,6 +57,7 @@ class PlantApp::Impl {
     boost::asio::post(io_, [this] { wait_for_subscribers(); });
     io_.run();
     presence_->end(not_ready_     ? "not started: " + *not_ready_
+                   : end_detail_  ? *end_detail_
                    : finished_    ? "the run ended"
                                   : "stopped");
     if (not_ready_) throw std::runtime_error(*not_ready_);
@@ -68,13 +71,16 @@ class PlantApp::Impl {
 
   PlantAppStats stats() const {
     const std::lock_guard lock(mutex_);
-    return {sim_.next_period(), sim_.missing_inputs(), sim_.stale_inputs(), finished_};
+    return {sim_.next_period(), sim_.missing_inputs(), sim_.stale_inputs(), finished_, reanchored_, periods_skipped_};
   }
 
   void log_summary() const {
     const auto s = stats();
-    spdlog::info("stepped {} periods; control inputs missing at their step {} (of which arrived late {})", s.periods,
-                 s.missing_inputs, s.stale_inputs);
+    spdlog::info("stepped {} periods; control inputs missing at their step {} (of which arrived late {}){}", s.periods,
+                 s.missing_inputs, s.stale_inputs,
+                 s.clock_reanchored ? fmt::format("; fell behind its clock {} times ({} periods not replayed)",
+                                                  s.clock_reanchored, s.periods_behind)
+                                    : std::string());
   }
 
  private:
@@ -122,7 +128,7 @@ class PlantApp::Impl {
       }
     }
     const bool truth_ok = truth_.matched() >= truth_readers_wanted_;
-    const bool tick_ok = tick_.matched() >= 1;
+    const bool tick_ok = tick_.matched() >= options_.tick_readers;
     if ((!truth_ok || !tick_ok) && std::chrono::steady_clock::now() < startup_deadline_) {
       startup_timer_.expires_after(10ms);
       startup_timer_.async_wait([this](const boost::system::error_code& ec) {
@@ -134,13 +140,13 @@ class PlantApp::Impl {
       not_ready_ = "not started: every process is present, but after " + std::to_string(options_.startup_wait_ms) +
                    " ms the truth has " + std::to_string(truth_.matched()) + " readers (want " +
                    std::to_string(truth_readers_wanted_) + ") and the tick " + std::to_string(tick_.matched()) +
-                   " (want 1)";
+                   " (want " + std::to_string(options_.tick_readers) + ")";
       end();
       return;
     }
     if (!truth_ok || !tick_ok) {
-      spdlog::warn("starting without all subscribers: truth readers {} (want >= {}), tick readers {} (want >= 1)",
-                   truth_.matched(), truth_readers_wanted_, tick_.matched());
+      spdlog::warn("starting without all subscribers: truth readers {} (want >= {}), tick readers {} (want >= {})",
+                   truth_.matched(), truth_readers_wanted_, tick_.matched(), options_.tick_readers);
     } else {
       spdlog::info("subscribers matched: truth readers {}, tick readers {}", truth_.matched(), tick_.matched());
     }
@@ -167,7 +173,25 @@ class PlantApp::Impl {
 
   void schedule() {
     // Absolute deadline: period k fires at start + k T regardless of how long work took.
-    timer_.expires_at(start_ + period_ * static_cast<std::int64_t>(next_period()));
+    const auto k = next_period();
+    auto due = start_ + period_ * static_cast<std::int64_t>(k);
+    const auto now = std::chrono::steady_clock::now();
+    if (now - due > period_) {
+      // More than a period behind (the process was stopped, or starved of CPU): the missed
+      // periods are not replayed back to back, since none of them could get its control input
+      // (the loop needs a period to close). The clock goes on from now, one period per T; the
+      // periods keep their numbers and t_k = k T, so the run is shorter in wall time, not in k.
+      const auto behind = static_cast<std::uint64_t>((now - due) / period_);
+      start_ += now - due;
+      due = now;
+      ++reanchored_;
+      periods_skipped_ += behind;
+      if (const auto left_out = reanchor_log_.allow())
+        spdlog::warn("period {}: the plant's clock was {} periods behind (its process was stopped or starved of "
+                     "CPU); it goes on from now instead of replaying them without control inputs{}",
+                     k, behind, dds::left_out_text(*left_out));
+    }
+    timer_.expires_at(due);
     timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec || stopped_) return;
       on_period();
@@ -203,17 +227,8 @@ class PlantApp::Impl {
                    s.x.lpNorm<Eigen::Infinity>(), missing, stale);
     }
     if (s.bound_exceeded) {
-      if (closed_loop) {
-        spdlog::warn(
-            "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the closed loop went "
-            "unstable (are the links below the critical arrival rate?)",
-            s.k, s.x.lpNorm<Eigen::Infinity>(), state_bound_);
-      } else {
-        spdlog::warn(
-            "run ends at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}; the plant is open-loop "
-            "unstable and the scenario has no control (add plant.B and control to close the loop)",
-            s.k, s.x.lpNorm<Eigen::Infinity>(), state_bound_);
-      }
+      end_detail_ = bound_exceeded_text(s, closed_loop);
+      spdlog::warn("run ends: {}", *end_detail_);
     } else if (max_reached) {
       spdlog::info("run ends after --max-periods {} periods", options_.max_periods);
     }
@@ -227,6 +242,26 @@ class PlantApp::Impl {
     }
     schedule();
   }
+
+  /// Why the run ends at the state bound, as the plant can tell: in a closed loop, whether the
+  /// inputs stopped arriving (the estimator or its path stalled) or arrived and did not hold
+  /// the state (the links, or an outage upstream of the estimator: the launch names it).
+  std::string bound_exceeded_text(const PlantStep& s, bool closed_loop) const {
+    const std::string head = fmt::format("{} at period {}: |x|_inf = {:.4g} exceeds plant.state_bound = {:.4g}",
+                                         closed_loop ? dds::kPlantDiverged : "the open-loop plant left its bound",
+                                         s.k, s.x.lpNorm<Eigen::Infinity>(), state_bound_);
+    if (!closed_loop)
+      return head + "; the plant is open-loop unstable and the scenario has no control (add plant.B and control "
+                    "to close the loop)";
+    if (s.inputs_missing_in_a_row >= kStalledInputs)
+      return head + fmt::format("; no control input arrived for the last {} periods (since period {}): the "
+                                "estimator or its path to the plant stalled",
+                                s.inputs_missing_in_a_row, s.k - s.inputs_missing_in_a_row);
+    return head + "; the control inputs arrived but did not hold the state (links below the critical arrival "
+                  "rate, or samples that stopped reaching the estimator)";
+  }
+  /// Inputs missing in a row that say the controller stalled rather than lost a few inputs.
+  static constexpr std::uint64_t kStalledInputs = 3;
 
   void on_control(const wire::ControlInput& c) {
     try {
@@ -280,6 +315,10 @@ class PlantApp::Impl {
   std::vector<int> sensor_ids_;
   std::optional<dds::PresenceWatcher> presence_watch_;  // with wait_for_presence
   std::optional<std::string> not_ready_;                // why the run did not start
+  std::optional<std::string> end_detail_;               // why the run ended (the state bound)
+  std::uint64_t reanchored_ = 0;                        // times the clock fell behind a period
+  std::uint64_t periods_skipped_ = 0;                   // periods it fell behind in all
+  LogThrottle reanchor_log_;
   std::optional<dds::Reader<wire::ControlInput>> control_;
   std::optional<dds::PresenceAnnouncer> presence_;
 };

@@ -46,8 +46,10 @@ PlantStep PlantSimulator::step() {
     if (B_) {
       if (auto it = inputs_.find(input_k); it != inputs_.end()) {
         u = it->second;
+        missing_in_a_row_ = 0;
       } else {
         ++missing_inputs_;
+        ++missing_in_a_row_;
         s.input_missing = true;
       }
     }
@@ -58,6 +60,7 @@ PlantStep PlantSimulator::step() {
   }
   s.x = x_;
   s.applied_input = u;
+  s.inputs_missing_in_a_row = missing_in_a_row_;
   s.bound_exceeded = !x_.allFinite() || x_.lpNorm<Eigen::Infinity>() > state_bound_;
   ++next_k_;
   return s;

@@ -215,16 +215,31 @@ def netkf(*args, timeout=30):
     return r
 
 
-def read_periods(path, n):
-    """Rows of a --record CSV as dicts with numeric fields; checks the exact header."""
+def read_periods(path, n, m=None, truth_only=False):
+    """Rows of a --record CSV as dicts with numeric fields; checks the exact header. m: the plant's
+    input dimension of a closed loop (its rows end with the applied input u, in "u"); None: as
+    many u columns as the header ends with (u0, u1, ... in order). Rows of
+    periods without an estimate (state `none`: the estimator was stopped, or the run ended first)
+    are left out unless truth_only, which keeps them with "xhat" and "trace_P" None."""
     with open(path) as f:
         reader = csv.reader(f)
         header = next(reader)
+        if m is None:
+            m = 0
+            while "u%d" % m in header:
+                m += 1
         expected = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + \
-            ["trace_P", "fused", "late", "state", "late_samples"]
+            ["trace_P", "fused", "late", "state", "late_samples"] + ["u%d" % i for i in range(m)]
         check(header == expected, "record header is exactly %s" % ",".join(expected))
         rows = []
         for c in reader:
+            u = [float(v) for v in c[len(c) - m:]] if m else []
+            if c[5 + 2 * n] == "none":
+                if truth_only:
+                    rows.append({"k": int(c[0]), "t": float(c[1]), "x": [float(v) for v in c[2:2 + n]],
+                                 "xhat": None, "trace_P": None, "fused": [], "late": 0, "state": "none",
+                                 "late_samples": [], "u": u, "raw": c})
+                continue
             rows.append({
                 "k": int(c[0]), "t": float(c[1]),
                 "x": [float(v) for v in c[2:2 + n]],
@@ -235,6 +250,7 @@ def read_periods(path, n):
                 "state": c[5 + 2 * n],
                 # (k, sensor id) of each sample counted in `late`: each for an earlier period
                 "late_samples": [tuple(int(v) for v in s.split(":")) for s in c[6 + 2 * n].split(";") if s],
+                "u": u,
                 "raw": c,
             })
     return rows
@@ -253,7 +269,11 @@ def all_finite(rows):
         for cell in r["raw"]:
             if cell.lower() in ("nan", "-nan", "inf", "-inf"):
                 return False
-        if not all(math.isfinite(v) for v in r["x"] + r["xhat"] + [r["trace_P"]]):
+        if r["xhat"] is None:
+            if not all(math.isfinite(v) for v in r["x"] + r["u"]):
+                return False
+            continue
+        if not all(math.isfinite(v) for v in r["x"] + r["xhat"] + [r["trace_P"]] + r["u"]):
             return False
     return True
 
@@ -281,6 +301,40 @@ def netkf_processes(domain):
             if a == b"--domain" and argv[i + 1] == str(domain).encode():
                 found.append(int(pid))
     return found
+
+
+def node_pids(domain):
+    """The netkf node processes of this build running on `domain` now (restarted ones included),
+    as {name: pid} with the names the launch gives them: plant_node, channel_emulator,
+    estimator_node (each estimator as "estimator_node@STRENGTH", its --ownership-strength),
+    sensor_node[1,2]."""
+    found = {}
+    for pid in netkf_processes(domain):
+        try:
+            with open("/proc/%d/cmdline" % pid, "rb") as f:
+                argv = [a.decode() for a in f.read().split(b"\0") if a]
+        except OSError:
+            continue
+        name = os.path.basename(argv[0])
+        if name == "sensor_node":
+            ids = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--sensor-id"]
+            name = "sensor_node[%s]" % ",".join(ids)
+        elif name == "estimator_node" and "--ownership-strength" in argv:
+            name += "@" + argv[argv.index("--ownership-strength") + 1]
+        found[name] = pid
+    return found
+
+
+def primary_estimator(domain):
+    """(pid, strength) of the strongest estimator running on `domain`: the one whose inputs the
+    plant applies (exclusive ownership), or None."""
+    best = None
+    for name, pid in node_pids(domain).items():
+        if name.startswith("estimator_node@"):
+            strength = int(name.split("@", 1)[1])
+            if best is None or strength > best[1]:
+                best = (pid, strength)
+    return best
 
 
 def launch_files_dirs(launch_pid):

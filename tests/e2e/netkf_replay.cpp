@@ -84,7 +84,9 @@ int main(int argc, char** argv) {
     if (!std::getline(in, line)) return fail("empty periods file");
     while (std::getline(in, line)) {
       const auto c = split(line, ',');
-      if (static_cast<int>(c.size()) != 2 + 2 * n + 5) return fail("bad periods row: " + line);
+      // (A closed loop's rows end with the applied input u: not read here.)
+      if (static_cast<int>(c.size()) < 2 + 2 * n + 5) return fail("bad periods row: " + line);
+      if (c[5 + 2 * n] == "none") continue;  // a period without an estimate (its truth only)
       Row r;
       for (int i = 0; i < n; ++i) r.xhat.push_back(std::stod(c[2 + n + i]));
       r.trace_P = std::stod(c[2 + 2 * n]);

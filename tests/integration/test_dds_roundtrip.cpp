@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <thread>
 
 #include <fastrtps/utils/IPLocator.h>
 
@@ -139,6 +140,47 @@ TEST(DdsRoundTrip, EstimateConvertsBackToTheSameRecord) {
 TEST(DdsRoundTrip, ControlInput) {
   const auto sent = dds::make_control_input(8, netkf::Vector{{-1.0 / 3.0}});
   EXPECT_EQ(roundtrip(dds::topics::control_input, sent), sent);
+}
+
+// Exclusive ownership (topics.hpp): the estimate and the control input, as a hot standby
+// publishes them. Two writers of different strengths write the same periods; the reader takes
+// only the stronger one's while its liveliness holds (each write asserts it, MANUAL_BY_TOPIC),
+// and the weaker one's once the stronger stopped writing for longer than dds::kOwnershipLease.
+TEST(DdsOwnership, TheStrongestLiveWriterOwnsTheControlInput) {
+  dds::Participant primary_p(options("own-primary")), standby_p(options("own-standby")), plant_p(options("own-plant"));
+  Inbox<wire::ControlInput> inbox;
+  dds::Reader<wire::ControlInput> reader(plant_p, dds::topics::control_input, inbox.callback());
+  dds::Writer<wire::ControlInput> primary(primary_p, dds::topics::control_input,
+                                          dds::WriterOptions{.ownership_strength = 2});
+  dds::Writer<wire::ControlInput> standby(standby_p, dds::topics::control_input,
+                                          dds::WriterOptions{.ownership_strength = 1});
+  ASSERT_TRUE(reader.wait_for_matched(2, 10s));
+  ASSERT_TRUE(primary.wait_for_matched(1, 10s));
+  ASSERT_TRUE(standby.wait_for_matched(1, 10s));
+  // Both write every period; the primary's input is +k, the standby's -k.
+  std::uint64_t k = 0;
+  for (; k < 30; ++k) {
+    primary.write(dds::make_control_input(k, netkf::Vector{{static_cast<double>(k)}}));
+    standby.write(dds::make_control_input(k, netkf::Vector{{-static_cast<double>(k)}}));
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_TRUE(inbox.wait_for(20, 5s));
+  auto got = inbox.take();
+  std::size_t from_primary = 0, from_standby = 0;
+  for (const auto& c : got) (c.u().at(0) > 0 ? from_primary : from_standby) += c.u().at(0) != 0.0;
+  // Until the reader knows both writers alive, a first sample of the standby may pass.
+  EXPECT_GE(from_primary, 20u) << from_standby << " from the standby";
+  EXPECT_LE(from_standby, 2u);
+  // The primary stops (a process killed or stopped): after its lease the standby's inputs pass.
+  for (; k < 60; ++k) {
+    standby.write(dds::make_control_input(k, netkf::Vector{{-static_cast<double>(k)}}));
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_TRUE(inbox.wait_for(20, 5s));
+  got = inbox.take();
+  std::size_t standby_after = 0;
+  for (const auto& c : got) standby_after += c.u().at(0) < 0;
+  EXPECT_GE(standby_after, 20u) << "the standby's inputs did not pass after the primary's lease";
 }
 
 TEST(DdsRoundTrip, LinkControlAndReply) {

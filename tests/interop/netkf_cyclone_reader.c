@@ -251,6 +251,8 @@ int main(int argc, char **argv) {
   dds_qset_reliability(estimate_qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_durability(estimate_qos, DDS_DURABILITY_VOLATILE);
   dds_qset_history(estimate_qos, DDS_HISTORY_KEEP_LAST, 4096);
+  /* netkf/estimate has exclusive ownership (a hot-standby estimator): a shared reader would not match. */
+  dds_qset_ownership(estimate_qos, DDS_OWNERSHIP_EXCLUSIVE);
   dds_qos_t *status_qos = dds_create_qos();
   dds_qset_reliability(status_qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_durability(status_qos, DDS_DURABILITY_TRANSIENT_LOCAL);

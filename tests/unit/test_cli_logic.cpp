@@ -259,7 +259,6 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
   r.add_estimate(e);
   std::ostringstream out;
   EXPECT_EQ(r.flush(out), 0u);  // no truth for k = 5 yet
-  r.add_truth({4, 0.04, {9.0, 9.0}});
   r.add_truth({5, 0.05, {1.0, -2.0}});
   EXPECT_EQ(r.flush(out), 1u);
   EXPECT_EQ(out.str(), "5,0.050000000000000003,1,-2,0.10000000000000001,0.33333333333333331,2.5,1;3,2,ok,3:1;4:1\n");
@@ -268,6 +267,77 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
   // Wrong sizes are counted, not written.
   r.add_truth({6, 0.06, {1.0}});
   EXPECT_EQ(r.rejected(), 1u);
+}
+
+// Every period the plant ran has a row, in order: one whose estimate never came (the estimator
+// was stopped, or the run ended first) is written with empty estimate cells and state `none`,
+// and the rows after it wait for it (a file a reader can take as a time series).
+TEST(PeriodCsv, TruthWithoutEstimateIsARowInOrder) {
+  PeriodCsvRecorder r(1);
+  std::ostringstream out;
+  auto estimate = [](std::uint64_t k, double x) {
+    Estimate e;
+    e.k = k;
+    e.x_hat = Vector{{x}};
+    e.P = Matrix{{1.0}};
+    e.fused = {1};
+    return e;
+  };
+  r.add_truth({0, 0.0, {1.0}});
+  r.add_estimate(estimate(0, 0.5));
+  r.add_truth({1, 0.01, {2.0}});  // its estimate never comes
+  r.add_truth({2, 0.02, {3.0}});
+  r.add_estimate(estimate(2, 2.5));
+  EXPECT_EQ(r.flush(out), 1u);  // period 2 waits for period 1
+  r.add_estimate(estimate(3, 9.0));  // no truth for 3 before the end: left out
+  r.finish_pending();
+  EXPECT_EQ(r.flush(out), 2u);
+  EXPECT_EQ(out.str(), "0,0,1,0.5,1,1,0,ok,\n1,0.01,2,,,,,none,\n2,0.02,3,2.5,1,1,0,ok,\n");
+  EXPECT_EQ(r.rows_without_estimate(), 1u);
+}
+
+// An estimate that arrives after its period was written without one is not written again, and a
+// period waits at most kGiveUpPeriods periods of truth for its estimate.
+TEST(PeriodCsv, GivesUpOnAnEstimateAfterAWindowOfPeriods) {
+  PeriodCsvRecorder r(1);
+  std::ostringstream out;
+  for (std::int64_t k = 0; k <= PeriodCsvRecorder::kGiveUpPeriods; ++k) r.add_truth({k, 0.01 * k, {1.0}});
+  EXPECT_EQ(r.flush(out), 1u);  // period 0, without its estimate
+  Estimate e;
+  e.k = 0;
+  e.x_hat = Vector{{0.5}};
+  e.P = Matrix{{1.0}};
+  r.add_estimate(e);
+  EXPECT_EQ(r.flush(out), 0u);
+  EXPECT_EQ(out.str(), "0,0,1,,,,,none,\n");
+}
+
+// A closed loop's rows end with the input the plant applied to produce x_k.
+TEST(PeriodCsv, ClosedLoopRowsCarryTheAppliedInput) {
+  EXPECT_EQ(PeriodCsvRecorder::header(1, 0, 2), "k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,u1");
+  EXPECT_EQ(PeriodCsvRecorder::header(1, 1, 1),
+            "k,t,x0,xhat0,trace_P,fused,late,state,late_samples,revisions,xhat_final0,trace_P_final,fused_final,u0");
+  PeriodCsvRecorder r(1, 0, 2);
+  std::ostringstream out;
+  r.add_truth({0, 0.0, {1.0}, {0.0, 0.0}});
+  r.add_truth({1, 0.01, {2.0}, {-0.5, 0.25}});
+  r.add_truth({2, 0.02, {2.0}, {1.0}});  // wrong input size: counted, not written
+  Estimate e;
+  e.k = 1;
+  e.x_hat = Vector{{1.5}};
+  e.P = Matrix{{1.0}};
+  r.add_estimate(e);
+  r.finish_pending();
+  EXPECT_EQ(r.flush(out), 2u);
+  EXPECT_EQ(out.str(), "0,0,1,,,,,none,,0,0\n1,0.01,2,1.5,1,,0,ok,,-0.5,0.25\n");
+  EXPECT_EQ(r.rejected(), 1u);
+  // A truth-only row of a fuse_within recording keeps every column.
+  PeriodCsvRecorder f(1, 1, 1);
+  f.add_truth({0, 0.0, {1.0}, {0.0}});
+  f.finish_pending();
+  std::ostringstream fout;
+  f.flush(fout);
+  EXPECT_EQ(fout.str(), "0,0,1,,,,,none,,,,,,0\n");
 }
 
 TEST(PeriodCsv, EmptyFusedSetIsAnEmptyCell) {

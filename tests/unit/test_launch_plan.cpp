@@ -6,7 +6,14 @@
 #include <algorithm>
 #include <sstream>
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <thread>
+
 #include "launch_plan.hpp"
+#include "outage_watch.hpp"
 #include "run_verdict.hpp"
 
 namespace netkf::cli {
@@ -76,6 +83,28 @@ TEST(LaunchPlan, OptionalNetworkFlagsReachEveryChild) {
     EXPECT_EQ(value_of(c.spec.args, "--dds-profile"), "p.xml") << c.spec.name;
     EXPECT_EQ(value_of(c.spec.args, "--secure"), "/etc/netkf/secure") << c.spec.name;
   }
+}
+
+// --standby: a second estimator, weaker, with the same checkpoint; the plant waits for both to
+// read its ticks; every later estimator (a restart) is weaker than all before it.
+TEST(LaunchPlan, AStandbyEstimatorIsWeakerAndThePlantWaitsForBoth) {
+  auto in = inputs({1, 2});
+  in.estimator_standby = true;
+  const auto plan = plan_launch(in, identity);
+  EXPECT_EQ(names(plan), (std::vector<std::string>{"channel_emulator", "estimator_node", "estimator_node[standby]",
+                                                   "sensor_node[1]", "sensor_node[2]", "plant_node"}));
+  const auto& primary = plan.children[1].spec;
+  const auto& standby = plan.children[2].spec;
+  EXPECT_TRUE(plan.children[1].estimator && plan.children[2].estimator);
+  EXPECT_EQ(value_of(primary.args, "--ownership-strength"), std::to_string(estimator_ownership_strength(0)));
+  EXPECT_EQ(value_of(standby.args, "--ownership-strength"), std::to_string(estimator_ownership_strength(1)));
+  EXPECT_EQ(value_of(standby.args, "--resume-from"), "/run/x/estimator-checkpoint.json");
+  EXPECT_EQ(value_of(plan.children.back().spec.args, "--tick-readers"), "2");
+  EXPECT_FALSE(has(plan_launch(inputs({1, 2}), identity).children.back().spec.args, "--tick-readers"));
+  for (int g = 0; g < 10; ++g) EXPECT_GT(estimator_ownership_strength(g), estimator_ownership_strength(g + 1));
+  auto args = primary.args;
+  set_ownership_strength(args, 17);
+  EXPECT_EQ(value_of(args, "--ownership-strength"), "17");
 }
 
 TEST(LaunchPlan, OnlyTheEstimatorResumesFromTheCheckpoint) {
@@ -154,15 +183,39 @@ TEST(RunVerdict, AFailedProcessOrRecordingKeepsItsReason) {
 
 TEST(RunVerdict, ARunWithoutEstimatesOrWithSilentSensorsIsIncomplete) {
   auto f = ran(RunEnd::signal, 0, 0);
-  EXPECT_EQ(judge_run(f).failure, "no estimate arrived during the run: the network never ran");
-  f.ran_for_s = 4;  // too short to judge
-  EXPECT_FALSE(judge_run(f).failure);
+  EXPECT_EQ(judge_run(f).failure, "no estimate arrived during the run (30.0 s): the network never got ready");
+  f.end = RunEnd::duration;
+  f.ran_for_s = 0.3;  // however short: a run that never got ready is no run of the scenario
+  EXPECT_EQ(judge_run(f).failure, "no estimate arrived during the run (0.3 s): the network never got ready");
+  EXPECT_EQ(judge_run(f).exit, ExitCode::run_failed);
 
   f = ran(RunEnd::duration, 10, 10);
   f.silent_sensors = {2, 5};
   EXPECT_EQ(judge_run(f).failure, "sensors 2, 5 never sent a sample to the channel: the run did not include them");
   f.estimates = 9;  // too early to judge
   EXPECT_FALSE(judge_run(f).failure);
+}
+
+// A closed loop that left plant.state_bound fails the run, naming what stalled before it,
+// unless the run was started to show it (--allow-divergence); a failure of a process wins.
+TEST(RunVerdict, ADivergedClosedLoopFailsUnlessAllowed) {
+  auto f = ran(RunEnd::finished, 500, 480);
+  f.finished_why = "plant_node finished";
+  f.diverged = "the closed loop diverged at period 500: |x|_inf = 2e+08 exceeds plant.state_bound = 1e+08";
+  f.outages_before = "estimator_node was stopped (SIGSTOP) for 3.0 s";
+  auto v = judge_run(f);
+  EXPECT_EQ(v.exit, ExitCode::run_failed);
+  EXPECT_EQ(v.failure, *f.diverged + "; before it: estimator_node was stopped (SIGSTOP) for 3.0 s");
+  f.outages_before.clear();
+  EXPECT_EQ(judge_run(f).failure, *f.diverged + "; no process of the loop stalled before it");
+  f.allow_divergence = true;
+  v = judge_run(f);
+  EXPECT_EQ(v.exit, ExitCode::ok);
+  EXPECT_EQ(v.summary_end, *f.diverged + "; no process of the loop stalled before it (allowed)");
+  f.allow_divergence = false;
+  f.end = RunEnd::process_failed;
+  f.failure = "estimator_node killed by signal 9 (no restarts left)";
+  EXPECT_EQ(judge_run(f).failure, f.failure);
 }
 
 TEST(RunVerdict, NothingFusedIsAFailureUnlessEveryLinkDropsEverything) {
@@ -216,6 +269,69 @@ TEST(RunVerdict, ARunThatFailedKeepsItsOwnFailureOverItsChecks) {
   conclude_run(RunSummary{}, {parse_check("rms_error<0.8", {1})}, "default", table, nullptr, "", v);
   EXPECT_EQ(v.failure, "channel_emulator gave up");
   EXPECT_EQ(v.exit, ExitCode::run_failed);
+}
+
+
+// The outages a diverged run is explained by, from what the launch sees.
+using WatchClock = OutageWatch::Clock;
+
+TEST(OutageWatch, AStoppedChildIsSeenInProc) {
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    for (;;) pause();
+  }
+  OutageWatch w(std::chrono::milliseconds(10));
+  const auto t0 = WatchClock::now();
+  using State = OutageWatch::ChildState;
+  w.child("estimator_node", child, State::running, t0);
+  EXPECT_TRUE(w.outages().empty());
+  kill(child, SIGSTOP);
+  for (int i = 0; i < 100 && process_state(child) != 'T'; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(process_state(child), 'T');
+  w.child("estimator_node", child, State::running, t0 + std::chrono::milliseconds(100));
+  kill(child, SIGCONT);
+  for (int i = 0; i < 100 && process_state(child) == 'T'; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  w.child("estimator_node", child, State::running, t0 + std::chrono::milliseconds(3100));
+  kill(child, SIGKILL);
+  waitpid(child, nullptr, 0);
+  EXPECT_FALSE(process_state(child));
+  // Dead and waiting for its restart, then back.
+  w.child("estimator_node", -1, State::restarting, t0 + std::chrono::milliseconds(4000));
+  w.child("estimator_node", 1, State::running, t0 + std::chrono::milliseconds(4500));
+  w.child("plant_node", -1, State::ended, t0 + std::chrono::milliseconds(4600));  // the run's end: no outage
+  w.finish(t0 + std::chrono::milliseconds(5000));
+  ASSERT_EQ(w.outages().size(), 2u);
+  EXPECT_EQ(w.outages()[0].describe(), "estimator_node was stopped (SIGSTOP) for 3.0 s");
+  EXPECT_EQ(w.outages()[1].describe(), "estimator_node was down (waiting for its restart) for 0.5 s");
+  EXPECT_EQ(w.describe_between(t0 + std::chrono::milliseconds(4200), t0 + std::chrono::milliseconds(5000)),
+            "estimator_node was down (waiting for its restart) for 0.5 s");
+}
+
+TEST(OutageWatch, GapsInTheDataNameThePartOfTheLoopThatStalled) {
+  OutageWatch w(std::chrono::milliseconds(10));
+  const auto t0 = WatchClock::now();
+  auto at = [&](std::int64_t k) { return t0 + std::chrono::milliseconds(10 * k); };
+  // Periods 0..99 normal; the estimator falls 60 periods behind from 100, catches up at 160;
+  // then nothing is fused from 200 to 269; the plant publishes nothing for 2 s after 300.
+  for (std::int64_t k = 0; k <= 400; ++k) {
+    const auto now = k <= 300 ? at(k) : at(k) + std::chrono::seconds(2);
+    w.truth(k, now);
+    if (k < 100 || k >= 160) {
+      if (k == 160)
+        for (std::int64_t late = 100; late < 160; ++late) w.estimate(late, 1, now);
+      w.estimate(k, (k >= 200 && k < 270) ? 0 : 2, now);
+    }
+  }
+  w.finish(at(400) + std::chrono::seconds(2));
+  std::vector<std::string> seen;
+  for (const auto& o : w.outages()) seen.push_back(o.describe());
+  ASSERT_EQ(seen.size(), 3u) << ::testing::PrintToString(seen);
+  EXPECT_EQ(seen[0], "no estimate arrived (the estimator fell behind the plant) for 0.5 s (periods 100-159)");
+  EXPECT_EQ(seen[1],
+            "no sample reached the estimator (the channel emulator or every sensor stalled, or every link dropped) "
+            "for 0.7 s (periods 200-269)");
+  EXPECT_EQ(seen[2], "the plant published no period after period 300 for 2.0 s");
 }
 
 }  // namespace

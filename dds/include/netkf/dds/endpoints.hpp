@@ -66,10 +66,12 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   /// writer will publish at, when it can exceed what the topic's depth was sized for (its
   /// history then holds three heartbeat periods, see history_depth_for_rate).
   Writer(Participant& participant, const Topic<T>& spec, double samples_per_second = 0.0)
+      : Writer(participant, spec, WriterOptions{.samples_per_second = samples_per_second}) {}
+  Writer(Participant& participant, const Topic<T>& spec, const WriterOptions& options)
       : participant_(participant), topic_name_(spec.name) {
     TopicQos qos = spec.qos;
-    qos.depth = history_depth_for_rate(samples_per_second, qos.depth);
-    writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(qos), this,
+    qos.depth = history_depth_for_rate(options.samples_per_second, qos.depth);
+    writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(qos, options), this,
                                                           eprosima::fastdds::dds::StatusMask::publication_matched());
     if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_ + refused_hint(participant));
   }
@@ -96,6 +98,9 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
 
   /// Number of readers currently matched.
   int matched() const { return matched_.load(); }
+  /// Exclusive-ownership topics: tell the readers this writer is alive without writing (within
+  /// every kOwnershipLease, see topics.hpp).
+  void assert_liveliness() { writer_->assert_liveliness(); }
   /// Wait until at least `n` readers are matched; false on timeout.
   bool wait_for_matched(int n, std::chrono::milliseconds timeout) const {
     return detail::wait_until([this] { return matched(); }, n, timeout);

@@ -160,7 +160,7 @@ class Participant {
 };
 
 /// Map a topic's QoS to DDS writer / reader QoS (used by Writer/Reader).
-eprosima::fastdds::dds::DataWriterQos writer_qos(const TopicQos& qos);
+eprosima::fastdds::dds::DataWriterQos writer_qos(const TopicQos& qos, const WriterOptions& options = {});
 eprosima::fastdds::dds::DataReaderQos reader_qos(const TopicQos& qos);
 
 }  // namespace netkf::dds

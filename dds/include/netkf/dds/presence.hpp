@@ -29,6 +29,10 @@ inline constexpr const char* launch = "launch";
 inline constexpr const char* record = "record";
 }  // namespace presence_role
 
+/// How the plant's ended presence begins when a closed loop left plant.state_bound: the launches
+/// of the run (on any host) read it as a diverged run (PresenceRecord::diverged).
+inline constexpr const char* kPlantDiverged = "the closed loop diverged";
+
 /// One process of the network as its presence describes it.
 struct PresenceRecord {
   std::string host;
@@ -44,6 +48,8 @@ struct PresenceRecord {
   std::string who() const;
   /// Taking part in the run now: alive and not ended.
   bool running() const { return alive && !ended; }
+  /// The plant said the closed loop left plant.state_bound (kPlantDiverged).
+  bool diverged() const { return ended && role == presence_role::plant && detail.rfind(kPlantDiverged, 0) == 0; }
   /// "loaded another scenario (hash 1a2b…; this launch's 3c4d…)": `ours` names whose hash
   /// `our_hash` is ("this launch", "this process").
   std::string other_scenario_text(std::uint64_t our_hash, const std::string& ours) const;

@@ -58,7 +58,27 @@ struct TopicQos {
   /// at most and is ~3 kB for 64 scalar sensors, so a deep history would otherwise reserve
   /// depth x 84 kB.
   bool size_payloads_by_sample = false;
+  /// Exclusive ownership: of several writers, readers take the samples of the strongest one
+  /// whose liveliness holds (WriterOptions), the standard DDS failover. The estimate and the
+  /// control input have it, so a hot-standby estimator takes over when the primary dies.
+  bool exclusive_ownership = false;
 };
+
+/// What a writer adds to its topic's QoS.
+struct WriterOptions {
+  /// The rate this writer publishes at, when it can exceed what the topic's depth was sized for
+  /// (its history then holds three heartbeat periods, see history_depth_for_rate).
+  double samples_per_second = 0.0;
+  /// Exclusive-ownership topics: this writer's strength (the strongest live writer owns the topic).
+  std::uint32_t ownership_strength = 0;
+};
+
+/// The liveliness lease of the exclusive-ownership topics' writers and readers: a writer that
+/// neither wrote nor asserted its liveliness for this long counts as gone, and the next strongest
+/// takes over (a hot standby). Five periods of the default 10 ms; a writer of a slower period
+/// asserts its liveliness on a timer (Writer::assert_liveliness), so the lease is one constant
+/// that every reader can ask for without knowing the scenario.
+inline constexpr std::chrono::milliseconds kOwnershipLease{50};
 
 template <class T>
 struct Topic {
@@ -126,9 +146,12 @@ inline constexpr Topic<wire::MeasurementBatch> raw_measurement_batch{"netkf/meas
 inline constexpr Topic<wire::MeasurementBatch> delivered_measurement_batch{"netkf/measurement/delivered_batch",
                                                                           {true, false, 4096, 1, true}};
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
-inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {true, false, 512}};
-// estimator -> plant: u_k = -L x̂_{k|k}.
-inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {true, false, 256}};
+// Exclusive ownership: with a hot standby (`netkf launch --standby`) two estimators publish, and
+// every reader takes the primary's estimates until its liveliness lease expires.
+inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {.depth = 512, .exclusive_ownership = true}};
+// estimator -> plant: u_k = -L x̂_{k|k}; exclusive like the estimate, so the plant applies the
+// inputs of the estimator whose estimates the readers take.
+inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {.depth = 256, .exclusive_ownership = true}};
 // netkf ctl -> channel emulator: link changes.
 inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {true, false, 64}};
 // channel emulator -> netkf ctl: the answer to each link change. Transient-local: `ctl` sends

@@ -33,6 +33,11 @@ struct EstimatorAppOptions {
   int status_period_ms = 10000;
   /// Continue from the last estimate a previous life published (a restart) instead of the scenario's prior.
   std::optional<Estimate> resume;
+  /// Ownership strength of its estimate and control writers (exclusive ownership, topics.hpp):
+  /// of several estimators (a hot standby), the plant and every reader take the strongest live
+  /// one's; an estimator whose io thread asserted nothing for dds::kOwnershipLease counts as
+  /// gone (a standby takes over, a restarted estimator is not held off by its dead predecessor).
+  std::uint32_t ownership_strength = 1000000;
 };
 
 /// What the estimator did so far (for its summary line and for tests).

@@ -30,6 +30,8 @@ struct PlantAppOptions {
   /// Truth readers to wait for before period 0 (< 0: one per sensor of the scenario). With
   /// wait_for_presence, at least this many (those its launch knows of) and every present one.
   int truth_readers = -1;
+  /// Tick readers to wait for before period 0: the estimators (2 with a hot standby).
+  int tick_readers = 1;
   /// Start only when presence (netkf/presence) shows every sensor of the scenario, the channel
   /// and the estimator of this run, and the truth has matched every present process that reads
   /// it. Past startup_wait_ms, or when a process of this run loaded another scenario, run()
@@ -46,6 +48,8 @@ struct PlantAppStats {
   std::uint64_t missing_inputs = 0;   // control inputs missing at their step
   std::uint64_t stale_inputs = 0;     // of which arrived late
   bool finished = false;              // the run ended on its own (max periods or state bound)
+  std::uint64_t clock_reanchored = 0;  // times the plant fell more than a period behind its clock
+  std::uint64_t periods_behind = 0;    // periods it fell behind in all (not replayed)
 };
 
 class PlantApp {

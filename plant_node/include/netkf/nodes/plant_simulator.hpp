@@ -19,6 +19,7 @@ struct PlantStep {
   Vector x;                // x_k
   Vector applied_input;    // u_{k-1} applied to produce x_k (empty without control; zeros at k = 0)
   bool input_missing = false;  // no input for k-1 had arrived: zero was applied
+  std::uint64_t inputs_missing_in_a_row = 0;  // periods up to this one stepped without their input
   bool bound_exceeded = false; // |x_k|_inf > plant.state_bound: the run must end
 };
 
@@ -43,6 +44,8 @@ class PlantSimulator {
   std::uint64_t next_period() const { return next_k_; }
   std::uint64_t missing_inputs() const { return missing_inputs_; }
   std::uint64_t stale_inputs() const { return stale_inputs_; }
+  /// Periods stepped without their control input since the last one that had it.
+  std::uint64_t inputs_missing_in_a_row() const { return missing_in_a_row_; }
   const Vector& state() const { return x_; }
 
  private:
@@ -57,6 +60,7 @@ class PlantSimulator {
   std::uint64_t next_k_ = 0;
   std::uint64_t missing_inputs_ = 0;
   std::uint64_t stale_inputs_ = 0;
+  std::uint64_t missing_in_a_row_ = 0;
 };
 
 }  // namespace netkf::nodes

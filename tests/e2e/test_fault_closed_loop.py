@@ -1,0 +1,148 @@
+"""Fault matrix on a closed loop: kill -9 and SIGSTOP/SIGCONT of the estimator, the channel, a
+sensor and the plant, on a stable and an unstable closed-loop scenario (the open-loop fault
+tests stay as they are). Asserted against the recording (truth of every period, the applied
+input u_{k-1} in each row):
+- every input the plant applied is -L x̂_{k-1} of the recorded estimate of the period before,
+  exactly (the plant and the recording saw the same estimates), and zero only where no input
+  arrived in time;
+- every period after an outage has an estimate, and the loop is closed again (inputs arrive);
+- the state returns to its normal range (within a few times the range before the first fault);
+- or, on the unstable plant, where an outage outlasted what the open loop survives — theory:
+  its unstable mode alpha multiplies the state by alpha each period, so from the undisturbed
+  range r it reaches plant.state_bound after ln(bound / r) / ln(alpha) periods — the run fails
+  (exit 1) saying the closed loop diverged and naming the stalled process.
+The plant's kill ends the run (the physical world ended: exit 0, every period recorded)."""
+import math
+import os
+import signal
+import time
+
+from e2e_common import (DATA, Launch, check, finish, last_period, node_pids, read_periods, require_netns, wait_for,
+                        workdir)
+
+require_netns()
+domain = int(os.environ["NETKF_DOMAIN"])
+BOUND = 1.0e6
+# name: (scenario, gain L, alpha = |A|, SIGSTOP seconds)
+SCENARIOS = {
+    "stable": ("closed_loop_stable.yaml", 0.5, 0.9, 1.5),
+    "unstable": ("closed_loop.yaml", 1.2, 1.2, 0.3),
+}
+TARGETS = ["estimator_node", "channel_emulator", "sensor_node[2]", "plant_node"]
+SETTLE = 150  # periods after a fault's end until the loop must be back
+
+
+def current_pid(target):
+    for name, pid in node_pids(domain).items():
+        if name == target or name.startswith(target + "@"):
+            return pid
+    return None
+
+
+def progressed(run, k, seconds):
+    """Wait until the recording reaches period k or the launch ended."""
+    return wait_for(lambda: last_period(run.record) >= k or run.proc.poll() is not None, seconds)
+
+
+def run_case(label, target):
+    scenario, gain, alpha, stop_s = SCENARIOS[label]
+    out = workdir("fault-closed-%s-%s" % (label, target.split("[")[0]))
+    faults = []  # (kind, period recorded when it was made)
+    with Launch(os.path.join(DATA, scenario), 0, out, extra=["--sensors-per-process", "1", "--dashboard", "off"],
+                name="launch-%s-%s" % (label, target.split("[")[0])) as run:
+        check(progressed(run, 150, 60), "[%s %s] the run reaches period 150" % (label, target))
+        if target != "plant_node":
+            pid = current_pid(target)
+            check(pid is not None, "[%s %s] found the process" % (label, target))
+            if pid:
+                faults.append(("kill", last_period(run.record)))
+                os.kill(pid, signal.SIGKILL)
+                progressed(run, faults[-1][1] + SETTLE, 60)
+        pid = current_pid(target)
+        if pid and run.proc.poll() is None:
+            faults.append(("stop", last_period(run.record)))
+            os.kill(pid, signal.SIGSTOP)
+            time.sleep(stop_s)
+            os.kill(pid, signal.SIGCONT)
+            progressed(run, faults[-1][1] + int(stop_s * 100) + SETTLE, 60)
+        if target == "plant_node" and run.proc.poll() is None:
+            faults.append(("kill", last_period(run.record)))
+            os.kill(pid, signal.SIGKILL)
+            rc = run.wait(30)
+        else:
+            rc = run.interrupt(30) if run.proc.poll() is None else run.proc.returncode
+        log = run.output()
+    rows = read_periods(run.record, 1, m=1, truth_only=True)
+    tag = "[%s %s]" % (label, target)
+    check(len(rows) >= 300, "%s periods recorded (%d)" % (tag, len(rows)))
+    if not rows or not faults:
+        return
+    ks = [r["k"] for r in rows]
+    check(ks == list(range(ks[0], ks[0] + len(ks))) and ks[0] == 0,
+          "%s the truth of every period the plant ran, in order (%d rows)" % (tag, len(rows)))
+    by_k = {r["k"]: r for r in rows}
+    first_fault = faults[0][1]
+    undisturbed = max(abs(r["x"][0]) for r in rows if 50 <= r["k"] < first_fault)
+    # The inputs the plant applied against the estimates the recording has.
+    mismatched, missing = [], []
+    for r in rows[1:]:
+        prev = by_k.get(r["k"] - 1)
+        u = r["u"][0]
+        if u == 0.0:
+            missing.append(r["k"])
+        elif prev is None or prev["xhat"] is None or \
+                abs(u + gain * prev["xhat"][0]) > 1e-12 * max(1.0, abs(gain * prev["xhat"][0])):
+            mismatched.append(r["k"])
+    check(not mismatched, "%s every applied input is -L x̂ of the recorded estimate of the period before (%d differ: %s)"
+          % (tag, len(mismatched), mismatched[:5]))
+    diverged = "the closed loop diverged" in log
+    if diverged:
+        # Only an outage the open loop cannot survive may end the run; theory says how long.
+        survivable = math.log(BOUND / max(undisturbed, 1.0)) / math.log(alpha) if alpha > 1 else math.inf
+        longest = longest_run([r["k"] for r in rows if r["u"][0] == 0.0 or r["xhat"] is None or not r["fused"]])
+        print("%s diverged: the longest outage (periods without input or samples) was %d, the open loop survives %.0f"
+              % (tag, longest, survivable))
+        check(alpha > 1, "%s a stable plant never diverges" % tag)
+        check(longest >= 0.5 * survivable,
+              "%s it diverged only after an outage of about what the open loop survives (%d periods, theory %.0f)"
+              % (tag, longest, survivable))
+        check(rc == 1, "%s a diverged closed loop exits 1 (rc=%s)" % (tag, rc))
+        check(target in log.split("the closed loop diverged", 1)[1],
+              "%s the message names the stalled process (%s)" % (tag, target))
+        return
+    check(rc == 0, "%s launch exits 0 (rc=%s)" % (tag, rc))
+    if target == "plant_node":
+        check(rows[-1]["k"] >= faults[-1][1], "%s the recording goes up to the plant's kill" % tag)
+    # After the last fault (and its settling), the loop is closed and every period has an estimate.
+    after = [r for r in rows if faults[-1][1] + int(stop_s * 100) + 100 <= r["k"] <= rows[-1]["k"] - 20]
+    if target != "plant_node":
+        check(len(after) >= 30, "%s the run went on after the last fault (%d periods)" % (tag, len(after)))
+    check(all(r["xhat"] is not None for r in after),
+          "%s every period after the outage has an estimate (%d without)" % (tag, sum(r["xhat"] is None for r in after)))
+    late_inputs = [r["k"] for r in after if r["u"][0] == 0.0]
+    check(len(late_inputs) <= max(2, 0.02 * len(after)),
+          "%s the loop is closed again: inputs arrive in time (%d of %d periods without)" % (tag, len(late_inputs),
+                                                                                         len(after)))
+    worst_after = max((abs(r["x"][0]) for r in after), default=0.0)
+    check(worst_after <= 4 * undisturbed + 1.0,
+          "%s the state is back in its normal range: max |x| %.3g after, %.3g before the faults" % (tag, worst_after,
+                                                                                                 undisturbed))
+    worst = max(abs(r["x"][0]) for r in rows)
+    print("%s faults %s; max |x| %.3g before, %.3g over the run, %.3g after; %d periods without an input" %
+          (tag, faults, undisturbed, worst, worst_after, len(missing)))
+
+
+def longest_run(ks):
+    best = current = 0
+    last = None
+    for k in ks:
+        current = current + 1 if last is not None and k == last + 1 else 1
+        best = max(best, current)
+        last = k
+    return best
+
+
+for label in SCENARIOS:
+    for target in TARGETS:
+        run_case(label, target)
+finish()
