@@ -278,19 +278,21 @@ class McapFile:
 
     def _data_end(self, data, pos, content):
         crc = _Cursor(content, pos, "Data End").u32()
-        if self._validate and crc != 0 and zlib.crc32(data[:pos]) != crc:
-            raise self._error("the data section fails its CRC (Data End says 0x%08x, the bytes before it give "
-                              "0x%08x)" % (crc, zlib.crc32(data[:pos])), pos)
+        if self._validate and crc != 0:
+            got = zlib.crc32(data[:pos])
+            if got != crc:
+                raise self._error("the data section fails its CRC (Data End says 0x%08x, the bytes before it "
+                                  "give 0x%08x)" % (crc, got), pos)
 
     def _footer(self, data, pos, content, data_end, summary):
         if len(content) != FOOTER_LENGTH:
             raise self._error("the Footer holds %d bytes, not %d" % (len(content), FOOTER_LENGTH), pos)
         summary_start, offsets_start, crc = struct.unpack("<QQI", content)
-        if summary_start != 0 and (data_end is None or summary_start != data_end or summary_start >= pos):
+        if summary_start != 0 and (data_end is None or summary_start != data_end):
             raise self._error("the Footer's summary_start %d is not the record after Data End (%s)"
-                              % (summary_start, data_end), pos)
+                              % (summary_start, "no Data End" if data_end is None else "at byte %d" % data_end), pos)
         starts = [o for o, _ in summary]
-        if offsets_start != 0:
+        if offsets_start not in (0, pos):  # the footer's own offset: an empty section
             if offsets_start not in starts:
                 raise self._error("the Footer's summary_offset_start %d is not a record of the summary"
                                   % offsets_start, pos)

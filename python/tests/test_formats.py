@@ -345,5 +345,6 @@ def test_mcap_periods_revisions_and_null_trace(tmp_path):
 def test_mcap_estimate_without_its_fields_is_refused(tmp_path, change, why):
     e = estimate(1)
     change(e)
-    with pytest.raises(netkf.FormatError, match="message 1 on netkf/estimate is not what netkf writes.*" + re.escape(why)):
+    with pytest.raises(netkf.FormatError, match="message 1 on netkf/estimate is not what netkf writes.*" +
+                       re.escape(why)):
         netkf.read_mcap_periods(netkf_mcap(tmp_path, [0, 1], [estimate(0), e]))
