@@ -66,7 +66,9 @@ def _header(path):
         try:
             return next(csv.reader(f))
         except StopIteration:
-            raise FormatError("%s: empty file (no header)" % path)
+            raise FormatError("%s: empty file (no header)" % path) from None
+        except (UnicodeDecodeError, csv.Error) as e:
+            raise FormatError("%s: not a CSV file (%s)" % (path, e)) from None
 
 
 def _state_dim(path, header):
@@ -122,8 +124,18 @@ def read_periods(path):
     for c in ints:
         df[c] = df[c].astype(np.int64)
     df["state"] = df["state"].astype(str)
+    _check_periods_increase(path, df["k"].tolist(), "line %d", 2)
     df.attrs.update(state_dim=n, fuse_within=fuse_within, path=str(path))
     return df
+
+
+def _check_periods_increase(path, ks, where, first):
+    """A recording has one row (one truth, one in-time estimate) per period, in period order:
+    a repeated or decreasing k is a damaged or concatenated file, not something to average."""
+    for i in range(1, len(ks)):
+        if ks[i] <= ks[i - 1]:
+            raise FormatError("%s: period %d (%s) follows period %d: k must increase" %
+                              (path, ks[i], where % (first + i), ks[i - 1]))
 
 
 def read_samples(path):
@@ -170,28 +182,91 @@ def read_mcap_topic(path_or_file, topic):
     """Every message of one channel as a DataFrame: log_time (ns) and the JSON message's
     top-level fields (arrays stay Python lists)."""
     m = path_or_file if isinstance(path_or_file, McapFile) else McapFile(path_or_file)
-    rows = [dict(msg, log_time=t) for t, msg in m.decoded(topic)]
+    rows = []
+    for i, (t, msg) in enumerate(m.decoded(topic)):
+        if not isinstance(msg, dict):
+            raise FormatError("%s: message %d on %s is not a JSON object" % (m.path, i, topic))
+        rows.append(dict(msg, log_time=t))
     return pd.DataFrame(rows)
+
+
+def _int(v):
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise ValueError("%r is not an integer" % (v,))
+    return v
+
+
+def _num(v):
+    """A JSON number; null (how netkf writes a non-finite double) is NaN."""
+    if v is None:
+        return math.nan
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError("%r is not a number" % (v,))
+    return float(v)
+
+
+def _list(v):
+    if not isinstance(v, list):
+        raise ValueError("%r is not an array" % (v,))
+    return v
+
+
+def _str(v):
+    if not isinstance(v, str):
+        raise ValueError("%r is not a string" % (v,))
+    return v
+
+
+def _truth(msg):
+    return {"k": _int(msg["k"]), "t": _num(msg["t"]), "x": [_num(v) for v in _list(msg["x"])]}
+
+
+def _estimate(msg):
+    return {"k": _int(msg["k"]), "revision": _int(msg.get("revision", 0)),
+            "x_hat": [_num(v) for v in _list(msg["x_hat"])], "trace_P": _num(msg["trace_P"]),
+            "fused": tuple(_int(i) for i in _list(msg["fused"])), "late": _int(msg["late"]),
+            "state": _str(msg["state"]),
+            "late_samples": tuple((_int(s["k"]), _int(s["sensor_id"])) for s in _list(msg.get("late_samples", [])))}
+
+
+def _delivered(msg):
+    return {"k": _int(msg["k"]), "sensor_id": _int(msg["sensor_id"]), "stamp": _num(msg["stamp"]),
+            "y": [_num(v) for v in _list(msg["y"])]}
+
+
+def _parsed(m, topic, parse):
+    """The messages of `topic`, each parsed into the fields netkf writes; a message without
+    them (or with the wrong types) is a FormatError naming it."""
+    out = []
+    for i, (_, msg) in enumerate(m.decoded(topic)):
+        try:
+            out.append(parse(msg))
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError("%s: message %d on %s is not what netkf writes (%s: %s)" %
+                              (m.path, i, topic, type(e).__name__, e)) from None
+    return out
 
 
 def _estimates(m):
     """k -> (in-time estimate, final estimate): the first revision 0 and the highest revision
-    (as the CSV recorder keeps them)."""
+    (as the CSV recorder keeps them). The in-time estimates come in period order."""
     in_time, final = {}, {}
-    for _, e in m.decoded(ESTIMATE):
-        k = int(e["k"])
-        rev = int(e.get("revision", 0))
-        if rev == 0:
+    ordered = []
+    for e in _parsed(m, ESTIMATE, _estimate):
+        k = e["k"]
+        if e["revision"] == 0:
+            ordered.append(k)
             in_time.setdefault(k, e)
-        if k not in final or rev >= int(final[k].get("revision", 0)):
+        if k not in final or e["revision"] >= final[k]["revision"]:
             final[k] = e
+    _check_periods_increase(m.path, ordered, ESTIMATE + " revision 0, message %d", 0)
     return in_time, final
 
 
 def _vector(path, what, k, values, n):
     if len(values) != n:
         raise FormatError("%s: %s of period %d has %d components, not %d" % (path, what, k, len(values), n))
-    return [float(v) if v is not None else math.nan for v in values]
+    return values
 
 
 def read_mcap_periods(path, fuse_within=None):
@@ -199,25 +274,22 @@ def read_mcap_periods(path, fuse_within=None):
     the CSV recorder joins them (only periods that have both). fuse_within: add the final
     columns (True), not (False), or only when an estimate was revised (None)."""
     m = path if isinstance(path, McapFile) else McapFile(path)
-    truths = {}
-    for _, tr in m.decoded(TRUTH):
-        truths.setdefault(int(tr["k"]), tr)
+    truth_list = _parsed(m, TRUTH, _truth)
+    _check_periods_increase(m.path, [tr["k"] for tr in truth_list], TRUTH + " message %d", 0)
+    truths = {tr["k"]: tr for tr in truth_list}
     in_time, final = _estimates(m)
     if fuse_within is None:
-        fuse_within = any(int(e.get("revision", 0)) > 0 for e in final.values())
+        fuse_within = any(e["revision"] > 0 for e in final.values())
     ks = sorted(k for k in in_time if k in truths)
     n = len(truths[ks[0]]["x"]) if ks else 0
     rows = []
     for k in ks:
         tr, e = truths[k], in_time[k]
-        row = [k, float(tr["t"])] + _vector(m.path, "truth", k, tr["x"], n) + \
-            _vector(m.path, "estimate", k, e["x_hat"], n)
-        row += [float(e["trace_P"]), tuple(int(i) for i in e["fused"]), int(e["late"]), str(e["state"]),
-                tuple((int(s["k"]), int(s["sensor_id"])) for s in e.get("late_samples", []))]
+        row = [k, tr["t"]] + _vector(m.path, "truth", k, tr["x"], n) + _vector(m.path, "estimate", k, e["x_hat"], n)
+        row += [e["trace_P"], e["fused"], e["late"], e["state"], e["late_samples"]]
         if fuse_within:
             f = final[k]
-            row += [int(f.get("revision", 0))] + _vector(m.path, "final estimate", k, f["x_hat"], n) + \
-                [float(f["trace_P"]), tuple(int(i) for i in f["fused"])]
+            row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n) + [f["trace_P"], f["fused"]]
         rows.append(row)
     df = pd.DataFrame(rows, columns=period_columns(n, fuse_within))
     for c in ("k", "late") + (("revisions",) if fuse_within else ()):
@@ -238,17 +310,16 @@ def read_mcap_samples(path, fuse_within=None):
     m = path if isinstance(path, McapFile) else McapFile(path)
     in_time, final = _estimates(m)
     if fuse_within is None:
-        fuse_within = any(int(e.get("revision", 0)) > 0 for e in final.values())
-    msgs = [s for _, s in m.decoded(DELIVERED)]
+        fuse_within = any(e["revision"] > 0 for e in final.values())
+    msgs = _parsed(m, DELIVERED, _delivered)
     width = max((len(s["y"]) for s in msgs), default=0)
     rows = []
     for s in msgs:
-        k, sid = int(s["k"]), int(s["sensor_id"])
-        row = [k, sid, float(s["stamp"]), sid in final.get(k, {}).get("fused", [])]
+        k, sid = s["k"], s["sensor_id"]
+        row = [k, sid, s["stamp"], sid in final.get(k, {}).get("fused", ())]
         if fuse_within:
-            row.append(sid in in_time.get(k, {}).get("fused", []))
-        y = [float(v) for v in s["y"]]
-        rows.append(row + y + [math.nan] * (width - len(y)))
+            row.append(sid in in_time.get(k, {}).get("fused", ()))
+        rows.append(row + s["y"] + [math.nan] * (width - len(s["y"])))
     cols = ["k", "sensor_id", "stamp", "fused"] + (["fused_in_time"] if fuse_within else []) + \
         ["y%d" % i for i in range(width)]
     df = pd.DataFrame(rows, columns=cols)

@@ -3,6 +3,7 @@ docs/recording.md, the values as written, and bad input refused with the file na
 import json
 import math
 import os
+import re
 import struct
 import zlib
 
@@ -137,9 +138,10 @@ def message(cid, seq, t, obj):
     return record(0x05, struct.pack("<HIQQ", cid, seq, t, t) + json.dumps(obj).encode())
 
 
-def chunk(records, crc=None):
+def chunk(records, crc=None, compression=""):
+    # The spec's Chunk: ..., compression String, records uint64 length-prefixed Bytes
     return record(0x06, struct.pack("<QQQI", 0, 0, len(records), zlib.crc32(records) if crc is None else crc) +
-                  string("") + struct.pack("<I", len(records)) + records)
+                  string(compression) + struct.pack("<Q", len(records)) + records)
 
 
 HEADER = mcap.MAGIC + record(0x01, string("") + string("test"))
@@ -188,10 +190,40 @@ def test_mcap_cut_anywhere_keeps_the_whole_records(tmp_path):
     (HEADER + schema(1, "S") + chunk(channel(0, 1, "a"), crc=1) + FOOTER, "CRC"),
     (HEADER + record(0x03, b"\x01\x00\xff\xff\xff\xff") + FOOTER, "shorter than its fields"),
     (HEADER + FOOTER + b"junk", "closing magic"),
-])
+    (HEADER + schema(1, "S") + chunk(channel(0, 1, "a"), compression="bz2") + FOOTER, "compression 'bz2'"),
+    (HEADER + chunk(record(0x09, b"")) + FOOTER, "holds a Attachment record"),
+    (HEADER + chunk(channel(0, 0, "a") + b"\x05\x00") + FOOTER, "ends inside a record"),
+    (mcap.MAGIC + schema(1, "S") + FOOTER, "not a Header"),
+    (HEADER + record(0x01, string("") + string("again")) + FOOTER, "second Header"),
+    (HEADER + record(0x00, b"") + FOOTER, "opcode 0x00"),
+    (HEADER + record(0x0B, b"") + FOOTER, "Statistics record in the data section"),
+    (HEADER + record(0x0F, struct.pack("<I", 0)) + message(0, 0, 0, {}) + FOOTER, "Message record after Data End"),
+    # A closed file (Footer and magic at its end) whose last message claims more bytes than
+    # remain: damage, where the same bytes without the footer would be a cut.
+    (HEADER + schema(1, "S") + channel(0, 1, "a") + b"\x05" + struct.pack("<Q", 1 << 40) + b"{}" + FOOTER,
+     "runs past the footer"),
+    (HEADER + FOOTER[:-len(mcap.MAGIC) - 29] + record(0x02, struct.pack("<QQI", 5, 0, 0)) + mcap.MAGIC,
+     "summary_start"),
+], ids=lambda v: v if isinstance(v, str) else "file")
 def test_bad_mcap_is_refused(tmp_path, body, why):
     with pytest.raises(netkf.McapError, match=why):
         netkf.read_mcap(write(tmp_path, body))
+
+
+def data_end_and_footer(body, crc=True):
+    """Data End (with the CRC of `body`, or 0) and Footer, for a file that begins with `body`."""
+    return record(0x0F, struct.pack("<I", zlib.crc32(body) if crc else 0)) + \
+        record(0x02, struct.pack("<QQI", 0, 0, 0)) + mcap.MAGIC
+
+
+def test_mcap_data_section_crc(tmp_path):
+    body = HEADER + schema(1, "S") + channel(0, 1, "a") + message(0, 0, 10, {"v": 1})
+    assert netkf.read_mcap(write(tmp_path, body + data_end_and_footer(body))).decoded("a") == [(10, {"v": 1})]
+    changed = body.replace(b'{"v": 1}', b'{"v": 2}')
+    with pytest.raises(netkf.McapError, match="data section fails its CRC"):
+        netkf.read_mcap(write(tmp_path, changed + data_end_and_footer(body)))
+    assert netkf.read_mcap(write(tmp_path, changed + data_end_and_footer(body, crc=False))).decoded("a") == \
+        [(10, {"v": 2})]  # CRC 0: not computed, as netkf writes it
 
 
 def test_mcap_message_that_is_not_json(tmp_path):
@@ -253,3 +285,66 @@ def test_missing_sweep_file(data_dir, tmp_path):
     (d / "points.csv").unlink()
     with pytest.raises(netkf.FormatError, match="points.csv: missing"):
         netkf.read_sweep(d)
+
+
+# ---- periods in order ------------------------------------------------------------------------
+
+PERIOD_HEADER = "k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n"
+
+
+@pytest.mark.parametrize("ks,why", [([0, 1, 1, 2], r"period 1 \(line 4\) follows period 1"),
+                                    ([0, 2, 1], r"period 1 \(line 4\) follows period 2")])
+def test_period_csv_with_repeated_or_decreasing_k_is_refused(tmp_path, ks, why):
+    p = tmp_path / "p.csv"
+    p.write_text(PERIOD_HEADER + "".join("%d,%g,1,1,1,,0,ok,\n" % (k, k * 0.01) for k in ks))
+    with pytest.raises(netkf.FormatError, match="p.csv: " + why + ": k must increase"):
+        netkf.read_periods(p)
+    p.write_text(PERIOD_HEADER + "".join("%d,%g,1,1,1,,0,ok,\n" % (k, k * 0.01) for k in sorted(set(ks))))
+    assert netkf.read_periods(p)["k"].tolist() == sorted(set(ks))
+
+
+def estimate(k, revision=0, trace_P=1.0):
+    return {"k": k, "revision": revision, "t": k * 0.01, "x_hat": [0.5], "P": [1.0], "fused": [1], "late": 0,
+            "late_samples": [], "state": "ok", "trace_P": trace_P}
+
+
+def netkf_mcap(tmp_path, truths, estimates):
+    body = HEADER + schema(1, "S") + channel(0, 1, "netkf/truth") + channel(1, 1, "netkf/estimate")
+    body += b"".join(message(0, i, k, {"k": k, "t": k * 0.01, "x": [1.0]}) for i, k in enumerate(truths))
+    body += b"".join(message(1, i, i, e) for i, e in enumerate(estimates))
+    return write(tmp_path, body + FOOTER)
+
+
+@pytest.mark.parametrize("truths,ks,why", [
+    ([0, 1, 1], [0, 1], "netkf/truth message 2"),
+    ([0, 2, 1], [0, 1, 2], "netkf/truth message 2"),
+    ([0, 1, 2], [0, 1, 1], "netkf/estimate revision 0, message 2"),
+    ([0, 1, 2], [1, 0, 2], "netkf/estimate revision 0, message 1"),
+])
+def test_mcap_periods_repeated_or_decreasing_are_refused(tmp_path, truths, ks, why):
+    with pytest.raises(netkf.FormatError, match="period . \\(%s\\) follows period .: k must increase" % why):
+        netkf.read_mcap_periods(netkf_mcap(tmp_path, truths, [estimate(k) for k in ks]))
+
+
+def test_mcap_periods_revisions_and_null_trace(tmp_path):
+    """Revisions of earlier periods come after later in-time estimates (fuse_within); a
+    non-finite trace is written as null."""
+    es = [estimate(0), estimate(1, trace_P=None), estimate(0, revision=1, trace_P=0.5), estimate(2)]
+    df = netkf.read_mcap_periods(netkf_mcap(tmp_path, [0, 1, 2], es))
+    assert df["k"].tolist() == [0, 1, 2] and df["revisions"].tolist() == [1, 0, 0]
+    assert math.isnan(df.loc[1, "trace_P"]) and df["trace_P_final"].tolist()[0] == 0.5
+
+
+@pytest.mark.parametrize("change,why", [
+    (lambda e: e.pop("x_hat"), "KeyError: 'x_hat'"),
+    (lambda e: e.update(k="1"), "'1' is not an integer"),
+    (lambda e: e.update(fused=3), "3 is not an array"),
+    (lambda e: e.update(trace_P="big"), "'big' is not a number"),
+    (lambda e: e.update(late_samples=[[1, 2]]), "TypeError"),
+])
+def test_mcap_estimate_without_its_fields_is_refused(tmp_path, change, why):
+    e = estimate(1)
+    change(e)
+    with pytest.raises(netkf.FormatError, match="message 1 on netkf/estimate is not what netkf writes.*" +
+                       re.escape(why)):
+        netkf.read_mcap_periods(netkf_mcap(tmp_path, [0, 1], [estimate(0), e]))

@@ -198,3 +198,30 @@ def test_mcap_reader_agrees_with_mcap_core(live, tmp_path, cut):
     ours = [{"k": e["k"], "t": e["t"], "x_hat": e["x_hat"], "trace_P": e["trace_P"], "log_time": str(t)}
             for t, e in mine.decoded("netkf/estimate")]
     assert ours == theirs["estimates"]
+
+
+def test_damaged_launch_mcap_is_an_error_and_a_cut_one_is_not(live, tmp_path):
+    """The launch's MCAP with one record's length in its middle set to 2^40: the file still
+    ends with its Footer and magic, so it is damaged (netkf trace extract refuses it too),
+    not a recording with half its periods. Cut at that record instead, it reads up to the cut."""
+    with open(path(live, "mcap", "R.mcap"), "rb") as f:
+        data = f.read()
+    whole = netkf.read_mcap_periods(path(live, "mcap", "R.mcap"))
+    pos, starts = len(netkf.mcap.MAGIC), []
+    while pos < len(data) - len(netkf.mcap.MAGIC):
+        starts.append(pos)
+        pos += 9 + int.from_bytes(data[pos + 1:pos + 9], "little")
+    middle = starts[len(starts) // 2]
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(data[:middle + 1] + (1 << 40).to_bytes(8, "little") + data[middle + 9:])
+    with pytest.raises(netkf.McapError, match="runs past the footer"):
+        netkf.read_mcap_periods(str(damaged))
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[:middle + 5])
+    m = netkf.read_mcap(str(cut))
+    assert m.truncated and not m.complete
+    frame = netkf.read_mcap_periods(m)
+    assert 0 < len(frame) < len(whole)
+    same = whole.iloc[:len(frame)].reset_index(drop=True)
+    frame.attrs = same.attrs = {}
+    pd.testing.assert_frame_equal(frame, same, check_exact=True)
