@@ -110,9 +110,7 @@ void LiveConsole::link_status(const LinkStatusRecord& status) {
 void LiveConsole::link_reply(const LinkReplyRecord& reply) {
   auto it = pending_.find(reply.request_id);
   if (it == pending_.end()) return;  // another client's request
-  const PendingChange change = it->second;
-  pending_.erase(it);
-  if (!dashboard_) return;
+  PendingChange& change = it->second;
   if (reply.applied) {
     // The channel's status with the new link follows; until then this is the link.
     applied_[change.sensor_id] = {reply.request_id, change.link, Clock::now() + kLinkChangeTimeout};
@@ -121,12 +119,29 @@ void LiveConsole::link_reply(const LinkReplyRecord& reply) {
     answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
            "link " + std::to_string(change.sensor_id) + ": change refused by the channel: " + reply.reason);
   }
+  if (reply.applied && !change.took_effect) {
+    // The link's next change waits for this one's journal entry (a link whose sensor sends
+    // nothing holds it until the deadline).
+    change.answered = true;
+    change.deadline = Clock::now() + kLinkChangeTimeout;
+    return;
+  }
+  pending_.erase(it);
   send_waiting_changes();
 }
 
 void LiveConsole::link_change(const LinkChangeRecord& change) {
   model_.add_link_change(change);
   emit_events();
+  if (change.origin != "request") return;
+  if (auto it = pending_.find(change.request_id); it != pending_.end()) {
+    if (!it->second.answered) {
+      it->second.took_effect = true;  // the answer is still on its way
+      return;
+    }
+    pending_.erase(it);
+    send_waiting_changes();
+  }
 }
 
 void LiveConsole::invalid_sample(const std::string& what) {
@@ -255,8 +270,9 @@ void LiveConsole::tick(Clock::time_point now) {
     }
     const PendingChange change = it->second;
     it = pending_.erase(it);
-    answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
-           "link " + std::to_string(change.sensor_id) + ": the channel emulator did not answer the change");
+    if (!change.answered)
+      answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
+             "link " + std::to_string(change.sensor_id) + ": the channel emulator did not answer the change");
   }
   if (pending_.size() < in_flight) send_waiting_changes();
   // Theory and the page's network summary about once a second, and the theory at once

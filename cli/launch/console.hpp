@@ -109,12 +109,17 @@ class LiveConsole {
     Clock::time_point until;  // the channel's status shows it by then
   };
   std::map<int, AppliedChange> applied_;  // per link: applied, not in the snapshot yet
+  // A change sent to the channel: until its answer, then (applied) until it took effect on a
+  // sample of the link, the channel's journal entry: a change replaced before any sample saw
+  // it would be answered "applied" and logged but never journaled.
   struct PendingChange {
     DashboardServer::ClientId client;
     std::optional<std::string> id;
     int sensor_id;
     LinkSpec link;  // what the link becomes when the channel applies it
     Clock::time_point deadline;
+    bool answered = false;     // applied, the client told
+    bool took_effect = false;  // its journal entry came before the answer
   };
   std::map<std::uint64_t, PendingChange> pending_;
   std::uint64_t next_request_id_;
