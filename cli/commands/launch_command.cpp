@@ -110,6 +110,11 @@ void add_view_and_check_options(CLI::App* cmd, LaunchOptions* o) {
                   "printed at start");
   cmd->add_option("--dashboard-allow-origin", o->dashboard_allow_origins,
                   "Also accept WebSocket connections from pages of this origin (e.g. a Foxglove web app); repeatable");
+  cmd->add_option("--dashboard-max-connections", o->dashboard_max_connections,
+                  "Connections the dashboard holds at once (HTTP and WebSocket); at the limit a new one replaces "
+                  "the longest idle HTTP connection or is refused (503)")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{65536}))
+      ->capture_default_str();
   // One value per --check: a check must never swallow the scenario file that follows it.
   cmd->add_option("--check", o->checks,
                   "Pass/fail check at the end of the run on a summary quantity: NAME<VALUE (or <=, >, >=), e.g. "

@@ -1,12 +1,18 @@
 // `netkf sweep`: a scenario over a grid of key values × seeds, offline or live, into a directory
 // of CSV files, sweep.yaml and report.html (cli/sweep/, docs/experiments.md "Sweeps").
+#include <pthread.h>
+
+#include <atomic>
 #include <csignal>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "commands.hpp"
@@ -31,21 +37,63 @@ struct SweepArgs {
 
 void on_stop_signal(int) { sweep::stop_requested = true; }
 
-/// Ctrl-C (and SIGTERM) ask the sweep to stop; no SA_RESTART, so a wait for a child returns.
-struct StopSignals {
-  struct sigaction old_int {}, old_term {};
-  StopSignals() {
-    struct sigaction sa {};
-    sa.sa_handler = on_stop_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, &old_int);
-    sigaction(SIGTERM, &sa, &old_term);
+/// Runs `work` on a thread of its own while this thread takes Ctrl-C and SIGTERM (blocked in
+/// the worker, sigtimedwait here): no slow work ever stands between a signal and the stop. The
+/// first signal asks the sweep to stop (each phase looks at sweep::stop_requested often); a
+/// second one quits at once, killing the running launches. A handler is installed too, in case
+/// the signal reaches a thread that does not block it.
+int run_stoppable(const std::function<int()>& work) {
+  sigset_t stop;
+  sigemptyset(&stop);
+  sigaddset(&stop, SIGINT);
+  sigaddset(&stop, SIGTERM);
+  struct sigaction sa {}, old_int {}, old_term {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, &old_int);
+  sigaction(SIGTERM, &sa, &old_term);
+  sigset_t old_mask;
+  pthread_sigmask(SIG_BLOCK, &stop, &old_mask);
+  std::atomic<bool> done{false};
+  int status = 1;
+  std::exception_ptr error;  // rethrown here, as if the work had run on this thread
+  std::thread worker([&] {
+    try {
+      status = work();
+    } catch (...) {
+      error = std::current_exception();
+    }
+    done = true;
+  });
+  int signals = 0;
+  while (!done) {
+    const timespec tick{0, 50'000'000};
+    const int sig = sigtimedwait(&stop, nullptr, &tick);
+    if (sig <= 0) continue;
+    sweep::stop_requested = true;
+    if (++signals == 1) {
+      std::cerr << "\nnetkf sweep: " << (sig == SIGINT ? "Ctrl-C" : "SIGTERM")
+                << ": stopping (the running runs are ended, what is done is kept); again to quit at once\n"
+                << std::flush;
+    } else {
+      sweep::kill_live_runs();
+      std::cerr << "\nnetkf sweep: quit at once: runs.csv keeps the finished runs; points.csv and report.html may be "
+                   "missing or incomplete (netkf sweep --resume DIR writes them)\n"
+                << std::flush;
+      std::_Exit(1);
+    }
   }
-  ~StopSignals() {
-    sigaction(SIGINT, &old_int, nullptr);
-    sigaction(SIGTERM, &old_term, nullptr);
+  worker.join();
+  // A signal that came as the work ended is taken here, not by the default action on unblocking.
+  const timespec now{0, 0};
+  while (sigtimedwait(&stop, nullptr, &now) > 0) {
   }
-};
+  pthread_sigmask(SIG_SETMASK, &old_mask, nullptr);
+  sigaction(SIGINT, &old_int, nullptr);
+  sigaction(SIGTERM, &old_term, nullptr);
+  if (error) std::rethrow_exception(error);
+  return status;
+}
 
 [[noreturn]] void usage_error(const std::string& message) {
   std::cerr << "netkf sweep: error: " << message << "\n";
@@ -121,11 +169,7 @@ void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv) {
     const auto* js = dashboard::find_asset("/uPlot.iife.min.js");
     const auto* css = dashboard::find_asset("/uPlot.min.css");
     const sweep::ReportAssets assets{js ? js->body : "", css ? css->body : ""};
-    int status = 0;
-    {
-      StopSignals signals;
-      status = sweep::run_sweep(config, !a->resume.empty(), assets, std::cerr);
-    }
+    const int status = run_stoppable([&] { return sweep::run_sweep(config, !a->resume.empty(), assets, std::cerr); });
     if (status == 0) std::cout << "wrote " << config.out << "/{runs.csv,points.csv,sweep.yaml,report.html}\n";
     if (status != 0) throw CLI::RuntimeError(status);
   });

@@ -5,7 +5,9 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <algorithm>
 #include <deque>
+#include <list>
 #include <optional>
 #include <stdexcept>
 #include <string_view>
@@ -38,6 +40,7 @@ dashboard::RequestFacts request_facts(const http::request<http::string_body>& re
           view(req[http::field::authorization]),
           view(req[http::field::origin]),
           view(req[http::field::sec_websocket_protocol]),
+          view(req[http::field::sec_websocket_key]),
           websocket::is_upgrade(req),
           req.keep_alive()};
 }
@@ -60,16 +63,44 @@ http::response<http::string_body> make_response(const dashboard::RequestDecision
 class WsSession;
 class HttpSession;
 
+/// One open connection, counted against the cap while it lives (moved from the HTTP session to
+/// the WebSocket one on an upgrade); release() when its socket is closed.
+class ConnectionSlot {
+ public:
+  explicit ConnectionSlot(std::weak_ptr<DashboardServer::Impl> server);
+  ConnectionSlot(ConnectionSlot&& other) noexcept : server_(std::exchange(other.server_, {})) {}
+  ConnectionSlot& operator=(ConnectionSlot&&) = delete;
+  ConnectionSlot(const ConnectionSlot&) = delete;
+  ~ConnectionSlot() { release(); }
+  void release();
+
+ private:
+  std::weak_ptr<DashboardServer::Impl> server_;
+};
+
 struct DashboardServer::Impl : std::enable_shared_from_this<DashboardServer::Impl> {
   Impl(net::io_context& io_, DashboardOptions o, nlohmann::json info, Hooks h)
-      : io(io_), options(std::move(o)), server_info(std::move(info)), hooks(std::move(h)), acceptor(io_), flush_timer(io_) {}
+      : io(io_),
+        options(std::move(o)),
+        server_info(std::move(info)),
+        hooks(std::move(h)),
+        acceptor(io_),
+        accept_timer(io_),
+        flush_timer(io_) {}
 
   void listen();
   void accept_next();
+  void on_accept(error_code ec, tcp::socket socket);
+  /// Close the HTTP connection idle the longest (no request begun) for a new one; false: none.
+  bool evict_idle();
   void schedule_flush();
   void flush();
+  void refused(const std::string& what) {
+    if (hooks.refused) hooks.refused(what);
+  }
 
-  void upgrade(beast::tcp_stream stream, http::request<http::string_body> req, const dashboard::RequestDecision& decision);
+  void upgrade(beast::tcp_stream stream, ConnectionSlot slot, http::request<http::string_body> req,
+               const dashboard::RequestDecision& decision);
   /// Do what the client's message asked (FoxgloveSession decided it).
   void apply(WsSession& session, dashboard::SessionActions actions);
   std::vector<std::shared_ptr<WsSession>> live_sessions();
@@ -79,20 +110,32 @@ struct DashboardServer::Impl : std::enable_shared_from_this<DashboardServer::Imp
   nlohmann::json server_info;
   Hooks hooks;
   tcp::acceptor acceptor;
+  net::steady_timer accept_timer;  // after an accept error (out of descriptors): a pause, not a spin
   net::steady_timer flush_timer;
   std::optional<dashboard::RequestPolicy> policy;  // once listening (the origins name the port)
   std::vector<std::weak_ptr<WsSession>> sessions;
+  std::list<std::weak_ptr<HttpSession>> idle;  // HTTP connections with no request begun, oldest first
   dashboard::LatchedMessages latched;
   ClientId next_client = 1;
   std::uint64_t dropped = 0;
+  DashboardStats stats;
   bool stopped = false;
 };
 
+ConnectionSlot::ConnectionSlot(std::weak_ptr<DashboardServer::Impl> server) : server_(std::move(server)) {
+  if (auto s = server_.lock()) ++s->stats.connections;
+}
+
+void ConnectionSlot::release() {
+  if (auto s = server_.lock()) --s->stats.connections;
+  server_.reset();
+}
+
 class WsSession : public std::enable_shared_from_this<WsSession> {
  public:
-  WsSession(beast::tcp_stream&& stream, std::weak_ptr<DashboardServer::Impl> server, DashboardServer::ClientId id,
-            std::size_t max_message, std::size_t max_queued)
-      : ws_(std::move(stream)), server_(std::move(server)), id_(id), max_queued_(max_queued) {
+  WsSession(beast::tcp_stream&& stream, ConnectionSlot slot, std::weak_ptr<DashboardServer::Impl> server,
+            DashboardServer::ClientId id, std::size_t max_message, std::size_t max_queued)
+      : ws_(std::move(stream)), slot_(std::move(slot)), server_(std::move(server)), id_(id), max_queued_(max_queued) {
     ws_.read_message_max(max_message);
   }
 
@@ -167,8 +210,16 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   void read() {
     ws_.async_read(buffer_, [self = shared_from_this()](error_code ec, std::size_t) {
       if (ec) {
-        // Closed, or a message over the size limit (beast closes with "message too big").
+        // Closed, or a bad frame: a message over the size limit ("message too big"), an unmasked
+        // or malformed frame; beast has closed the connection.
         self->open_ = false;
+        const bool closed = ec == websocket::error::closed || ec == net::error::eof ||
+                            ec == net::error::operation_aborted || ec == net::error::connection_reset ||
+                            ec == beast::error::timeout;
+        if (auto srv = self->server_.lock(); srv && !closed) {
+          ++srv->stats.refused_messages;
+          srv->refused("closed WebSocket client " + std::to_string(self->id_) + ": " + ec.message());
+        }
         return;
       }
       const bool text = self->ws_.got_text();
@@ -181,6 +232,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   }
 
   websocket::stream<beast::tcp_stream> ws_;
+  ConnectionSlot slot_;  // counted while this object (and so its socket) lives
   std::weak_ptr<DashboardServer::Impl> server_;
   DashboardServer::ClientId id_;
   std::size_t max_queued_;
@@ -192,36 +244,86 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(tcp::socket&& socket, std::weak_ptr<DashboardServer::Impl> server)
-      : stream_(std::move(socket)), server_(std::move(server)) {}
+  HttpSession(tcp::socket&& socket, ConnectionSlot slot, std::weak_ptr<DashboardServer::Impl> server)
+      : stream_(std::move(socket)), slot_(std::move(slot)), server_(std::move(server)) {}
+  ~HttpSession() { set_idle(false); }
 
-  void read() {
+  /// Wait for a request: idle_timeout for its first byte, then request_timeout for the rest.
+  void wait_for_request() {
+    auto srv = server_.lock();
+    if (!srv) return close();
+    if (buffer_.size() > 0) return read_request(*srv);  // pipelined: the next request is here
+    set_idle(true);
+    stream_.expires_after(srv->options.idle_timeout);
+    stream_.async_read_some(buffer_.prepare(dashboard::kHttpRequestLimit),
+                            [self = shared_from_this()](error_code ec, std::size_t n) {
+                              self->set_idle(false);
+                              auto server = self->server_.lock();
+                              if (ec || !server) {
+                                if (ec == beast::error::timeout && server) ++server->stats.idle_timeouts;
+                                return self->close();
+                              }
+                              self->buffer_.commit(n);
+                              self->read_request(*server);
+                            });
+  }
+
+  bool idle() const { return idle_pos_.has_value(); }
+  /// Idle and nothing arrived yet (a request that arrived but was not read yet is not idle).
+  bool evictable() {
+    error_code ec;
+    return idle() && stream_.socket().available(ec) == 0 && !ec;
+  }
+  /// Closed at the cap for a newer connection (its pending read ends with operation_aborted).
+  void evict() {
+    set_idle(false);
+    close();
+  }
+
+ private:
+  void read_request(DashboardServer::Impl& srv) {
     parser_.emplace();
     parser_->header_limit(dashboard::kHttpRequestLimit);
     parser_->body_limit(dashboard::kHttpRequestLimit);
-    stream_.expires_after(dashboard::kHttpTimeout);
+    stream_.expires_after(srv.options.request_timeout);
     http::async_read(stream_, buffer_, *parser_, [self = shared_from_this()](error_code ec, std::size_t) {
       self->on_read(ec);
     });
   }
 
- private:
   void on_read(error_code ec) {
-    if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted) {
+    auto srv = server_.lock();
+    if (!srv) return close();
+    if (ec == beast::error::timeout) {
+      ++srv->stats.request_timeouts;
+      srv->refused("closed an HTTP connection: its request was not complete " +
+                   std::to_string(srv->options.request_timeout.count()) + " ms after its first byte");
       return close();
     }
-    auto srv = server_.lock();
-    if (!srv) return;
+    if (ec == http::error::end_of_stream || ec == net::error::operation_aborted || ec == net::error::connection_reset)
+      return close();
     if (ec) {
       // Oversized or malformed request: answer once, then close.
       const bool too_large = ec == http::error::header_limit || ec == http::error::body_limit;
       const auto decision = dashboard::unreadable_request(too_large, ec.message());
+      ++srv->stats.refused_requests;
+      srv->refused("refused an HTTP request (" + std::to_string(decision.status) + "): " + ec.message());
       return write(make_response(decision, 11, decision.body));
     }
     auto req = parser_->release();
-    const auto decision = srv->policy->decide(request_facts(req));
+    const auto facts = request_facts(req);
+    const auto decision = srv->policy->decide(facts);
+    if (dashboard::worth_logging(facts, decision)) {
+      ++srv->stats.refused_requests;
+      const std::string target(view(req.target()).substr(0, 80));
+      const auto reason = decision.body.substr(0, decision.body.find('\n'));
+      srv->refused("refused " + std::string(facts.websocket_upgrade ? "a WebSocket handshake" : "an HTTP request") +
+                   " (" + std::to_string(decision.status) + ", " + std::string(view(req.method_string()).substr(0, 16)) +
+                   " " + target.substr(0, target.find('?')) + "): " + reason);
+    }
     using Action = dashboard::RequestDecision::Action;
-    if (decision.action == Action::websocket) return srv->upgrade(std::move(stream_), std::move(req), decision);
+    if (decision.action == Action::websocket)
+      return srv->upgrade(std::move(stream_), std::move(slot_), std::move(req), decision);
     const bool metrics = decision.action == Action::metrics;
     write(make_response(decision, req.version(),
                         metrics ? (srv->hooks.metrics ? srv->hooks.metrics() : std::string()) : decision.body));
@@ -230,10 +332,10 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void write(http::response<http::string_body> response) {
     response.prepare_payload();
     auto res = std::make_shared<http::response<http::string_body>>(std::move(response));
-    stream_.expires_after(dashboard::kHttpTimeout);
+    if (auto srv = server_.lock()) stream_.expires_after(srv->options.request_timeout);
     http::async_write(stream_, *res, [self = shared_from_this(), res](error_code ec, std::size_t) {
       if (ec || !res->keep_alive()) return self->close();
-      self->read();
+      self->wait_for_request();
     });
   }
 
@@ -241,12 +343,25 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     error_code ignored;
     stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
     stream_.socket().close(ignored);
+    slot_.release();
+  }
+
+  void set_idle(bool idle) {
+    auto srv = server_.lock();
+    if (!srv) return;
+    if (idle && !idle_pos_) idle_pos_ = srv->idle.insert(srv->idle.end(), weak_from_this());
+    if (!idle && idle_pos_) {
+      srv->idle.erase(*idle_pos_);
+      idle_pos_.reset();
+    }
   }
 
   beast::tcp_stream stream_;
+  ConnectionSlot slot_;
   std::weak_ptr<DashboardServer::Impl> server_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
+  std::optional<std::list<std::weak_ptr<HttpSession>>::iterator> idle_pos_;
 };
 
 // ---------------------------------------------------------------- Impl
@@ -279,9 +394,63 @@ void DashboardServer::Impl::accept_next() {
   acceptor.async_accept([weak = weak_from_this()](error_code ec, tcp::socket socket) {
     auto self = weak.lock();
     if (!self || self->stopped) return;
-    if (!ec) std::make_shared<HttpSession>(std::move(socket), weak)->read();
-    self->accept_next();
+    self->on_accept(ec, std::move(socket));
   });
+}
+
+void DashboardServer::Impl::on_accept(error_code ec, tcp::socket socket) {
+  if (ec) {
+    ++stats.accept_errors;
+    refused("cannot accept a connection: " + ec.message());
+    // Out of descriptors (or memory): accepting again at once would spin; the pending
+    // connection waits in the backlog.
+    accept_timer.expires_after(std::chrono::milliseconds(100));
+    accept_timer.async_wait([weak = weak_from_this()](error_code timer_ec) {
+      auto self = weak.lock();
+      if (!timer_ec && self && !self->stopped) self->accept_next();
+    });
+    return;
+  }
+  if (stats.connections >= options.max_connections && !evict_idle()) {
+    // Every connection is busy (WebSocket clients, requests under way): refuse this one at once.
+    ++stats.refused_connections;
+    refused("refused a connection: " + std::to_string(stats.connections) +
+            " are open, the limit (--dashboard-max-connections)");
+    static const std::string body = "too many connections to this dashboard; try again later\n";
+    static const std::string busy = "HTTP/1.1 503 Service Unavailable\r\nServer: netkf\r\n"
+                                    "Content-Type: text/plain; charset=utf-8\r\nConnection: close\r\n"
+                                    "Retry-After: 1\r\nContent-Length: " +
+                                    std::to_string(body.size()) + "\r\n\r\n" + body;
+    error_code ignored;
+    socket.non_blocking(true, ignored);  // a fresh socket's send buffer takes it whole; never wait
+    socket.write_some(net::buffer(busy), ignored);
+    socket.shutdown(tcp::socket::shutdown_send, ignored);
+    socket.close(ignored);
+  } else {
+    std::make_shared<HttpSession>(std::move(socket), ConnectionSlot(weak_from_this()), weak_from_this())
+        ->wait_for_request();
+  }
+  accept_next();
+}
+
+bool DashboardServer::Impl::evict_idle() {
+  for (auto it = idle.begin(); it != idle.end();) {
+    auto session = it->lock();
+    if (!session) {
+      it = idle.erase(it);
+      continue;
+    }
+    if (!session->evictable()) {  // its request is arriving
+      ++it;
+      continue;
+    }
+    session->evict();  // removes it from `idle`
+    ++stats.evicted_connections;
+    refused("closed the longest idle connection for a new one: " + std::to_string(options.max_connections) +
+            " are open, the limit (--dashboard-max-connections)");
+    return true;
+  }
+  return false;
 }
 
 void DashboardServer::Impl::schedule_flush() {
@@ -313,15 +482,19 @@ std::vector<std::shared_ptr<WsSession>> DashboardServer::Impl::live_sessions() {
   return out;
 }
 
-void DashboardServer::Impl::upgrade(beast::tcp_stream stream, http::request<http::string_body> req,
+void DashboardServer::Impl::upgrade(beast::tcp_stream stream, ConnectionSlot slot, http::request<http::string_body> req,
                                     const dashboard::RequestDecision& decision) {
-  auto session = std::make_shared<WsSession>(std::move(stream), weak_from_this(), next_client++,
+  auto session = std::make_shared<WsSession>(std::move(stream), std::move(slot), weak_from_this(), next_client++,
                                              options.max_message_bytes, options.max_queued_frames);
   sessions.push_back(session);
   session->accept(std::move(req), decision.fields);
 }
 
 void DashboardServer::Impl::apply(WsSession& session, dashboard::SessionActions actions) {
+  for (const auto& why : actions.refused) {
+    ++stats.refused_messages;
+    refused("refused a message of WebSocket client " + std::to_string(session.id()) + ": " + why.substr(0, 200));
+  }
   for (auto& out : actions.send) {
     if (out.binary) {
       session.queue_data(std::move(out.frame));
@@ -395,13 +568,27 @@ void DashboardServer::broadcast_parameter_values(const nlohmann::json& values) {
 std::size_t DashboardServer::client_count() const { return impl_->live_sessions().size(); }
 std::uint64_t DashboardServer::dropped_frames() const { return impl_->dropped; }
 
+DashboardStats DashboardServer::stats() const {
+  DashboardStats s = impl_->stats;
+  s.max_connections = impl_->options.max_connections;
+  return s;
+}
+
+std::size_t connection_cap(std::size_t wanted, std::uint64_t open_files) {
+  return static_cast<std::size_t>(std::min<std::uint64_t>(wanted, open_files / 2));
+}
+
 void DashboardServer::stop() {
   if (!impl_ || impl_->stopped) return;
   impl_->stopped = true;
   error_code ignored;
   impl_->acceptor.close(ignored);
+  impl_->accept_timer.cancel();
   impl_->flush_timer.cancel();
   for (auto& s : impl_->live_sessions()) s->close();
+  const auto idle = impl_->idle;  // evict() edits the list
+  for (const auto& w : idle)
+    if (auto h = w.lock()) h->evict();
 }
 
 }  // namespace netkf::cli

@@ -18,8 +18,13 @@
 #include <nlohmann/json.hpp>
 
 #include "dashboard_protocol.hpp"
+#include "live_metrics.hpp"
+#include "request_policy.hpp"
 
 namespace netkf::cli {
+
+/// Connections the dashboard holds at once by default (HTTP and WebSocket together).
+inline constexpr std::size_t kDefaultMaxConnections = 256;
 
 struct DashboardOptions {
   std::string bind = "127.0.0.1";
@@ -29,7 +34,17 @@ struct DashboardOptions {
   std::size_t max_message_bytes = 64 * 1024;  // a larger client message closes the connection
   std::size_t max_queued_frames = 4096;       // per client; older data frames are dropped beyond it
   std::chrono::milliseconds flush_interval{50};  // data frames go out in batches (20 a second)
+  // At the cap a new connection takes the place of the longest idle HTTP one (no request begun),
+  // or is refused at once (503) when none is idle: the launch's descriptors stay its own.
+  std::size_t max_connections = kDefaultMaxConnections;
+  std::chrono::milliseconds request_timeout = dashboard::kHttpRequestTimeout;  // first byte to last
+  std::chrono::milliseconds idle_timeout = dashboard::kHttpIdleTimeout;        // no request begun
 };
+
+/// The connection cap of a dashboard in a process that may open `open_files` descriptors:
+/// `wanted`, but at most half of them, so the launch keeps the rest (DDS sockets, its children's
+/// pipes, the recording).
+std::size_t connection_cap(std::size_t wanted, std::uint64_t open_files);
 
 class DashboardServer {
  public:
@@ -41,6 +56,9 @@ class DashboardServer {
     std::function<nlohmann::json(const dashboard::GetParameters&)> get_parameters;
     /// GET /metrics body.
     std::function<std::string()> metrics;
+    /// Refused traffic in words (a request, a handshake, a client message, a bad frame, a
+    /// connection over the cap); the caller logs it at a throttled rate.
+    std::function<void(const std::string&)> refused;
   };
 
   /// Binds and listens at once. Throws std::runtime_error with a clear message when the
@@ -68,6 +86,7 @@ class DashboardServer {
 
   std::size_t client_count() const;
   std::uint64_t dropped_frames() const;
+  DashboardStats stats() const;
   /// Close every connection and stop listening.
   void stop();
 

@@ -66,6 +66,7 @@ void FoxgloveSession::update_parameter_subscriptions(const ParameterUpdates& req
 
 void FoxgloveSession::refuse(SessionActions& actions, const std::string& why) {
   ++refused_;
+  actions.refused.push_back(why);
   actions.send.push_back({false, status_message(LiveEvent::Level::error, why), {}});
 }
 

@@ -39,6 +39,7 @@ struct SessionActions {
   bool send_data_now = false;  // send the queued data frames now, not with the next batch
   std::optional<GetParameters> get_parameters;  // to answer with the links' values
   std::optional<SetParameters> set_parameters;  // to pass on to the link-control path
+  std::vector<std::string> refused;              // why parts of the message were refused (for the log)
 };
 
 class FoxgloveSession {

@@ -86,8 +86,12 @@ std::pair<unsigned, std::string> RequestPolicy::refusal(const RequestFacts& requ
     if (!origin.empty() && !origins_.count(origin))
       return {403, "origin '" + origin.substr(0, 200) +
                        "' is not allowed (netkf launch --dashboard-allow-origin ORIGIN allows it)"};
+    if (split_target(request.target).path != kWebSocketPath)
+      return {404, "the WebSocket is at " + std::string(kWebSocketPath)};
     if (!offers_subprotocol(request.websocket_protocols, kSubprotocol))
       return {400, std::string("this WebSocket speaks the subprotocol ") + kSubprotocol};
+    if (!valid_websocket_key(request.websocket_key))
+      return {400, "the Sec-WebSocket-Key is not the base64 of 16 bytes (RFC 6455)"};
   }
   return {0, {}};
 }
@@ -145,6 +149,21 @@ std::set<std::string> own_origins(const std::string& bind, bool bind_is_v6, bool
   if (!bind_is_wildcard) origins.insert("http://" + (bind_is_v6 ? "[" + bind + "]" : bind) + ":" + p);
   origins.insert(allowed.begin(), allowed.end());
   return origins;
+}
+
+bool valid_websocket_key(std::string_view key) {
+  // 16 bytes: 5 groups of 4 characters, then 2 characters and "==".
+  if (key.size() != 24 || key.substr(22) != "==") return false;
+  auto base64 = [](char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/';
+  };
+  for (std::size_t i = 0; i < 22; ++i)
+    if (!base64(key[i])) return false;
+  return true;
+}
+
+bool worth_logging(const RequestFacts& request, const RequestDecision& decision) {
+  return decision.status >= 400 && (decision.status != 404 || request.websocket_upgrade);
 }
 
 RequestDecision unreadable_request(bool too_large, std::string_view reason) {

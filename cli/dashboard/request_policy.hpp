@@ -15,9 +15,15 @@
 
 namespace netkf::cli::dashboard {
 
-/// A plain HTTP request (header and body) may not be larger, nor take longer.
+/// A plain HTTP request (header and body) may not be larger.
 inline constexpr std::size_t kHttpRequestLimit = 8 * 1024;
-inline constexpr std::chrono::seconds kHttpTimeout{30};
+/// A request must arrive in full this long after its first byte (a client trickling its
+/// header, "slowloris", is closed then), and a connection with no request begun (a new one, or
+/// a kept-alive one after its answer) is closed after kHttpIdleTimeout.
+inline constexpr std::chrono::seconds kHttpRequestTimeout{10};
+inline constexpr std::chrono::seconds kHttpIdleTimeout{5};
+/// The WebSocket's path (docs/dashboard.md): an upgrade on any other path is refused (404).
+inline constexpr std::string_view kWebSocketPath = "/";
 
 /// One file of the dashboard page (dashboard__assets.hpp embeds them).
 struct Asset {
@@ -33,6 +39,7 @@ struct RequestFacts {
   std::string_view authorization;        // the Authorization field ("" when absent)
   std::string_view origin;               // the Origin field
   std::string_view websocket_protocols;  // Sec-WebSocket-Protocol: the subprotocols offered
+  std::string_view websocket_key;        // Sec-WebSocket-Key
   bool websocket_upgrade = false;        // a WebSocket handshake (the HTTP library's reading)
   bool keep_alive = true;                // what the client asked for its connection
 };
@@ -73,6 +80,13 @@ class RequestPolicy {
 /// the bound address's (unless a wildcard), and the ones allowed on the command line.
 std::set<std::string> own_origins(const std::string& bind, bool bind_is_v6, bool bind_is_wildcard, unsigned short port,
                                   const std::vector<std::string>& allowed);
+
+/// RFC 6455, 4.1: a Sec-WebSocket-Key is the base64 of 16 bytes (24 characters, "==" last).
+bool valid_websocket_key(std::string_view key);
+
+/// A refusal worth logging (throttled: docs/dashboard.md, "Safety"): a wrong token, a foreign
+/// origin, a bad handshake or request. Not a plain 404 (a browser asks for /favicon.ico).
+bool worth_logging(const RequestFacts& request, const RequestDecision& decision);
 
 /// The answer to a request that could not be read (`too_large`: over kHttpRequestLimit);
 /// `reason` is the reading error's. The connection closes after it.

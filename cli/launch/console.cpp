@@ -1,6 +1,7 @@
 #include "console.hpp"
 
 #include <boost/asio/post.hpp>
+#include <algorithm>
 #include <iostream>
 #include <random>
 
@@ -12,6 +13,7 @@ namespace netkf::cli {
 namespace {
 constexpr std::size_t kScreenEvents = 8;                      // events kept on the in-place screen
 constexpr auto kLinkChangeTimeout = std::chrono::seconds(3);  // the channel answers within ms when alive
+constexpr std::size_t kChangesInFlight = 16;  // well within the control topic's 64 requests
 
 const char* level_prefix(LiveEvent::Level level) {
   switch (level) {
@@ -44,6 +46,10 @@ LiveConsole::LiveConsole(boost::asio::io_context& io, const Scenario& scenario, 
       return dashboard::parameter_values(model_.snapshot().links, r.names, r.id);
     };
     hooks.metrics = [this] { return render_metrics(); };
+    hooks.refused = [this](const std::string& what) {
+      if (const auto left_out = dashboard_log_.allow())
+        log(LiveEvent::Level::warning, "dashboard: " + what + dds::left_out_text(*left_out));
+    };
     std::random_device session;
     dashboard_ = std::make_unique<DashboardServer>(
         io_, *options_.dashboard, dashboard::server_info(std::to_string(session()), scenario), std::move(hooks));
@@ -86,6 +92,8 @@ void LiveConsole::estimate(const Estimate& estimate) {
 void LiveConsole::link_status(const LinkStatusRecord& status) {
   const auto before = model_.snapshot().links;
   model_.add_link_status(status);
+  if (auto a = applied_.find(status.sensor_id); a != applied_.end() && status.last_request_id == a->second.request_id)
+    applied_.erase(a);
   for (const auto& l : model_.snapshot().links) {
     if (l.sensor_id != status.sensor_id) continue;
     if (dashboard_) dashboard_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(l), wall_ns(), l.sensor_id);
@@ -102,27 +110,38 @@ void LiveConsole::link_status(const LinkStatusRecord& status) {
 void LiveConsole::link_reply(const LinkReplyRecord& reply) {
   auto it = pending_.find(reply.request_id);
   if (it == pending_.end()) return;  // another client's request
-  const PendingChange change = it->second;
-  pending_.erase(it);
-  if (!dashboard_) return;
-  LinkView current;
-  for (const auto& l : model_.snapshot().links)
-    if (l.sensor_id == change.sensor_id) current = l;
+  PendingChange& change = it->second;
   if (reply.applied) {
-    current.link = change.link;  // the channel's status with the new link follows
-    dashboard_->send_to(change.client, dashboard::link_parameter_values(current, change.id));
+    // The channel's status with the new link follows; until then this is the link.
+    applied_[change.sensor_id] = {reply.request_id, change.link, Clock::now() + kLinkChangeTimeout};
+    dashboard_->send_to(change.client, dashboard::link_parameter_values(current_link(change.sensor_id), change.id));
   } else {
-    dashboard_->send_to(change.client,
-                        dashboard::status_message(LiveEvent::Level::error, "link " + std::to_string(change.sensor_id) +
-                                                                               ": change refused by the channel: " +
-                                                                               reply.reason));
-    if (change.id) dashboard_->send_to(change.client, dashboard::link_parameter_values(current, change.id));
+    answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
+           "link " + std::to_string(change.sensor_id) + ": change refused by the channel: " + reply.reason);
   }
+  if (reply.applied && !change.took_effect) {
+    // The link's next change waits for this one's journal entry (a link whose sensor sends
+    // nothing holds it until the deadline).
+    change.answered = true;
+    change.deadline = Clock::now() + kLinkChangeTimeout;
+    return;
+  }
+  pending_.erase(it);
+  send_waiting_changes();
 }
 
 void LiveConsole::link_change(const LinkChangeRecord& change) {
   model_.add_link_change(change);
   emit_events();
+  if (change.origin != "request") return;
+  if (auto it = pending_.find(change.request_id); it != pending_.end()) {
+    if (!it->second.answered) {
+      it->second.took_effect = true;  // the answer is still on its way
+      return;
+    }
+    pending_.erase(it);
+    send_waiting_changes();
+  }
 }
 
 void LiveConsole::invalid_sample(const std::string& what) {
@@ -150,25 +169,70 @@ void LiveConsole::set_processes(std::vector<ProcessView> processes) { model_.set
 void LiveConsole::count_restart(const std::string& process) { metrics_.count_restart(process); }
 
 void LiveConsole::on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
-  for (const auto& change : dashboard::link_changes(request, model_.snapshot().links)) {
-    const LinkView* current = nullptr;
-    for (const auto& l : model_.snapshot().links)
-      if (l.sensor_id == change.sensor_id) current = &l;
+  for (auto& change : dashboard::link_changes(request, model_.snapshot().links)) {
     if (!change.keys) {
       dashboard_->send_to(client, dashboard::status_message(LiveEvent::Level::error, change.refusal));
-      if (request.id && current) dashboard_->send_to(client, dashboard::link_parameter_values(*current, request.id));
+      for (const auto& l : model_.snapshot().links)
+        if (l.sensor_id == change.sensor_id && request.id)
+          dashboard_->send_to(client, dashboard::link_parameter_values(current_link(l.sensor_id), request.id));
       continue;
     }
-    const std::uint64_t request_id = next_request_id_++;
-    model_.note_own_request(request_id, "dashboard");
-    if (!send_link_control_ || !send_link_control_(request_id, change.sensor_id, *change.keys)) {
-      dashboard_->send_to(client, dashboard::status_message(LiveEvent::Level::error,
-                                                            "link " + std::to_string(change.sensor_id) +
-                                                                ": the change could not be sent (no channel emulator?)"));
-      continue;
-    }
-    pending_[request_id] = {client, request.id, change.sensor_id, change.link, Clock::now() + kLinkChangeTimeout};
+    const auto [waiting, first] = waiting_.try_emplace(change.sensor_id);
+    if (!first)
+      answer(waiting->second.client, waiting->second.id, change.sensor_id, LiveEvent::Level::warning,
+             "link " + std::to_string(change.sensor_id) +
+                 ": change superseded by a newer one before it was sent to the channel (not applied)");
+    waiting->second = {client, request.id, std::move(*change.keys)};
   }
+  send_waiting_changes();
+}
+
+void LiveConsole::send_waiting_changes() {
+  for (auto it = waiting_.begin(); it != waiting_.end() && pending_.size() < kChangesInFlight;) {
+    const int sensor_id = it->first;
+    const bool in_flight = std::any_of(pending_.begin(), pending_.end(),
+                                       [sensor_id](const auto& p) { return p.second.sensor_id == sensor_id; });
+    if (in_flight) {
+      ++it;
+      continue;
+    }
+    const LinkRequest request = std::move(it->second);
+    it = waiting_.erase(it);
+    send_change(sensor_id, request);
+  }
+}
+
+void LiveConsole::send_change(int sensor_id, const LinkRequest& request) {
+  const std::string link_name = "link " + std::to_string(sensor_id);
+  LinkSpec link;
+  try {
+    // The keys sent change; the link keeps the others as it is now (a change applied since
+    // the request was made included).
+    link = apply_link_keys(current_link(sensor_id).link, request.keys);
+  } catch (const LinkError& e) {
+    return answer(request.client, request.id, sensor_id, LiveEvent::Level::error, link_name + ": " + e.what());
+  }
+  const std::uint64_t request_id = next_request_id_++;
+  model_.note_own_request(request_id, "dashboard");
+  if (!send_link_control_ || !send_link_control_(request_id, sensor_id, request.keys))
+    return answer(request.client, request.id, sensor_id, LiveEvent::Level::error,
+                  link_name + ": the change could not be sent (no channel emulator?)");
+  pending_[request_id] = {request.client, request.id, sensor_id, link, Clock::now() + kLinkChangeTimeout};
+}
+
+LinkView LiveConsole::current_link(int sensor_id) const {
+  LinkView view;
+  for (const auto& l : model_.snapshot().links)
+    if (l.sensor_id == sensor_id) view = l;
+  if (auto a = applied_.find(sensor_id); a != applied_.end() && Clock::now() < a->second.until) view.link = a->second.link;
+  return view;
+}
+
+void LiveConsole::answer(DashboardServer::ClientId client, const std::optional<std::string>& id, int sensor_id,
+                         LiveEvent::Level level, const std::string& message) {
+  if (!dashboard_) return;
+  dashboard_->send_to(client, dashboard::status_message(level, message));
+  if (id) dashboard_->send_to(client, dashboard::link_parameter_values(current_link(sensor_id), id));
 }
 
 void LiveConsole::request_theory(bool with_region) {
@@ -192,23 +256,25 @@ void LiveConsole::emit_events() {
 
 std::string LiveConsole::render_metrics() {
   metrics_.update(model_.snapshot());
+  if (dashboard_) metrics_.update_dashboard(dashboard_->stats());
   return metrics_.serialize();
 }
 
 void LiveConsole::tick(Clock::time_point now) {
   // Link changes the channel never answered.
+  const std::size_t in_flight = pending_.size();
   for (auto it = pending_.begin(); it != pending_.end();) {
     if (now < it->second.deadline) {
       ++it;
       continue;
     }
-    if (dashboard_)
-      dashboard_->send_to(it->second.client,
-                          dashboard::status_message(LiveEvent::Level::error,
-                                                    "link " + std::to_string(it->second.sensor_id) +
-                                                        ": the channel emulator did not answer the change"));
+    const PendingChange change = it->second;
     it = pending_.erase(it);
+    if (!change.answered)
+      answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
+             "link " + std::to_string(change.sensor_id) + ": the channel emulator did not answer the change");
   }
+  if (pending_.size() < in_flight) send_waiting_changes();
   // Theory and the page's network summary about once a second, and the theory at once
   // after a link's model changed (when the worker is free: requests never pile up).
   const bool refresh_due = now >= next_refresh_;

@@ -69,6 +69,21 @@ class LiveConsole {
 
  private:
   void on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request);
+  /// A change of one link a client asked for, not sent to the channel yet.
+  struct LinkRequest {
+    DashboardServer::ClientId client = 0;
+    std::optional<std::string> id;
+    LinkKeys keys;
+  };
+  /// Send the waiting changes of links with none in flight (at most kChangesInFlight at once).
+  void send_waiting_changes();
+  void send_change(int sensor_id, const LinkRequest& request);
+  /// The link as it is now: the snapshot's, or the one a change of ours made that the
+  /// channel's status has not shown yet.
+  LinkView current_link(int sensor_id) const;
+  /// A status and, when the request had an id, parameterValues with the link's values.
+  void answer(DashboardServer::ClientId client, const std::optional<std::string>& id, int sensor_id,
+              LiveEvent::Level level, const std::string& message);
   void request_theory(bool with_region);
   void on_theory(TheoryView view);
   void emit_events();
@@ -82,13 +97,29 @@ class LiveConsole {
   LiveMetrics metrics_;
   std::unique_ptr<DashboardServer> dashboard_;
   std::deque<std::string> screen_events_;
-  LogThrottle invalid_log_;  // a rogue sender: a few warnings, then a count
+  LogThrottle invalid_log_;    // a rogue sender: a few warnings, then a count
+  LogThrottle dashboard_log_;  // refused dashboard traffic: a few warnings, then a count
+  // Link changes from dashboard clients go to the channel one per link at a time: the control
+  // topic keeps the last 64 requests, and a burst beyond it was lost unanswered. The latest
+  // change asked meanwhile waits for the answer; the one it replaces is answered "superseded".
+  std::map<int, LinkRequest> waiting_;  // per link
+  struct AppliedChange {
+    std::uint64_t request_id;
+    LinkSpec link;
+    Clock::time_point until;  // the channel's status shows it by then
+  };
+  std::map<int, AppliedChange> applied_;  // per link: applied, not in the snapshot yet
+  // A change sent to the channel: until its answer, then (applied) until it took effect on a
+  // sample of the link, the channel's journal entry: a change replaced before any sample saw
+  // it would be answered "applied" and logged but never journaled.
   struct PendingChange {
     DashboardServer::ClientId client;
     std::optional<std::string> id;
     int sensor_id;
     LinkSpec link;  // what the link becomes when the channel applies it
     Clock::time_point deadline;
+    bool answered = false;     // applied, the client told
+    bool took_effect = false;  // its journal entry came before the answer
   };
   std::map<std::uint64_t, PendingChange> pending_;
   std::uint64_t next_request_id_;

@@ -14,6 +14,7 @@
 #include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/nodes/estimator_core.hpp"
+#include "open_files.hpp"
 #include "serve_loop.hpp"
 #include "text.hpp"
 
@@ -186,7 +187,10 @@ void Launch::open_network() {
 }
 
 /// The console first: a dashboard port that is taken fails the launch before anything starts.
+/// The open-file limit is raised first: the dashboard's connections never take the descriptors
+/// the launch needs for its children's pipes and DDS (connection_cap).
 void Launch::open_console() {
+  const std::uint64_t open_files = raise_open_file_limit();
   console_options_.status_interval = o_.status_interval;
   const char* term = std::getenv("TERM");
   console_options_.status_screen =
@@ -199,6 +203,10 @@ void Launch::open_console() {
       d.token = random_token();  // listening beyond 127.0.0.1: every request needs it
     }
     d.allowed_origins = o_.dashboard_allow_origins;
+    d.max_connections = connection_cap(o_.dashboard_max_connections, open_files);
+    if (d.max_connections < o_.dashboard_max_connections)
+      std::cerr << "netkf launch: the dashboard takes at most " << d.max_connections
+                << " connections (half the open-file limit, " << open_files << ")\n";
     console_options_.dashboard = d;
   }
   console_ = or_bad_usage([&] {

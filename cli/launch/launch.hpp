@@ -53,6 +53,7 @@ struct LaunchOptions {
   std::string dashboard = "8470";  // port, or "off"
   std::optional<std::string> dashboard_bind;
   std::vector<std::string> dashboard_allow_origins;
+  std::size_t dashboard_max_connections = kDefaultMaxConnections;
   std::vector<std::string> checks;  // "NAME<VALUE", evaluated at the end of the run
   std::optional<std::string> summary;
   double domain_check = 1.5;  // seconds to look for another network on the domain before starting

@@ -47,8 +47,8 @@ std::string SupervisorEvent::message() const {
     case Kind::exited: return who + " " + exit.describe();
     case Kind::restart_scheduled:
       return "restarting " + child + " in " + std::to_string(backoff.count()) + " ms";
-    case Kind::gave_up: return "giving up on " + child + ": " + exit.describe();
-    case Kind::start_failed: return "could not start " + child;
+    case Kind::gave_up: return "giving up on " + child + ": " + (reason.empty() ? exit.describe() : reason);
+    case Kind::start_failed: return "could not start " + child + (reason.empty() ? "" : ": " + reason);
   }
   return {};
 }
@@ -73,11 +73,16 @@ SupervisorEvent Supervisor::start(ChildSpec spec, std::function<void(ChildSpec&)
   child.spec = std::move(spec);
   child.before_restart = std::move(before_restart);
   children_.push_back(std::move(child));
-  return spawn(children_.back());
+  auto event = spawn(children_.back());
+  if (event.kind == SupervisorEvent::Kind::start_failed && !failed_) {
+    failed_ = true;
+    failure_reason_ = event.message();
+  }
+  return event;
 }
 
 SupervisorEvent Supervisor::spawn(Child& child) {
-  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name, -1, {}, {}};
+  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name, -1, {}, {}, {}};
   std::vector<std::string> argv_storage;
   argv_storage.push_back(child.spec.executable);
   argv_storage.insert(argv_storage.end(), child.spec.args.begin(), child.spec.args.end());
@@ -90,11 +95,13 @@ SupervisorEvent Supervisor::spawn(Child& child) {
   int pipe_fds[2];
   if (pipe2(pipe_fds, O_CLOEXEC) != 0) {
     event.kind = SupervisorEvent::Kind::start_failed;
+    event.reason = std::string("pipe: ") + std::strerror(errno);
     return event;
   }
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) {
+    event.reason = std::string("fork: ") + std::strerror(errno);
     close(pipe_fds[0]);
     close(pipe_fds[1]);
     event.kind = SupervisorEvent::Kind::start_failed;
@@ -141,9 +148,8 @@ SupervisorEvent Supervisor::spawn(Child& child) {
     waitpid(pid, &status, 0);
     event.kind = SupervisorEvent::Kind::start_failed;
     event.exit.exit_code = 127;
+    event.reason = "could not execute " + child.spec.executable + ": " + std::strerror(child_errno);
     child.pid = -1;
-    failed_ = true;
-    failure_reason_ = "could not execute " + child.spec.executable + ": " + std::strerror(child_errno);
     return event;
   }
   child.pid = pid;
@@ -154,7 +160,7 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
                              std::vector<SupervisorEvent>& events) {
   const pid_t old_pid = child.pid;
   child.pid = -1;
-  events.push_back({SupervisorEvent::Kind::exited, child.spec.name, old_pid, exit, {}});
+  events.push_back({SupervisorEvent::Kind::exited, child.spec.name, old_pid, exit, {}, {}});
   if (stopping_) return;
   if (child.spec.critical && exit.clean()) {
     // The plant ends on its own after --max-periods or at its state bound.
@@ -171,13 +177,18 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
       finished_reason_ = child.spec.name + " " + exit.describe() + ": the run ends with it (not restarted)";
     return;
   }
+  restart_or_give_up(child, old_pid, exit, exit.describe(), now, events);
+}
+
+void Supervisor::restart_or_give_up(Child& child, pid_t old_pid, const ChildExit& exit, const std::string& why,
+                                    Clock::time_point now, std::vector<SupervisorEvent>& events) {
   const bool may_restart = options_.policy == RestartPolicy::restart && !child.spec.critical &&
                            child.restarts < options_.max_restarts;
   if (!may_restart) {
-    events.push_back({SupervisorEvent::Kind::gave_up, child.spec.name, old_pid, exit, {}});
+    events.push_back({SupervisorEvent::Kind::gave_up, child.spec.name, old_pid, exit, {}, why});
     if (!failed_) {
       failed_ = true;
-      failure_reason_ = child.spec.name + " " + exit.describe() +
+      failure_reason_ = child.spec.name + " " + why +
                         (child.spec.critical ? " (critical process, not restarted)"
                          : options_.policy == RestartPolicy::fail ? " (restart policy: fail)"
                                                                    : " (no restarts left)");
@@ -187,7 +198,7 @@ void Supervisor::handle_exit(Child& child, const ChildExit& exit, Clock::time_po
   const auto backoff = options_.first_backoff * (1 << child.restarts);
   child.restarts++;
   child.restart_at = now + backoff;
-  SupervisorEvent e{SupervisorEvent::Kind::restart_scheduled, child.spec.name, old_pid, exit, {}};
+  SupervisorEvent e{SupervisorEvent::Kind::restart_scheduled, child.spec.name, old_pid, exit, {}, {}};
   e.backoff = std::chrono::duration_cast<std::chrono::milliseconds>(backoff);
   events.push_back(e);
 }
@@ -205,7 +216,10 @@ std::vector<SupervisorEvent> Supervisor::poll(Clock::time_point now) {
       if (child.pid <= 0 && child.restart_at && *child.restart_at <= now) {
         child.restart_at.reset();
         if (child.before_restart) child.before_restart(child.spec);
-        events.push_back(spawn(child));
+        auto event = spawn(child);
+        events.push_back(event);
+        if (event.kind == SupervisorEvent::Kind::start_failed)
+          restart_or_give_up(child, -1, event.exit, "could not be restarted: " + event.reason, now, events);
       }
     }
   }
@@ -240,7 +254,7 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
     int status = 0;
     if (waitpid(child.pid, &status, 0) == child.pid) {
       auto exit = decode_status(status);
-      events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (after SIGKILL)", child.pid, exit, {}});
+      events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (after SIGKILL)", child.pid, exit, {}, {}});
     }
     child.pid = -1;
   }

@@ -56,6 +56,7 @@ struct SupervisorEvent {
   pid_t pid = -1;
   ChildExit exit;
   std::chrono::milliseconds backoff{0};
+  std::string reason;  // start_failed: why (e.g. "pipe: Too many open files")
   std::string message() const;
 };
 
@@ -68,12 +69,15 @@ class Supervisor {
   Supervisor(const Supervisor&) = delete;
   Supervisor& operator=(const Supervisor&) = delete;
 
-  /// Spawn a child now. Returns the event (started or start_failed). `before_restart` runs
-  /// before each restart (not the first start), e.g. to write the checkpoint a restarted
-  /// estimator resumes from.
+  /// Spawn a child now. Returns the event (started or start_failed: then failed() is true).
+  /// `before_restart` runs before each restart (not the first start), e.g. to write the
+  /// checkpoint a restarted estimator resumes from; it may change the next life's argv.
   SupervisorEvent start(ChildSpec spec, std::function<void(ChildSpec&)> before_restart = {});
 
-  /// Reap children that ended, apply the policy, start due restarts. Never blocks.
+  /// Reap children that ended, apply the policy, start due restarts. Never blocks. A restart
+  /// that cannot start (no descriptor for its pipe, fork failed, exec failed) is one more
+  /// restart under the policy: tried again after the next backoff, or, with none left (or
+  /// policy fail), the run fails.
   std::vector<SupervisorEvent> poll(Clock::time_point now = Clock::now());
 
   /// True once the launch must end with an error: a critical child died, a child
@@ -115,6 +119,10 @@ class Supervisor {
   SupervisorEvent spawn(Child& child);
   void handle_exit(Child& child, const ChildExit& exit, Clock::time_point now,
                    std::vector<SupervisorEvent>& events);
+  /// Schedule the child's next restart after its backoff, or fail the run when it may not
+  /// restart again (`why` ends the failure reason).
+  void restart_or_give_up(Child& child, pid_t old_pid, const ChildExit& exit, const std::string& why,
+                          Clock::time_point now, std::vector<SupervisorEvent>& events);
 
   SupervisorOptions options_;
   std::vector<Child> children_;

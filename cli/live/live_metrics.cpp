@@ -174,6 +174,40 @@ void LiveMetrics::observe_pipeline_latency(double seconds) {
   if (std::isfinite(seconds) && seconds >= 0.0) latency_->Observe(seconds);
 }
 
+void LiveMetrics::update_dashboard(const DashboardStats& d) {
+  using namespace prometheus;
+  if (!dashboard_connections_) {
+    auto& r = *registry_;
+    dashboard_connections_ = &BuildGauge()
+                                  .Name("netkf_dashboard_connections")
+                                  .Help("Connections to the dashboard (HTTP and WebSocket): state=open now, "
+                                        "state=max the limit (--dashboard-max-connections)")
+                                  .Register(r);
+    dashboard_closed_ = &BuildCounter()
+                             .Name("netkf_dashboard_connections_closed_total")
+                             .Help("Connections the dashboard closed or turned away: reason=refused at the limit "
+                                   "(503, none idle), evicted (idle, closed at the limit for a new one), "
+                                   "idle_timeout, request_timeout (not complete in time), accept_error")
+                             .Register(r);
+    dashboard_refused_ = &BuildCounter()
+                              .Name("netkf_dashboard_refused_total")
+                              .Help("Dashboard traffic refused: what=request (HTTP 4xx other than a plain 404, "
+                                    "refused WebSocket handshakes), what=message (WebSocket client messages "
+                                    "refused, bad frames)")
+                              .Register(r);
+  }
+  dashboard_connections_->Add({{"state", "open"}}).Set(static_cast<double>(d.connections));
+  dashboard_connections_->Add({{"state", "max"}}).Set(static_cast<double>(d.max_connections));
+  auto& t = dashboard_totals_;
+  advance(dashboard_closed_->Add({{"reason", "refused"}}), d.refused_connections, t.refused_connections);
+  advance(dashboard_closed_->Add({{"reason", "evicted"}}), d.evicted_connections, t.evicted_connections);
+  advance(dashboard_closed_->Add({{"reason", "idle_timeout"}}), d.idle_timeouts, t.idle_timeouts);
+  advance(dashboard_closed_->Add({{"reason", "request_timeout"}}), d.request_timeouts, t.request_timeouts);
+  advance(dashboard_closed_->Add({{"reason", "accept_error"}}), d.accept_errors, t.accept_errors);
+  advance(dashboard_refused_->Add({{"what", "request"}}), d.refused_requests, t.refused_requests);
+  advance(dashboard_refused_->Add({{"what", "message"}}), d.refused_messages, t.refused_messages);
+}
+
 void LiveMetrics::count_restart(const std::string& process) { restarts_->Add({{"process", process}}).Increment(); }
 
 std::string LiveMetrics::serialize() const {

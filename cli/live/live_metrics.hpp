@@ -3,6 +3,7 @@
 // prometheus-cpp registry and serialized with its text serializer. Updated from the live
 // snapshot (the same numbers as the terminal status and the page) and from events the
 // snapshot does not keep (each estimate's pipeline latency, process restarts).
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -20,6 +21,19 @@ class Family;
 
 namespace netkf::cli {
 
+/// What the dashboard's server counted since it started (dashboard_server.hpp fills it).
+struct DashboardStats {
+  std::size_t connections = 0;             // open now, HTTP and WebSocket
+  std::size_t max_connections = 0;
+  std::uint64_t refused_connections = 0;   // refused at the cap (503)
+  std::uint64_t evicted_connections = 0;   // idle ones closed at the cap for a new one
+  std::uint64_t idle_timeouts = 0;         // closed with no request begun for the idle timeout
+  std::uint64_t request_timeouts = 0;      // a request not complete in time after its first byte
+  std::uint64_t refused_requests = 0;      // answered 4xx (not a plain 404), refused handshakes
+  std::uint64_t refused_messages = 0;      // WebSocket client messages refused, bad frames
+  std::uint64_t accept_errors = 0;         // accept failed (e.g. out of descriptors)
+};
+
 class LiveMetrics {
  public:
   LiveMetrics();
@@ -34,6 +48,8 @@ class LiveMetrics {
   /// Sample publish -> estimate publish of one period, seconds (same machine's steady clock).
   void observe_pipeline_latency(double seconds);
   void count_restart(const std::string& process);
+  /// The dashboard's connections and what it refused (netkf_dashboard_*).
+  void update_dashboard(const DashboardStats& stats);
 
   /// The Prometheus text exposition format (version 0.0.4).
   std::string serialize() const;
@@ -64,6 +80,10 @@ class LiveMetrics {
   prometheus::Counter* late_;
   prometheus::Counter* rejected_;
   prometheus::Histogram* latency_;
+  prometheus::Family<prometheus::Gauge>* dashboard_connections_ = nullptr;  // registered on first use
+  prometheus::Family<prometheus::Counter>* dashboard_closed_ = nullptr;
+  prometheus::Family<prometheus::Counter>* dashboard_refused_ = nullptr;
+  DashboardStats dashboard_totals_;
   struct LinkTotals {
     std::uint64_t samples = 0, delivered = 0, dropped = 0, late = 0;
   };

@@ -10,11 +10,14 @@
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 #include <yaml-cpp/yaml.h>
 
 #include "progress_bar.hpp"
@@ -38,6 +41,21 @@ struct InputError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// Ctrl-C or SIGTERM during the validation: the sweep ends with status 1 before any run.
+struct StoppedBeforeRuns : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+bool stopping() { return stop_requested.load(); }
+
+// The process groups of the running live launches, one per job slot, for kill_live_runs() on
+// the signal thread (0: none).
+std::array<std::atomic<pid_t>, 64> live_groups{};
+
+void note_live_group(int slot, pid_t pid) {
+  if (slot >= 0 && static_cast<std::size_t>(slot) < live_groups.size()) live_groups[static_cast<std::size_t>(slot)] = pid;
+}
+
 std::string read_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError("cannot read " + path.string());
@@ -51,7 +69,9 @@ struct Plan {
   YAML::Node tree;                    // the scenario file's
   std::string sha256;
   std::vector<Point> grid;
-  std::vector<Scenario> scenarios;    // per point, with the file's seed (the theory's, as `netkf analyze` sees it; the loader's verdict)
+  // Every point's scenario passed the loader (with the file's seed, as `netkf analyze` sees it);
+  // only the first is kept (a grid of 10^5 points would hold 10^5 scenarios).
+  std::optional<Scenario> first;
   std::vector<std::string> quantities;
   std::vector<Check> checks;
   double period_s = 0.0;
@@ -70,15 +90,20 @@ Plan make_plan(const SweepConfig& config) {
     throw InputError(config.scenario_path + ": " + e.what());
   }
   try {
+    check_grid_size(config.vary, config.seeds);
     plan.grid = expand_grid(config.vary);
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
   for (const auto& point : plan.grid) {
+    if (stopping())
+      throw StoppedBeforeRuns("stopped while checking the points (" + std::to_string(point.index) + " of " +
+                              std::to_string(plan.grid.size()) + " checked); nothing was run");
     const std::string name = config.scenario_path + " (point " + std::to_string(point.index) + ": " +
                              point_label(config.vary, point) + ")";
     try {
-      plan.scenarios.push_back(parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, 0), name));
+      Scenario s = parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, 0), name);
+      if (!plan.first) plan.first = std::move(s);
     } catch (const std::exception& e) {
       // The loader's message names the field; the source name names the point.
       const std::string what = e.what();
@@ -86,14 +111,14 @@ Plan make_plan(const SweepConfig& config) {
     }
   }
   std::vector<int> ids;
-  for (const auto& s : plan.scenarios.front().sensors) ids.push_back(s.id);
+  for (const auto& s : plan.first->sensors) ids.push_back(s.id);
   plan.quantities = summary_names(ids);
   try {
     for (const auto& c : config.checks) plan.checks.push_back(parse_check(c, ids));
   } catch (const std::invalid_argument& e) {
     throw InputError(e.what());
   }
-  plan.period_s = plan.scenarios.front().period_s();
+  plan.period_s = plan.first->period_s();
   return plan;
 }
 
@@ -144,12 +169,14 @@ void run_offline(const SweepConfig& config, const Plan& plan, const std::vector<
                  std::vector<RunRow>& rows, ProgressBar& bar, std::size_t total, std::ostream& err) {
   const std::int64_t periods = run_periods(config, plan.period_s);
   for (const auto& run : pending) {
-    if (stop_requested) return;
+    if (stopping()) return;
     const Point& point = plan.grid[static_cast<std::size_t>(run.point)];
     RunRow row{run.point, run.seed, true, {}};
     try {
       const Scenario s = parse_scenario(run_scenario_yaml(plan.tree, config.vary, point, run.seed), config.scenario_path);
-      row.values = summary_values(offline_summary(s, periods), plan.quantities);
+      row.values = summary_values(offline_summary(s, periods, stopping), plan.quantities);
+    } catch (const RunStopped&) {
+      return;  // not done: --resume runs it
     } catch (const std::exception& e) {
       row.ok = false;
       row.values.assign(plan.quantities.size(), std::nullopt);
@@ -203,6 +230,11 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
   if (c.pid < 0) throw std::runtime_error("cannot start a launch: fork failed");
   if (c.pid == 0) {
     setpgid(0, 0);
+    // The sweep's thread blocks Ctrl-C and SIGTERM (its signal thread takes them); the launch
+    // must get them.
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
     // Appended: the log of a failed attempt stays when --resume runs it again.
     const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     if (fd >= 0) {
@@ -214,6 +246,7 @@ Child start_child(const SweepConfig& config, const Plan& plan, const PendingRun&
     _exit(127);
   }
   setpgid(c.pid, c.pid);
+  note_live_group(slot, c.pid);
   return c;
 }
 
@@ -248,6 +281,7 @@ void stop_children(std::vector<Child>& running) {
     int status = 0;
     while (waitpid(c.pid, &status, 0) < 0 && errno == EINTR) {
     }
+    note_live_group(c.slot, 0);
   }
   running.clear();
 }
@@ -258,7 +292,7 @@ void run_live(const SweepConfig& config, const Plan& plan, const std::vector<Pen
   std::vector<Child> running;
   std::size_t next = 0;
   while (next < pending.size() || !running.empty()) {
-    if (stop_requested) return stop_children(running);
+    if (stopping()) return stop_children(running);
     while (next < pending.size() && static_cast<int>(running.size()) < config.jobs) {
       std::set<int> used;
       for (const auto& c : running) used.insert(c.slot);
@@ -266,11 +300,16 @@ void run_live(const SweepConfig& config, const Plan& plan, const std::vector<Pen
       while (used.count(slot)) ++slot;
       running.push_back(start_child(config, plan, pending[next++], slot));
     }
+    // Signals are taken by the signal thread, so no wait here is cut short by one: look often.
     int status = 0;
-    const pid_t pid = waitpid(-1, &status, 0);
-    if (pid < 0) continue;  // EINTR: a signal, looked at above
+    const pid_t pid = waitpid(-1, &status, WNOHANG);
+    if (pid <= 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      continue;
+    }
     for (auto it = running.begin(); it != running.end(); ++it) {
       if (it->pid != pid) continue;
+      note_live_group(it->slot, 0);
       RunRow row = finished_row(config, *it, status, plan.quantities, err);
       running.erase(it);
       append_row(config, plan, row);
@@ -311,14 +350,27 @@ bool check_points(const SweepConfig& config, const Plan& plan, const std::vector
   return all;
 }
 
-void write_outputs(const SweepConfig& config, const Plan& plan, const std::vector<RunRow>& rows,
-                   const ReportAssets& assets) {
-  std::vector<Theory> theory;
-  for (const auto& s : plan.scenarios) {
+/// points.csv and report.html. The theory of each point is computed here: of every point, or
+/// after a stop during the runs of the points with a finished run; a stop while this runs
+/// leaves the remaining points' theory out. Returns the points whose theory was left out.
+std::size_t write_outputs(const SweepConfig& config, const Plan& plan, const std::vector<RunRow>& rows,
+                          const ReportAssets& assets) {
+  const bool stopped_before = stopping();
+  std::set<int> done;
+  for (const auto& r : rows)
+    if (r.ok) done.insert(r.point);
+  std::vector<Theory> theory(plan.grid.size());  // empty cells: no analysis for the point
+  std::size_t left_out = 0;
+  for (const auto& p : plan.grid) {
+    if (stopped_before && !done.count(p.index)) continue;
+    if (!stopped_before && stopping()) {
+      ++left_out;
+      continue;
+    }
     try {
-      theory.push_back(point_theory(s));
+      const Scenario s = parse_scenario(run_scenario_yaml(plan.tree, config.vary, p, 0), config.scenario_path);
+      theory[static_cast<std::size_t>(p.index)] = point_theory(s);
     } catch (const std::exception&) {
-      theory.emplace_back();  // no analysis for this point: empty theory cells
     }
   }
   std::ofstream points(fs::path(config.out) / "points.csv", std::ios::trunc);
@@ -329,11 +381,17 @@ void write_outputs(const SweepConfig& config, const Plan& plan, const std::vecto
                   plan.quantities, rows, theory};
   std::ofstream report(fs::path(config.out) / "report.html", std::ios::trunc);
   report << render_report(data, assets.uplot_js, assets.uplot_css);
+  return left_out;
 }
 
 }  // namespace
 
 int live_domain(const SweepConfig& config, int slot) { return config.domain_base + 2 * slot; }
+
+void kill_live_runs() {
+  for (auto& group : live_groups)
+    if (const pid_t pid = group.load(); pid > 0) kill(-pid, SIGKILL);
+}
 
 std::int64_t run_periods(const SweepConfig& config, double period_s) {
   if (config.periods) return *config.periods;
@@ -355,6 +413,9 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
     if (config.live && config.netkf_exe.empty()) throw InputError("no netkf executable to launch the runs");
     fs::create_directories(config.out);
     rows = open_runs_file(config, plan, resume);
+  } catch (const StoppedBeforeRuns& e) {
+    err << "netkf sweep: " << e.what() << "\n";
+    return 1;
   } catch (const std::exception& e) {
     err << "netkf sweep: error: " << e.what() << "\n";
     return 2;
@@ -371,7 +432,7 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
     if (config.live) run_live(config, plan, pending, rows, bar, total, err);
     else run_offline(config, plan, pending, rows, bar, total, err);
   }
-  write_outputs(config, plan, rows, assets);
+  const std::size_t theory_left_out = write_outputs(config, plan, rows, assets);
   int status = check_points(config, plan, rows, err) ? 0 : 1;
   const auto failed = static_cast<std::size_t>(std::count_if(rows.begin(), rows.end(), [](const RunRow& r) { return !r.ok; }));
   if (failed > 0) {
@@ -381,6 +442,12 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
   if (rows.size() < total) {
     err << "netkf sweep: stopped with " << rows.size() << " of " << total << " runs done; finish with netkf sweep --resume "
         << config.out << "\n";
+    status = 1;
+  } else if (theory_left_out > 0) {
+    // Every run was done, but the stop came before the report had the theory of every point.
+    err << "netkf sweep: stopped while writing the report: the theory of " << theory_left_out << " of "
+        << plan.grid.size() << " points is left out of points.csv and report.html; netkf sweep --resume "
+        << config.out << " writes them whole\n";
     status = 1;
   }
   return status;

@@ -56,8 +56,12 @@ struct ReportAssets {
   std::string_view uplot_css;
 };
 
-/// Set from a signal handler: stop starting runs, end the running ones, keep what is done.
+/// Set on Ctrl-C or SIGTERM (by the signal thread of sweep_command.cpp): every phase looks at it
+/// often (each point checked, every few thousand periods of an offline run, every 20 ms of the
+/// live runs, each point's theory): stop starting runs, end the running ones, keep what is done.
 extern std::atomic<bool> stop_requested;
+/// SIGKILL the process groups of the running live launches (a second Ctrl-C: quit at once).
+void kill_live_runs();
 
 /// Runs the sweep (resuming: skips the ok runs already in DIR/runs.csv) and writes the files.
 /// Returns the exit status: 0 done and every check passed, 1 a check failed on some point or the

@@ -21,7 +21,7 @@ std::string run_scenario_yaml(const YAML::Node& file_tree, const std::vector<Var
   return std::string(out.c_str()) + "\n";
 }
 
-RunSummary offline_summary(const Scenario& scenario, std::int64_t periods) {
+RunSummary offline_summary(const Scenario& scenario, std::int64_t periods, const std::function<bool()>& stop) {
   RunSummary s;
   s.sensors = static_cast<int>(scenario.sensors.size());
   for (const auto& sensor : scenario.sensors) {
@@ -35,6 +35,7 @@ RunSummary offline_summary(const Scenario& scenario, std::int64_t periods) {
   std::vector<std::deque<bool>> window(s.links.size());
   std::vector<std::uint64_t> window_arrived(s.links.size(), 0);
   simulate_offline_run(scenario, scenario.seed, periods, [&](const OfflinePeriod& p) {
+    if (stop && s.periods % 4096 == 0 && stop()) throw RunStopped();
     ++s.periods;
     ++s.periods_scored;
     ++s.periods_scored_final;  // no late sample offline: the final estimate is the in-time one

@@ -5,7 +5,9 @@
 //            cannot measure (pipeline latency) has no value, and nothing is late.
 //   live     a real `netkf launch` child writes its --summary JSON; its values are read back.
 #include <cstdint>
+#include <functional>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <optional>
 #include <string>
 #include <vector>
@@ -24,8 +26,14 @@ namespace netkf::cli::sweep {
 std::string run_scenario_yaml(const YAML::Node& file_tree, const std::vector<Vary>& vary, const Point& point,
                               int seed_index);
 
-/// The summary of an offline run of `periods` periods with the scenario's seed.
-RunSummary offline_summary(const Scenario& scenario, std::int64_t periods);
+/// An offline run given up because `stop` said so (Ctrl-C): it has no summary.
+struct RunStopped : std::runtime_error {
+  RunStopped() : std::runtime_error("stopped") {}
+};
+
+/// The summary of an offline run of `periods` periods with the scenario's seed. `stop` is asked
+/// every few thousand periods (a run of 10^8 periods takes minutes); true throws RunStopped.
+RunSummary offline_summary(const Scenario& scenario, std::int64_t periods, const std::function<bool()>& stop = {});
 
 /// Each of `names` (summary_names) from a summary, nullopt where not measured.
 std::vector<std::optional<double>> summary_values(const RunSummary& summary, const std::vector<std::string>& names);

@@ -1,5 +1,6 @@
 #include "sweep_spec.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -119,6 +120,26 @@ Vary parse_vary(const std::string& text) {
   for (const auto& value : v.values)
     if (value.empty()) throw std::invalid_argument("--vary '" + text + "': an empty value");
   return v;
+}
+
+void check_grid_size(const std::vector<Vary>& vary, int seeds) {
+  // Saturating: two axes of 10^5 values overflow nothing, and a product past the limit stays past it.
+  constexpr std::uint64_t cap = std::uint64_t{1} << 62;
+  std::uint64_t points = 1;
+  std::string factors;
+  for (const auto& v : vary) {
+    const auto n = static_cast<std::uint64_t>(v.values.size());
+    points = n != 0 && points > cap / n ? cap : points * n;
+    factors += (factors.empty() ? "" : " x ") + std::to_string(n);
+  }
+  const auto s = static_cast<std::uint64_t>(std::max(seeds, 1));
+  const std::uint64_t runs = points > cap / s ? cap : points * s;
+  if (runs <= kMaxRuns) return;
+  auto count = [cap](std::uint64_t n) { return n >= cap ? std::string("more than 4.6e18") : std::to_string(n); };
+  throw std::invalid_argument("the grid is " + (vary.size() > 1 ? factors + " = " : std::string()) + count(points) +
+                              " points x " + std::to_string(s) + " seeds = " + count(runs) +
+                              " runs; a sweep takes at most " + std::to_string(kMaxRuns) +
+                              " runs (fewer --vary values or --seeds, or several sweeps)");
 }
 
 std::vector<Point> expand_grid(const std::vector<Vary>& vary) {

@@ -28,6 +28,14 @@ struct Point {
   std::vector<std::string> values;
 };
 
+/// The most runs (points x seeds) one sweep takes; a larger grid is refused before anything is
+/// expanded (docs/experiments.md, "Sweeps").
+inline constexpr std::uint64_t kMaxRuns = 100000;
+
+/// Refuses (std::invalid_argument, with the count: "A x B = P points x S seeds = R runs") a grid
+/// of more than kMaxRuns runs. Computed from the list sizes, without expanding the grid.
+void check_grid_size(const std::vector<Vary>& vary, int seeds);
+
 /// The product of the --vary lists, the last one varying fastest. No --vary: one point with no
 /// values (the scenario as it is, over the seeds). Throws std::invalid_argument when a key is
 /// varied twice.

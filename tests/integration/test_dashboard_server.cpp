@@ -10,6 +10,12 @@
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <future>
 #include <thread>
 
@@ -40,6 +46,7 @@ class ServerFixture {
       last_set_ = s;
       set_promise_.set_value();
     };
+    hooks.refused = [this](const std::string& what) { refused_.push_back(what); };
     server_ = std::make_unique<DashboardServer>(io_, options, dashboard::server_info("t", default_scenario()), hooks);
     thread_ = std::thread([this] { io_.run(); });
   }
@@ -59,6 +66,17 @@ class ServerFixture {
     done.get_future().wait();
   }
   DashboardServer& server() { return *server_; }
+  DashboardStats stats() {
+    DashboardStats st;
+    run([&] { st = server_->stats(); });
+    return st;
+  }
+  /// What the server reported refused, so far (read on its thread).
+  std::vector<std::string> refused() {
+    std::vector<std::string> r;
+    run([&] { r = refused_; });
+    return r;
+  }
   std::future<void> set_called() { return set_promise_.get_future(); }
   dashboard::SetParameters last_set_;
 
@@ -68,6 +86,37 @@ class ServerFixture {
   std::unique_ptr<DashboardServer> server_;
   std::thread thread_;
   std::promise<void> set_promise_;
+  std::vector<std::string> refused_;
+};
+
+/// A plain TCP connection (POSIX socket) to the server, reads bounded by 20 s.
+class RawConnection {
+ public:
+  explicit RawConnection(unsigned short port) : fd_(::socket(AF_INET, SOCK_STREAM, 0)) {
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(::connect(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    timeval t{20, 0};
+    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &t, sizeof t);
+  }
+  ~RawConnection() { ::close(fd_); }
+  RawConnection(const RawConnection&) = delete;
+  bool send(const std::string& data) { return ::send(fd_, data.data(), data.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(data.size()); }
+  /// Everything the server sends until it closes (true) or 20 s pass (false).
+  bool read_until_closed(std::string* got = nullptr) {
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n == 0 || (n < 0 && errno == ECONNRESET)) return true;
+      if (n < 0) return false;  // the timeout
+      if (got) got->append(buf, static_cast<std::size_t>(n));
+    }
+  }
+
+ private:
+  int fd_;
 };
 
 http::response<http::string_body> get(unsigned short port, const std::string& target,
@@ -295,6 +344,124 @@ TEST(DashboardServer, WithATokenEveryRequestMustCarryIt) {
   Client c(f.port(), "", "/?token=s3cret");
   EXPECT_EQ(c.read_json()["op"], "serverInfo");
   EXPECT_NE(f.server().url().find("?token=s3cret"), std::string::npos);
+}
+
+TEST(DashboardServer, AtTheCapANewConnectionIsRefusedWhenNoneIsIdle) {
+  DashboardOptions o;
+  o.max_connections = 3;
+  ServerFixture f(o);
+  std::vector<std::unique_ptr<Client>> clients;
+  for (int i = 0; i < 3; ++i) {
+    clients.push_back(std::make_unique<Client>(f.port()));
+    EXPECT_EQ(clients.back()->read_json()["op"], "serverInfo");
+  }
+  RawConnection fourth(f.port());
+  std::string said;
+  EXPECT_TRUE(fourth.read_until_closed(&said));
+  EXPECT_EQ(said.rfind("HTTP/1.1 503 Service Unavailable\r\n", 0), 0u) << said;
+  const auto st = f.stats();
+  EXPECT_EQ(st.connections, 3u);
+  EXPECT_EQ(st.max_connections, 3u);
+  EXPECT_EQ(st.refused_connections, 1u);
+  ASSERT_FALSE(f.refused().empty());
+  EXPECT_NE(f.refused().back().find("--dashboard-max-connections"), std::string::npos) << f.refused().back();
+  // A client leaving frees its slot.
+  clients.pop_back();
+  for (int i = 0; i < 100 && f.stats().connections > 2; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(get(f.port(), "/metrics").result(), http::status::ok);
+}
+
+TEST(DashboardServer, AtTheCapTheLongestIdleConnectionGivesWay) {
+  DashboardOptions o;
+  o.max_connections = 3;
+  ServerFixture f(o);
+  RawConnection first(f.port());
+  RawConnection second(f.port());
+  RawConnection third(f.port());
+  for (int i = 0; i < 100 && f.stats().connections < 3; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  // Three idle connections hold the cap: a request still gets through, and the oldest goes.
+  EXPECT_EQ(get(f.port(), "/metrics").result(), http::status::ok);
+  EXPECT_TRUE(first.read_until_closed());
+  const auto st = f.stats();
+  EXPECT_EQ(st.evicted_connections, 1u);
+  EXPECT_EQ(st.refused_connections, 0u);
+  EXPECT_LE(st.connections, 3u);
+}
+
+TEST(DashboardServer, IdleAndTrickledConnectionsAreClosed) {
+  DashboardOptions o;
+  o.idle_timeout = std::chrono::milliseconds(200);
+  o.request_timeout = std::chrono::milliseconds(500);
+  ServerFixture f(o);
+  RawConnection idle(f.port());
+  EXPECT_TRUE(idle.read_until_closed());
+  // A kept-alive connection after its answer is idle too.
+  RawConnection kept(f.port());
+  ASSERT_TRUE(kept.send("GET /metrics HTTP/1.1\r\nHost: x\r\n\r\n"));
+  std::string said;
+  EXPECT_TRUE(kept.read_until_closed(&said));
+  EXPECT_EQ(said.rfind("HTTP/1.1 200", 0), 0u) << said;
+  // A header trickled a byte at a time does not extend its deadline (slowloris).
+  RawConnection slow(f.port());
+  ASSERT_TRUE(slow.send("GET / HTTP/1.1\r\nHost: x\r\n"));
+  bool cut = false;
+  for (int i = 0; i < 400 && !cut; ++i) {  // 20 s of trickling at most
+    cut = !slow.send("X");
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (f.stats().request_timeouts > 0) cut = true;
+  }
+  EXPECT_TRUE(cut);
+  EXPECT_TRUE(slow.read_until_closed());
+  const auto st = f.stats();
+  EXPECT_EQ(st.idle_timeouts, 2u);
+  EXPECT_EQ(st.request_timeouts, 1u);
+  for (int i = 0; i < 100 && f.stats().connections > 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(f.stats().connections, 0u);
+}
+
+TEST(DashboardServer, TheWebSocketIsOnlyOnItsPathWithAValidKey) {
+  ServerFixture f;
+  auto handshake = [&](const std::string& target, const std::string& key) {
+    RawConnection c(f.port());
+    EXPECT_TRUE(c.send("GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                       "Sec-WebSocket-Key: " + key + "\r\nSec-WebSocket-Version: 13\r\n"
+                       "Sec-WebSocket-Protocol: foxglove.websocket.v1\r\n\r\n"));
+    std::string said;
+    c.read_until_closed(&said);
+    return said.substr(0, said.find("\r\n"));
+  };
+  EXPECT_EQ(handshake("/metrics", "dGhlIHNhbXBsZSBub25jZQ=="), "HTTP/1.1 404 Not Found");
+  EXPECT_EQ(handshake("/anything", "dGhlIHNhbXBsZSBub25jZQ=="), "HTTP/1.1 404 Not Found");
+  EXPECT_EQ(handshake("/", "not-a-key"), "HTTP/1.1 400 Bad Request");
+  EXPECT_EQ(handshake("/", "MDEyMzQ1Njc4OWFiY2Rl"), "HTTP/1.1 400 Bad Request");
+  EXPECT_THROW(Client(f.port(), "", "/other"), beast::system_error);
+  EXPECT_NO_THROW(Client(f.port(), "", "/"));
+  const auto refused = f.refused();
+  EXPECT_EQ(f.stats().refused_requests, 5u);
+  ASSERT_EQ(refused.size(), 5u);
+  EXPECT_NE(refused[2].find("Sec-WebSocket-Key"), std::string::npos) << refused[2];
+}
+
+TEST(DashboardServer, RefusedMessagesAndBadFramesAreCountedAndReported) {
+  ServerFixture f;
+  Client c(f.port());
+  c.read_json();
+  c.read_json();
+  c.send("{");
+  EXPECT_EQ(c.read_json()["level"], 2);
+  EXPECT_EQ(f.stats().refused_messages, 1u);
+  ASSERT_EQ(f.refused().size(), 1u);
+  EXPECT_NE(f.refused()[0].find("not valid JSON"), std::string::npos) << f.refused()[0];
+  // Over the size limit: beast closes the connection; a bad frame, counted and reported.
+  beast::error_code ec;
+  c.ws.write(net::buffer(std::string(70 * 1024, ' ')), ec);
+  for (int i = 0; i < 1000 && !ec; ++i) {  // until the close (the client answers the server's close frame)
+    c.ws.read(c.buffer, ec);
+    c.buffer.consume(c.buffer.size());
+  }
+  for (int i = 0; i < 100 && f.stats().refused_messages < 2; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(f.stats().refused_messages, 2u);
+  EXPECT_NE(f.refused().back().find("closed WebSocket client"), std::string::npos) << f.refused().back();
 }
 
 TEST(DashboardServer, ATakenPortIsAClearError) {

@@ -4,9 +4,11 @@
 
 #include <signal.h>
 
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -229,6 +231,96 @@ TEST(Supervisor, StopAllKillsAChildIgnoringSigterm) {
   for (const auto& e : ev) stubborn_killed |= e.child.find("stubborn") != std::string::npos && e.exit.signal == SIGKILL;
   EXPECT_TRUE(stubborn_killed);
   EXPECT_FALSE(s.failed());  // stopping is not a failure
+}
+
+/// Holds every free descriptor of this process (dups of stdin, under a soft limit of 256) until
+/// release(): a restart then cannot open the pipe it starts a child with (EMFILE), as when
+/// idle dashboard connections took all of a launch's descriptors.
+class DescriptorExhaustion {
+ public:
+  DescriptorExhaustion() {
+    getrlimit(RLIMIT_NOFILE, &saved_);
+    rlimit low = saved_;
+    if (low.rlim_cur > 256) low.rlim_cur = 256;
+    setrlimit(RLIMIT_NOFILE, &low);
+    for (int fd; (fd = dup(0)) >= 0;) held_.push_back(fd);
+  }
+  ~DescriptorExhaustion() { release(); }
+  void release() {
+    for (int fd : held_) close(fd);
+    held_.clear();
+    setrlimit(RLIMIT_NOFILE, &saved_);
+  }
+  bool exhausted() const { return !held_.empty() && errno == EMFILE; }
+
+ private:
+  rlimit saved_{};
+  std::vector<int> held_;
+};
+
+TEST(Supervisor, ARestartThatCannotStartIsRetriedUnderThePolicy) {
+  SupervisorOptions o;
+  o.max_restarts = 3;
+  o.first_backoff = 10ms;
+  Supervisor s(o);
+  s.start(shell("sensor", "exec sleep 30"));
+  const auto pid = s.pid_of("sensor");
+  ASSERT_TRUE(pid);
+  std::vector<SupervisorEvent> ev;
+  {
+    DescriptorExhaustion full;
+    ASSERT_TRUE(full.exhausted());
+    kill(*pid, SIGKILL);
+    // The restart fails to start: it is one more restart, scheduled after a longer backoff.
+    const auto until = std::chrono::steady_clock::now() + 10s;
+    while (count(ev, SupervisorEvent::Kind::start_failed) == 0 && !s.failed() &&
+           std::chrono::steady_clock::now() < until) {
+      auto more = s.poll();
+      ev.insert(ev.end(), more.begin(), more.end());
+      std::this_thread::sleep_for(2ms);
+    }
+  }
+  // Descriptors free again: the next restart starts the sensor.
+  auto after = poll_until(s, [&] { return s.pid_of("sensor").has_value() || s.failed(); });
+  ev.insert(ev.end(), after.begin(), after.end());
+  EXPECT_FALSE(s.failed()) << s.failure_reason();
+  EXPECT_TRUE(s.pid_of("sensor").has_value());
+  ASSERT_GE(count(ev, SupervisorEvent::Kind::start_failed), 1);
+  for (const auto& e : ev) {
+    if (e.kind == SupervisorEvent::Kind::start_failed) {
+      EXPECT_NE(e.message().find("Too many open files"), std::string::npos) << e.message();
+    }
+  }
+  // Each failed start counted against max_restarts: the death, then every failed attempt.
+  EXPECT_EQ(s.children().front().restarts, 1 + count(ev, SupervisorEvent::Kind::start_failed));
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::restart_scheduled), s.children().front().restarts);
+  s.stop_all();
+}
+
+TEST(Supervisor, ARestartThatNeverStartsFailsTheRun) {
+  SupervisorOptions o;
+  o.max_restarts = 2;
+  o.first_backoff = 10ms;
+  Supervisor s(o);
+  s.start(shell("sensor", "exec sleep 30"));
+  const auto pid = s.pid_of("sensor");
+  ASSERT_TRUE(pid);
+  std::vector<SupervisorEvent> ev;
+  std::string reason;
+  {
+    DescriptorExhaustion full;
+    ASSERT_TRUE(full.exhausted());
+    kill(*pid, SIGKILL);
+    ev = poll_until(s, [&] { return s.failed(); });
+    reason = s.failure_reason();  // read before the descriptors come back (a string copy)
+  }
+  ASSERT_TRUE(s.failed());
+  EXPECT_NE(reason.find("sensor could not be restarted"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("Too many open files"), std::string::npos) << reason;
+  EXPECT_NE(reason.find("no restarts left"), std::string::npos) << reason;
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::start_failed), 2);  // the 2 restarts allowed
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::gave_up), 1);
+  EXPECT_EQ(s.running_count(), 0u);
 }
 
 TEST(Supervisor, MissingExecutableIsAClearStartFailure) {

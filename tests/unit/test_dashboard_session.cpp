@@ -45,6 +45,7 @@ RequestFacts handshake(std::string_view origin = "", std::string_view protocols 
   r.websocket_upgrade = true;
   r.origin = origin;
   r.websocket_protocols = protocols;
+  r.websocket_key = "dGhlIHNhbXBsZSBub25jZQ==";  // RFC 6455's example: "the sample nonce"
   return r;
 }
 
@@ -126,6 +127,35 @@ TEST(RequestPolicy, AcceptsTheFoxgloveHandshakeAndSelectsItsSubprotocol) {
     EXPECT_EQ(d.status, 400u) << offered;
     EXPECT_NE(d.body.find("foxglove.websocket.v1"), std::string::npos) << d.body;
     EXPECT_FALSE(d.keep_alive);  // a refused handshake closes the connection
+  }
+}
+
+TEST(RequestPolicy, TheWebSocketIsOnItsDocumentedPathOnly) {
+  EXPECT_EQ(policy().decide(handshake("", kSubprotocol, "/")).action, Action::websocket);
+  EXPECT_EQ(policy().decide(handshake("", kSubprotocol, "/?x=1")).action, Action::websocket);
+  for (const char* elsewhere : {"/metrics", "/index.html", "/ws", "//", "/app.js?x=/"}) {
+    const auto d = policy().decide(handshake("", kSubprotocol, elsewhere));
+    EXPECT_EQ(d.action, Action::reply) << elsewhere;
+    EXPECT_EQ(d.status, 404u) << elsewhere;
+    EXPECT_FALSE(d.keep_alive) << elsewhere;
+  }
+}
+
+TEST(RequestPolicy, AnInvalidWebSocketKeyIsRefused) {
+  // RFC 6455, 4.1: the base64 of 16 random bytes. Python's base64 of b"0123456789abcdef" is the
+  // second good one; the bad ones: empty, 15 and 17 bytes, not base64, no padding.
+  for (const char* good : {"dGhlIHNhbXBsZSBub25jZQ==", "MDEyMzQ1Njc4OWFiY2RlZg=="}) {
+    auto r = handshake();
+    r.websocket_key = good;
+    EXPECT_EQ(policy().decide(r).action, Action::websocket) << good;
+  }
+  for (const char* bad : {"", "x", "MDEyMzQ1Njc4OWFiY2Rl", "MDEyMzQ1Njc4OWFiY2RlZmc=", "MDEyMzQ1Njc4OWFiY2RlZg",
+                          "MDEyMzQ1Njc4OWFi*2RlZg==", "MDEyMzQ1Njc4OWFiY2RlZg==MDEy", "!!!!!!!!!!!!!!!!!!!!!!=="}) {
+    auto r = handshake();
+    r.websocket_key = bad;
+    const auto d = policy().decide(r);
+    EXPECT_EQ(d.status, 400u) << bad;
+    EXPECT_NE(d.body.find("Sec-WebSocket-Key"), std::string::npos) << d.body;
   }
 }
 

@@ -101,6 +101,32 @@ TEST(SweepGrid, IsTheProductWithTheLastKeyFastest) {
   EXPECT_THROW(expand_grid({{"a", {"1"}}, {"a", {"2"}}}), std::invalid_argument);
 }
 
+TEST(SweepGrid, MoreThanTheMostRunsIsRefusedWithItsCount) {
+  const Vary thousand = parse_vary("a=0:1:1000");
+  Vary other = thousand;
+  other.key = "b";
+  try {
+    check_grid_size({thousand, other}, 1);
+    ADD_FAILURE() << "10^6 runs accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("1000 x 1000 = 1000000 points x 1 seeds = 1000000 runs"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("at most 100000"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(check_grid_size({thousand, parse_vary("b=0:1:100")}, 1));  // exactly the limit
+  EXPECT_THROW(check_grid_size({thousand, parse_vary("b=0:1:100")}, 2), std::invalid_argument);
+  EXPECT_NO_THROW(check_grid_size({}, 100000));
+  EXPECT_THROW(check_grid_size({}, 100001), std::invalid_argument);
+  // Axes whose product overflows 64 bits are refused, not wrapped round to a small number.
+  const Vary big = parse_vary("c=0:1:100000");
+  std::vector<Vary> many;
+  for (int i = 0; i < 5; ++i) {
+    many.push_back(big);
+    many.back().key = "k" + std::to_string(i);
+  }
+  EXPECT_THROW(check_grid_size(many, 1), std::invalid_argument);
+}
+
 TEST(SweepSeeds, DependOnSeedIndexNotOnThePointAndRepeat) {
   const YAML::Node tree = YAML::Load(kScenario);
   const std::vector<Vary> vary{{"sensors.2.link.loss", {"0.1", "0.7"}}};
