@@ -23,7 +23,10 @@
 #include "sweep_report.hpp"
 #include "sweep_runs.hpp"
 #include "sweep_table.hpp"
+#include "exit_code.hpp"
+#include "netkf/input_file.hpp"
 #include "netkf/scenario.hpp"
+#include "output_file.hpp"
 
 namespace netkf::cli::sweep {
 
@@ -39,11 +42,11 @@ struct InputError : std::runtime_error {
 };
 
 std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot read " + path.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  try {
+    return read_input_file(path, "scenario file", max_yaml_input_bytes);
+  } catch (const InputFileError& e) {
+    throw InputError(e.what());
+  }
 }
 
 /// Everything fixed before the first run.
@@ -319,14 +322,19 @@ void write_outputs(const SweepConfig& config, const Plan& plan, const std::vecto
       theory.emplace_back();  // no analysis for this point: empty theory cells
     }
   }
-  std::ofstream points(fs::path(config.out) / "points.csv", std::ios::trunc);
+  std::ostringstream points;
   points << points_header(config.vary, plan.quantities) << "\n";
   for (const auto& p : plan.grid)
     points << points_line(p, plan.quantities.size(), rows, theory[static_cast<std::size_t>(p.index)]) << "\n";
   ReportData data{config.scenario_path, config.live ? "live" : "offline", config.seeds, config.vary, plan.grid,
                   plan.quantities, rows, theory};
-  std::ofstream report(fs::path(config.out) / "report.html", std::ios::trunc);
-  report << render_report(data, assets.uplot_js, assets.uplot_css);
+  try {
+    write_output_file({"--out", (fs::path(config.out) / "points.csv").string()}, points.str());
+    write_output_file({"--out", (fs::path(config.out) / "report.html").string()},
+                      render_report(data, assets.uplot_js, assets.uplot_css));
+  } catch (const CommandError& e) {  // after the runs: a failed write, not bad usage
+    fail(ExitCode::run_failed, e.what());
+  }
 }
 
 }  // namespace
@@ -353,13 +361,10 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
     if (config.live && config.netkf_exe.empty()) throw InputError("no netkf executable to launch the runs");
     fs::create_directories(config.out);
     rows = open_runs_file(config, plan, resume);
+    write_output_file({"--out", (fs::path(config.out) / "sweep.yaml").string()}, sweep_yaml(config, plan.sha256));
   } catch (const std::exception& e) {
     err << "netkf sweep: error: " << e.what() << "\n";
     return 2;
-  }
-  {
-    std::ofstream yaml(fs::path(config.out) / "sweep.yaml", std::ios::trunc);
-    yaml << sweep_yaml(config, plan.sha256);
   }
   const auto pending = pending_runs(config, plan, rows);
   const std::size_t total = plan.grid.size() * static_cast<std::size_t>(config.seeds);
