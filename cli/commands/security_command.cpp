@@ -102,6 +102,7 @@ std::string run_openssl(const std::string &openssl, const std::vector<std::strin
 void write_file(const fs::path &p, const std::string &text) {
   std::ofstream out(p, std::ios::trunc);
   out << text;
+  out.close();  // a full disk is seen here, not lost in the destructor
   if (!out) throw InitError{1, "cannot write " + p.string() + ": " + std::strerror(errno)};
 }
 

@@ -155,7 +155,7 @@ std::unique_ptr<std::ostream> open_output_stream(const FileArg& output) {
   return std::make_unique<FdOutputStream>(fd);
 }
 
-void write_output_file(const FileArg& output, std::string_view text) {
+void write_output_file(const FileArg& output, std::string_view text, bool sync) {
   check_output_path(output);
   const fs::path target = written_path(output.path);
   struct stat old {};
@@ -174,8 +174,7 @@ void write_output_file(const FileArg& output, std::string_view text) {
     if (n < 0) give_up(errno);
     done += static_cast<std::size_t>(n);
   }
-  // fsync: a full disk or an I/O error that the write left for later is seen here.
-  if (::fsync(fd) != 0) give_up(errno);
+  if (sync && ::fsync(fd) != 0) give_up(errno);
   if (existed && ::fchmod(fd, old.st_mode & 07777) != 0) give_up(errno);
   if (::close(fd) != 0) {
     const int e = errno;

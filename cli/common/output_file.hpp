@@ -42,9 +42,11 @@ void refuse_existing(const std::vector<FileArg>& outputs, std::string_view how_t
 std::unique_ptr<std::ostream> open_output_stream(const FileArg& output);
 
 /// Writes `text` as the file `output.path`, whole: into a temporary file beside it (beside
-/// the file a symbolic link points to), flushed to the disk, then renamed over it (an
-/// existing file keeps its mode). A failed write removes the temporary file and leaves
-/// `output.path` as it was.
-void write_output_file(const FileArg& output, std::string_view text);
+/// the file a symbolic link points to), then renamed over it (an existing file keeps its
+/// mode). A failed write removes the temporary file and leaves `output.path` as it was.
+/// `sync`: the temporary file is flushed to the disk before the rename (fsync: a write error
+/// the system reports late is seen, and a crash leaves the old file or the new one); false
+/// for a file rewritten during a run (the journal), whose loop must not wait for the disk.
+void write_output_file(const FileArg& output, std::string_view text, bool sync = true);
 
 }  // namespace netkf::cli

@@ -151,7 +151,8 @@ bool Recording::write_events() {
     write_output_file({"the journal", *events_file_},
                       "# Live link changes of a netkf run, with the period each applied from.\n"
                       "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n" +
-                          events_to_yaml(events));
+                          events_to_yaml(events),
+                      /*sync=*/false);
   } catch (const CommandError& e) {
     if (!write_error_) write_error_ = e.what();
     return false;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <algorithm>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -105,9 +106,9 @@ std::vector<RunRow> open_runs_file(const SweepConfig& config, const Plan& plan, 
   const fs::path path = fs::path(config.out) / "runs.csv";
   std::vector<RunRow> kept;
   if (resume && fs::exists(path)) {
-    std::ifstream in(path);
     try {
-      for (auto& r : read_runs_csv(in, config.vary, plan.quantities))
+      InputFile in(path, "runs.csv", std::numeric_limits<std::uintmax_t>::max());  // a regular file only
+      for (auto& r : read_runs_csv(in.stream(), config.vary, plan.quantities))
         if (r.ok) kept.push_back(std::move(r));  // a failed run is run again
     } catch (const std::runtime_error& e) {
       throw InputError(path.string() + ": " + e.what());
