@@ -53,7 +53,8 @@ auto or_bad_usage(F&& f, const std::string& prefix = {}) {
 void check_identities(const std::optional<std::string>& secure, const LaunchRoles& roles, bool dashboard) {
   const auto dir = or_bad_usage([&] { return dds::resolve_secure(secure); });
   if (!dir) return;
-  std::vector<dds::Role> used{dashboard ? dds::Role::ctl : dds::Role::observer, dds::Role::observer};
+  std::vector<dds::Role> used{dds::Role::observer};  // the launch (without dashboard), a discovery server
+  if (dashboard) used.push_back(dds::Role::ctl);
   if (roles.plant) used.push_back(dds::Role::plant);
   if (!roles.sensor_ids.empty()) used.push_back(dds::Role::sensor);
   if (roles.channel) used.push_back(dds::Role::channel);

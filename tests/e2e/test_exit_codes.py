@@ -160,6 +160,10 @@ fifo = os.path.join(out, "fifo.csv")
 os.mkfifo(fifo)
 r = run("launch", "--duration", "2", "--record", fifo, *quick, timeout=30)
 check(refused(r, "is a FIFO") and stat.S_ISFIFO(os.lstat(fifo).st_mode), "launch --record FIFO: exit 2, no wait")
+fifo_svg = os.path.join(out, "fifo.svg")
+os.mkfifo(fifo_svg)
+r = run("analyze", good, "--plot", fifo_svg, timeout=30)
+check(refused(r, "is a FIFO"), "analyze --plot FIFO: exit 2, no wait")
 devices = []
 try:
     null_copy = os.path.join(out, "null")
