@@ -18,19 +18,25 @@ void add_network_options(CLI::App* cmd, NetworkSettings& network) {
                   "(default: $NETKF_DISCOVERY_SERVER, else the localhost-only profile; deploy/README.md)");
 }
 
-CLI::Validator timeout_seconds() {
+CLI::Validator seconds_in(double min, double max, bool above_min) {
   return CLI::Validator(
-      [](std::string& v) -> std::string {
+      [=](std::string& v) -> std::string {
+        double s = std::nan("");
         try {
           std::size_t used = 0;
-          const double s = std::stod(v, &used);
-          if (used == v.size() && std::isfinite(s) && s > 0.0 && s <= 3600.0) return {};
-        } catch (const std::exception&) {
+          s = std::stod(v, &used);
+          if (used != v.size()) s = std::nan("");
+        } catch (const std::exception&) {  // not a number, or out of double's range (1e999)
         }
-        return "must be a number of seconds in (0, 3600], got '" + v + "'";
+        const std::string problem = seconds_problem(s, min, max, above_min);
+        return problem.empty() ? problem : problem + ", got '" + v + "'";
       },
       "SECONDS");
 }
+
+CLI::Validator timeout_seconds() { return seconds_in(0.0, 3600.0, /*above_min=*/true); }
+
+CLI::Validator duration_seconds() { return seconds_in(0.0, kMaxDurationSeconds); }
 
 void run_command(const std::function<int()>& body) {
   int rc = 0;

@@ -3,12 +3,14 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "fit_scenario.hpp"
 #include "fit_text.hpp"
 #include "netkf/analysis/loss_fit.hpp"
 #include "netkf/link_trace.hpp"
+#include "output_file.hpp"
 #include "theory_plot.hpp"
 
 namespace netkf::cli {
@@ -26,17 +28,25 @@ struct FitArgs {
   throw CLI::RuntimeError(status);
 }
 
-// The options that go together, and a plot path, checked before any work: status 2.
-void check_usage(const FitArgs& a) {
+// The options that go together, the output files, the scenario and its link: checked before
+// the fit (which takes a minute on a long trace), status 2.
+std::optional<ScenarioCopy> check_usage(const FitArgs& a) {
   const int given = !a.scenario.empty() + a.link.has_value() + !a.output.empty();
   if (given != 0 && given != 3) fail(2, "--scenario, --link and -o go together (write the fitted link into a copy)");
-  if (!a.plot.empty()) {
-    try {
-      check_plot_output(a.plot);
-    } catch (const std::exception& e) {
-      fail(2, e.what());
-    }
+  std::optional<ScenarioCopy> copy;
+  try {
+    std::vector<FileArg> outputs;
+    if (!a.output.empty()) outputs.push_back({"-o", a.output});
+    if (!a.plot.empty()) outputs.push_back({"--plot", a.plot});
+    std::vector<FileArg> inputs{{"the trace", a.trace}};
+    if (!a.scenario.empty()) inputs.push_back({"--scenario", a.scenario});
+    check_output_files(outputs, inputs);
+    if (!a.plot.empty()) check_plot_output(a.plot);
+    if (!a.scenario.empty()) copy.emplace(a.scenario, *a.link);
+  } catch (const std::exception& e) {
+    fail(2, e.what());
   }
+  return copy;
 }
 
 analysis::TraceFit fit_trace(const FitArgs& a, const LinkTrace& trace) {
@@ -50,7 +60,8 @@ analysis::TraceFit fit_trace(const FitArgs& a, const LinkTrace& trace) {
   }
 }
 
-void write_outputs(const FitArgs& a, const analysis::TraceFit& r, const std::optional<analysis::DelaySummary>& delay) {
+void write_outputs(const FitArgs& a, const std::optional<ScenarioCopy>& copy, const analysis::TraceFit& r,
+                   const std::optional<analysis::DelaySummary>& delay) {
   const auto& f = r.fit();
   if (!a.plot.empty()) {
     try {
@@ -60,12 +71,12 @@ void write_outputs(const FitArgs& a, const analysis::TraceFit& r, const std::opt
     }
     if (!a.json) std::cout << "wrote " << a.plot << "\n";
   }
-  if (a.scenario.empty()) return;
+  if (!copy) return;
   const std::string note = "link " + std::to_string(*a.link) + " fitted by `netkf fit` from " + a.trace + ": " +
                            analysis::to_string(f.family) + ", log-likelihood " + std::to_string(f.log_likelihood) +
                            ", AIC " + std::to_string(f.aic);
   try {
-    write_scenario_with_link(a.scenario, *a.link, fitted_link_json(f, delay), note, a.output);
+    write_output_file({"-o", a.output}, copy->with_link(fitted_link_json(f, delay), note, a.output));
   } catch (const std::exception& e) {
     fail(2, e.what());
   }
@@ -88,7 +99,7 @@ void add_fit_command(CLI::App& app) {
   cmd->add_option("-o,--output", a->output, "where the scenario copy goes");
   cmd->add_option("--seed", a->seed, "seed of the EM's random starts (default 1)");
   cmd->callback([a] {
-    check_usage(*a);
+    const std::optional<ScenarioCopy> copy = check_usage(*a);
     LinkTrace trace;
     try {
       trace = read_link_trace_file(a->trace);
@@ -99,7 +110,7 @@ void add_fit_command(CLI::App& app) {
     const auto delay = trace.has_delay ? analysis::summarize_delays(trace.delay_ms) : std::nullopt;
     if (a->json) std::cout << fit_json(a->trace, r, delay).dump(2) << "\n";
     else print_fit(std::cout, a->trace, r, delay);
-    write_outputs(*a, r, delay);
+    write_outputs(*a, copy, r, delay);
   });
 }
 

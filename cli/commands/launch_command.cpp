@@ -2,6 +2,8 @@
 #include "command_options.hpp"
 #include "commands.hpp"
 #include "launch.hpp"
+#include "output_file.hpp"
+#include "recording.hpp"
 
 namespace netkf::cli {
 
@@ -10,6 +12,20 @@ namespace {
 void add_process_options(CLI::App* cmd, LaunchOptions* o);
 void add_view_and_check_options(CLI::App* cmd, LaunchOptions* o);
 
+/// Every file the launch writes, before anything is opened (output_file.hpp): regular files,
+/// each its own and none an input; an earlier run's recording only replaced with --force.
+void check_launch_outputs(const LaunchOptions& o, bool force) {
+  const std::vector<FileArg> recordings = Recording::outputs("--record", o.record, "--record-samples", o.record_samples);
+  std::vector<FileArg> outputs = recordings;
+  if (o.summary) outputs.push_back({"--summary", *o.summary});
+  if (o.pid_file) outputs.push_back({"--pid-file", *o.pid_file});
+  std::vector<FileArg> inputs;
+  if (o.scenario) inputs.push_back({"the scenario", *o.scenario});
+  if (o.events) inputs.push_back({"--events", *o.events});
+  check_output_files(outputs, inputs);
+  if (!force) refuse_existing(recordings, "give --force");
+}
+
 }  // namespace
 
 void add_launch_command(CLI::App& app) {
@@ -17,7 +33,7 @@ void add_launch_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("launch", "Start and supervise all processes of a scenario on localhost");
   cmd->add_option("scenario", o->scenario, "Scenario YAML (default: built-in three-sensor scenario)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
   cmd->add_option("--record", o->record,
                   "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state,late_samples; and the live link changes "
                   "to FILE.events.yaml (replay with --events). FILE.mcap: an MCAP file instead (truth, estimates, "
@@ -28,10 +44,17 @@ void add_launch_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   cmd->add_option("--record-samples", o->record_samples,
                   "Write every delivered measurement: k,sensor_id,stamp,fused,y..");
+  auto force = std::make_shared<bool>(false);
+  cmd->add_flag("--force", *force, "Replace the --record and --record-samples files (and the journal) of an earlier run");
   add_network_options(cmd, o->network);
   add_process_options(cmd, o.get());
   add_view_and_check_options(cmd, o.get());
-  cmd->callback([o] { run_command([&] { return Launch(*o).run(); }); });
+  cmd->callback([o, force] {
+    run_command([&] {
+      check_launch_outputs(*o, *force);
+      return Launch(*o).run();
+    });
+  });
 }
 
 namespace {
@@ -72,11 +95,11 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
   cmd->add_option("--ready-timeout", o->ready_timeout,
                   "Seconds the plant waits for every sensor, the channel and the estimator (on any host) to be "
                   "present before it fails naming the missing")
-      ->check(CLI::Range(0.1, 3600.0))
+      ->check(seconds_in(0.1, 3600.0))
       ->capture_default_str();
   cmd->add_option("--domain-check", o->domain_check,
                   "Seconds to look for another netkf network on the DDS domain before starting (0: skip)")
-      ->check(CLI::Range(0.0, 60.0))
+      ->check(seconds_in(0.0, 60.0))
       ->capture_default_str();
   cmd->add_flag("--standby", o->standby,
                 "Run a hot-standby estimator beside the primary: both fuse the same samples, the plant and every "
@@ -92,7 +115,7 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
 /// What the run shows and how it is judged: status, dashboard, checks, summary.
 void add_view_and_check_options(CLI::App* cmd, LaunchOptions* o) {
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(seconds_in(0.0, 3600.0));
   cmd->add_option("--pid-file", o->pid_file, "Write 'name pid' of each started process to FILE");
   cmd->add_option("--dashboard", o->dashboard,
                   "Port of the live dashboard (page, Foxglove WebSocket, /metrics), or 'off' for none")

@@ -12,6 +12,7 @@
 #include "exit_code.hpp"
 #include "launch.hpp"
 #include "live_bus.hpp"
+#include "output_file.hpp"
 #include "recording.hpp"
 #include "run_end_watch.hpp"
 #include "serve_loop.hpp"
@@ -26,10 +27,18 @@ struct RecordOptions {
   double duration = 0.0;
   std::string out;
   std::optional<std::string> samples;
+  bool force = false;
   NetworkSettings network;
 };
 
 int run_record(const RecordOptions& o) {
+  // Every file it writes, before anything is opened (output_file.hpp); an earlier recording
+  // is only replaced with --force.
+  const auto outputs = Recording::outputs("--out", o.out, "--samples", o.samples);
+  std::vector<FileArg> inputs;
+  if (o.scenario) inputs.push_back({"the scenario", *o.scenario});
+  check_output_files(outputs, inputs);
+  if (!o.force) refuse_existing(outputs, "give --force");
   const Scenario scenario = load_or_default(o.scenario);
   boost::asio::io_context io;
   Recording recording(o.out, o.samples, scenario);
@@ -91,7 +100,8 @@ void add_record_command(CLI::App& app) {
                   "link status and changes; delivered samples with --samples)")
       ->required();
   cmd->add_option("--samples", o->samples, "Also write every delivered measurement to this CSV");
-  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(CLI::NonNegativeNumber);
+  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
+  cmd->add_flag("--force", o->force, "Replace the --out and --samples files (and the journal) of an earlier recording");
   add_network_options(cmd, o->network);
   cmd->callback([o] { run_command([&] { return run_record(*o); }); });
 }

@@ -102,6 +102,7 @@ std::string run_openssl(const std::string &openssl, const std::vector<std::strin
 void write_file(const fs::path &p, const std::string &text) {
   std::ofstream out(p, std::ios::trunc);
   out << text;
+  out.close();  // a full disk is seen here, not lost in the destructor
   if (!out) throw InitError{1, "cannot write " + p.string() + ": " + std::strerror(errno)};
 }
 
@@ -234,8 +235,22 @@ void init(const SecurityInitOptions &o) {
                     "openssl not found on PATH: `netkf security init` runs "
                     "it to make keys and certificates "
                     "(install it, e.g. apt-get install openssl)"};
-  const fs::path dir = fs::absolute(o.dir).lexically_normal();
+  if (o.dir.empty()) throw InitError{2, "give the directory to make (got an empty path)"};
+  fs::path dir = fs::absolute(o.dir).lexically_normal();
+  if (!dir.has_filename()) dir = dir.parent_path();  // "sec/": the directory sec
   std::error_code ec;
+  // A symbolic link is not followed, kept or replaced: the directory is made where it is named.
+  if (fs::is_symlink(fs::symlink_status(dir, ec)))
+    throw InitError{2, dir.string() + " is a symbolic link" +
+                           (fs::exists(dir, ec) ? std::string() : std::string(" to a missing path")) +
+                           ": give the directory itself"};
+  const fs::path parent = dir.parent_path();
+  if (!fs::is_directory(parent, ec))
+    throw InitError{2, "cannot make " + dir.string() + ": " + parent.string() + " is not a directory"};
+  if (access(parent.c_str(), W_OK) != 0)
+    throw InitError{2, "cannot make " + dir.string() + " in " + parent.string() + ": " + std::strerror(errno)};
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw InitError{2, dir.string() + " exists and is not a directory: not replaced"};
   if (fs::exists(dir, ec)) {
     const bool empty = fs::is_directory(dir, ec) && fs::is_empty(dir, ec);
     if (!empty && !o.force) throw InitError{2, dir.string() + " exists: give --force to replace it"};
@@ -262,7 +277,7 @@ void init(const SecurityInitOptions &o) {
     ~RestoreUmask() { umask(m); }
   } restore{old_umask};
   if (!fs::create_directories(tmp / "ca", ec) || ec)
-    throw InitError{1, "cannot create " + (tmp / "ca").string() + ": " + ec.message()};
+    throw InitError{2, "cannot make " + dir.string() + ": " + ec.message()};
   fs::create_directories(tmp / "identities");
   fs::create_directories(tmp / "permissions");
   const std::string not_after = make_pki(openssl, tmp, o.days);
@@ -303,6 +318,10 @@ void add_security_command(CLI::App &app) {
     } catch (const InitError &e) {
       std::cerr << "netkf: error: " << e.message << "\n";
       throw CLI::RuntimeError(e.code);
+    } catch (const fs::filesystem_error &e) {
+      // The directory cannot be made where it is named (a read-only or special file system).
+      std::cerr << "netkf: error: cannot make " << o->dir << ": " << e.code().message() << "\n";
+      throw CLI::RuntimeError(2);
     } catch (const std::exception &e) {
       std::cerr << "netkf: error: " << e.what() << "\n";
       throw CLI::RuntimeError(1);

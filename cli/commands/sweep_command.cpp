@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "command_options.hpp"
 #include "commands.hpp"
 #include "dashboard__assets.hpp"
 #include "sweep.hpp"
@@ -100,6 +101,8 @@ int run_stoppable(const std::function<int()>& work) {
   throw CLI::RuntimeError(2);
 }
 
+namespace fs = std::filesystem;
+
 int default_domain() {
   const char* env = std::getenv("NETKF_DOMAIN");
   return env ? std::atoi(env) : 0;
@@ -134,6 +137,9 @@ sweep::SweepConfig make_config(const SweepArgs& a, const std::vector<std::string
     c.domain_base = a.domain.value_or(default_domain());
     c.out = a.out;
     c.checks = a.checks;
+    std::error_code ec;
+    if (fs::exists(fs::symlink_status(c.out, ec)) && !fs::is_directory(c.out, ec))
+      usage_error("--out " + c.out + " is not a directory (the sweep writes its files into DIR)");
   }
   if (c.live && sweep::live_domain(c, c.jobs - 1) > 232)
     usage_error("the live runs' DDS domains pass 232: lower --domain or --jobs");
@@ -152,7 +158,8 @@ void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv) {
                   "KEY=V1,V2,... or KEY=FROM:TO:N (repeatable; the grid is their product). KEY: a scenario path, "
                   "e.g. sensors.2.link.loss (sensor id 2), sensors.*.link.mean_burst, estimator.deadline_ms, plant.A.0.0");
   cmd->add_option("--seeds", a->seeds, "seeds per point (1..N, derived from the scenario's seed)")->check(CLI::Range(1, 100000));
-  auto* duration = cmd->add_option("--duration", a->duration, "seconds per run (default 10)")->check(CLI::PositiveNumber);
+  auto* duration = cmd->add_option("--duration", a->duration, "seconds per run (default 10)")
+                       ->check(seconds_in(0.0, kMaxDurationSeconds, /*above_min=*/true));
   cmd->add_option("--periods", a->periods, "periods per run (instead of --duration)")
       ->check(CLI::Range(std::int64_t{1}, std::int64_t{100000000}))
       ->excludes(duration);

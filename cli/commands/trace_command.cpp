@@ -1,13 +1,15 @@
 // `netkf trace extract RUN.csv|RUN.mcap --link ID -o link.csv`: the arrival trace a link had
 // in a recording, for `netkf fit` or a `model: trace` link (docs/cli.md, "netkf trace extract").
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 
 #include "commands.hpp"
+#include "exit_code.hpp"
 #include "netkf/link_trace.hpp"
+#include "output_file.hpp"
 #include "trace_extract.hpp"
 
 namespace netkf::cli {
@@ -27,6 +29,7 @@ struct ExtractArgs {
 void run_extract(const ExtractArgs& a) {
   LinkTrace trace;
   try {
+    check_output_files({{"-o", a.output}}, {{"the recording", a.recording}});
     trace = extract_link_trace(read_delivered_samples(a.recording), a.link, a.first, a.last);
   } catch (const std::exception& e) {
     fail(2, e.what());
@@ -34,11 +37,13 @@ void run_extract(const ExtractArgs& a) {
   const std::string comment = "netkf trace extract: link " + std::to_string(a.link) + " of " + a.recording +
                               ", periods " + std::to_string(trace.first_k) + ".." +
                               std::to_string(trace.first_k + trace.size() - 1) + " (k = period)";
-  std::ofstream out(a.output, std::ios::binary);
-  if (!out) fail(1, a.output + ": cannot write the trace");
-  write_link_trace(out, trace, comment);
-  out.close();
-  if (!out) fail(1, a.output + ": error while writing the trace");
+  std::ostringstream text;
+  write_link_trace(text, trace, comment);
+  try {
+    write_output_file({"-o", a.output}, text.str());
+  } catch (const CommandError& e) {
+    fail(e.exit_status(), e.what());
+  }
   std::cout << "wrote " << a.output << ": link " << a.link << ", " << trace.size() << " periods, "
             << trace.delivered_count() << " delivered\n";
 }

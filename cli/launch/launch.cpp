@@ -13,8 +13,10 @@
 #include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
+#include "netkf/dds/security.hpp"
 #include "netkf/nodes/estimator_core.hpp"
 #include "open_files.hpp"
+#include "output_file.hpp"
 #include "serve_loop.hpp"
 #include "text.hpp"
 
@@ -44,6 +46,22 @@ auto or_bad_usage(F&& f, const std::string& prefix = {}) {
   } catch (const std::exception& e) {
     fail(ExitCode::bad_usage, prefix + e.what());
   }
+}
+
+/// DDS Security: the identity of every role this host's processes take (the children's and the
+/// launch's own), checked before anything starts: a missing file or a key others may read is
+/// exit 2 here, not a child's death after the start.
+void check_identities(const std::optional<std::string>& secure, const LaunchRoles& roles, bool dashboard) {
+  const auto dir = or_bad_usage([&] { return dds::resolve_secure(secure); });
+  if (!dir) return;
+  std::vector<dds::Role> used{dds::Role::observer};  // the launch (without dashboard), a discovery server
+  if (dashboard) used.push_back(dds::Role::ctl);
+  if (roles.plant) used.push_back(dds::Role::plant);
+  if (!roles.sensor_ids.empty()) used.push_back(dds::Role::sensor);
+  if (roles.channel) used.push_back(dds::Role::channel);
+  if (roles.estimator) used.push_back(dds::Role::estimator);
+  for (const auto role : used)
+    or_bad_usage([&] { dds::check_security_files(dds::security_files(*dir, role)); }, "--secure: ");
 }
 
 }  // namespace
@@ -107,6 +125,7 @@ int Launch::run() {
 
 void Launch::prepare() {
   read_inputs();
+  check_identities(o_.network.secure, roles_, o_.dashboard != "off");
   resolve_discovery();
   prepare_files();
   open_network();
@@ -129,10 +148,7 @@ void Launch::read_inputs() {
   roles_ = or_bad_usage([&] { return parse_launch_roles(o_.only, sensor_ids); });
   scenario_hash_ = dds::scenario_hash(scenario_);
   for (const auto& text : o_.checks) checks_.push_back(or_bad_usage([&] { return parse_check(text, sensor_ids); }));
-  if (o_.summary) {
-    summary_out_.open(*o_.summary, std::ios::trunc);
-    if (!summary_out_) fail(ExitCode::bad_usage, "cannot write " + *o_.summary + ": " + std::strerror(errno));
-  }
+  if (o_.summary) summary_out_ = open_output_stream({"--summary", *o_.summary});
   if (o_.summary || !checks_.empty()) summary_ = std::make_unique<RunSummaryBuilder>(scenario_);
 }
 
@@ -260,8 +276,13 @@ void Launch::start() {
   start_children();
   if (o_.pid_file) {
     // For scripts and tests: name and pid of every child.
-    std::ofstream pids(*o_.pid_file);
-    for (const auto& e : started_) pids << e.child << " " << e.pid << "\n";
+    std::string pids;
+    for (const auto& e : started_) pids += e.child + " " + std::to_string(e.pid) + "\n";
+    try {
+      write_output_file({"--pid-file", *o_.pid_file}, pids);
+    } catch (const CommandError& e) {  // its path was checked before the start: the run goes on
+      std::cerr << "netkf launch: WARNING: " << e.what() << "\n";
+    }
   }
   print_launch_line();
 }
@@ -306,7 +327,7 @@ void Launch::start_children() {
   RunVerdict verdict;
   verdict.summary_end = "failure: " + supervisor_->failure_reason();
   if (summary_)
-    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, o_.summary ? &summary_out_ : nullptr,
+    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, summary_out_.get(),
                  o_.summary.value_or(""), verdict);
   fail(ExitCode::run_failed, supervisor_->failure_reason());
 }
@@ -481,7 +502,7 @@ int Launch::conclude() {
   if (verdict.failure && facts_.end != RunEnd::process_failed && facts_.end != RunEnd::recording_failed)
     std::cerr << "netkf launch: ERROR: " << *verdict.failure << "\n";
   if (summary_)
-    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, o_.summary ? &summary_out_ : nullptr,
+    conclude_run(summary_->summary(), checks_, scenario_.name, std::cout, summary_out_.get(),
                  o_.summary.value_or(""), verdict);
   if (verdict.failure) fail(verdict.exit, *verdict.failure);
   return 0;

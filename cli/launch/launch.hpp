@@ -114,7 +114,7 @@ class Launch {
   std::optional<dds::DiscoveryServerAddress> discovery_;
   int domain_ = 0;
   std::vector<Check> checks_;
-  std::ofstream summary_out_;
+  std::unique_ptr<std::ostream> summary_out_;  // --summary (output_file.hpp)
   std::unique_ptr<RunSummaryBuilder> summary_;  // only a run that asks keeps its records
   std::unique_ptr<LaunchFiles> files_;
   std::filesystem::path scenario_path_;

@@ -18,11 +18,23 @@ int max_measurement_dim(const Scenario& s) {
 /// The plant's input dimension m (0 without control): a closed loop's rows carry u.
 int input_dim(const Scenario& s) { return s.plant.B ? static_cast<int>(s.plant.B->cols()) : 0; }
 
-void open_or_fail(std::ofstream& out, const std::string& file, std::ios::openmode mode) {
-  out.open(file, mode);
-  if (!out) fail(ExitCode::bad_usage, "cannot write " + file + ": " + std::strerror(errno));
+std::string events_file_of(const std::string& periods_file) { return periods_file + ".events.yaml"; }
+
+}  // namespace
+
+std::vector<FileArg> Recording::outputs(const std::string& periods_option, const std::optional<std::string>& periods_file,
+                                        const std::string& samples_option,
+                                        const std::optional<std::string>& samples_file) {
+  std::vector<FileArg> files;
+  if (periods_file) {
+    files.push_back({periods_option, *periods_file});
+    files.push_back({periods_option + "'s journal", events_file_of(*periods_file)});
+  }
+  if (samples_file) files.push_back({samples_option, *samples_file});
+  return files;
 }
 
+namespace {
 }  // namespace
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
@@ -32,24 +44,25 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
       periods_file_(periods_file),
       samples_file_(samples_file) {
   if (periods_file && is_mcap_path(*periods_file)) {
-    open_or_fail(mcap_out_, *periods_file, std::ios::trunc | std::ios::binary);
-    mcap_ = std::make_unique<McapRecorder>(mcap_out_, scenario, /*with_delivered=*/samples_file.has_value());
-    mcap_out_.flush();
+    mcap_out_ = open_output_stream({"the recording", *periods_file});
+    mcap_ = std::make_unique<McapRecorder>(*mcap_out_, scenario, /*with_delivered=*/samples_file.has_value());
+    mcap_out_->flush();
   } else if (periods_file) {
-    open_or_fail(periods_out_, *periods_file, std::ios::trunc);
-    periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
-                                              input_dim(scenario))
-                 << "\n";
+    periods_out_ = open_output_stream({"the recording", *periods_file});
+    *periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
+                                               input_dim(scenario))
+                  << "\n";
   }
   if (periods_file) {
-    events_file_ = *periods_file + ".events.yaml";
+    events_file_ = events_file_of(*periods_file);
     // An empty journal too: a replay of a run without changes is valid.
     if (!write_events()) fail(ExitCode::bad_usage, *write_error_);
   }
   if (samples_file) {
-    open_or_fail(samples_out_, *samples_file, std::ios::trunc);
-    samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods())
-                 << "\n";
+    samples_out_ = open_output_stream({"the samples recording", *samples_file});
+    *samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario),
+                                               scenario.estimator.fusable_delay_periods())
+                  << "\n";
   }
 }
 
@@ -61,18 +74,18 @@ Recording::~Recording() {
 }
 
 void Recording::truth(const TruthRecord& t) {
-  if (periods_out_.is_open()) periods_.add_truth(t);
+  if (periods_out_) periods_.add_truth(t);
   if (mcap_) mcap_->truth(t);
 }
 
 void Recording::estimate(const Estimate& e) {
-  if (periods_out_.is_open()) periods_.add_estimate(e);
-  if (samples_out_.is_open()) samples_.add_estimate(e);
+  if (periods_out_) periods_.add_estimate(e);
+  if (samples_out_) samples_.add_estimate(e);
   if (mcap_) mcap_->estimate(e);
 }
 
 void Recording::delivered(const DeliveredRecord& d) {
-  if (samples_out_.is_open()) samples_.add_delivered(d);
+  if (samples_out_) samples_.add_delivered(d);
   if (mcap_) mcap_->delivered(d);
 }
 
@@ -100,26 +113,26 @@ void Recording::check(const std::ostream& out, const std::string& file, int save
 
 void Recording::flush() {
   errno = 0;
-  if (periods_out_.is_open()) {
-    periods_.flush(periods_out_);
-    periods_out_.flush();
-    check(periods_out_, *periods_file_, errno);
+  if (periods_out_) {
+    periods_.flush(*periods_out_);
+    periods_out_->flush();
+    check(*periods_out_, *periods_file_, errno);
   }
-  if (samples_out_.is_open()) {
-    samples_.flush(samples_out_);
-    samples_out_.flush();
-    check(samples_out_, *samples_file_, errno);
+  if (samples_out_) {
+    samples_.flush(*samples_out_);
+    samples_out_->flush();
+    check(*samples_out_, *samples_file_, errno);
   }
   if (mcap_) {
-    mcap_out_.flush();
-    check(mcap_out_, *periods_file_, errno);
+    mcap_out_->flush();
+    check(*mcap_out_, *periods_file_, errno);
   }
   if (journal_changed_) write_events();
 }
 
 void Recording::finish() {
   // fuse_within: the last D periods' rows wait for a final estimate that no longer comes.
-  if (periods_out_.is_open() || samples_out_.is_open()) {
+  if (periods_out_ || samples_out_) {
     periods_.finish_pending();
     samples_.finish_pending();
     flush();
@@ -127,8 +140,8 @@ void Recording::finish() {
   if (mcap_ && !mcap_->finished()) {
     errno = 0;
     mcap_->finish();
-    mcap_out_.flush();
-    check(mcap_out_, *periods_file_, errno);
+    mcap_out_->flush();
+    check(*mcap_out_, *periods_file_, errno);
   }
 }
 
@@ -137,15 +150,19 @@ std::uint64_t Recording::rows() const { return mcap_ ? mcap_->estimates() : peri
 bool Recording::write_events() {
   std::vector<LinkEvent> events;
   for (const auto& j : journal_) events.push_back(j.event);
-  errno = 0;
-  std::ofstream out(*events_file_, std::ios::trunc);
-  out << "# Live link changes of a netkf run, with the period each applied from.\n"
-         "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n"
-      << events_to_yaml(events);
-  out.flush();
-  check(out, *events_file_, errno);
+  // Written whole and renamed in place: a launch killed mid-write leaves the previous journal.
+  try {
+    write_output_file({"the journal", *events_file_},
+                      "# Live link changes of a netkf run, with the period each applied from.\n"
+                      "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n" +
+                          events_to_yaml(events),
+                      /*sync=*/false);
+  } catch (const CommandError& e) {
+    if (!write_error_) write_error_ = e.what();
+    return false;
+  }
   journal_changed_ = false;
-  return static_cast<bool>(out);
+  return true;
 }
 
 }  // namespace netkf::cli

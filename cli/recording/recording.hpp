@@ -4,11 +4,12 @@
 // changes journaled as FILE.events.yaml (which `netkf launch --events` replays).
 //
 // Opening a file that cannot be written is the user's input error (CommandError, exit 2,
-// before anything starts). A write that fails during the run (e.g. a full disk) never throws
+// before anything starts); the files are opened and written under the output files' policy
+// (output_file.hpp: a regular file only; the journal written whole, renamed in place). A write that fails during the run (e.g. a full disk) never throws
 // from the flush: the first one is kept as write_error(), the caller stops the run in order
 // and ends with exit 1 naming it.
 #include <cstdint>
-#include <fstream>
+#include <ostream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,6 +17,7 @@
 
 #include "live_records.hpp"
 #include "netkf/scenario.hpp"
+#include "output_file.hpp"
 #include "record_csv.hpp"
 #include "record_mcap.hpp"
 
@@ -37,7 +39,13 @@ class Recording {
   /// A live change (ctl, dashboard) with the period it applied from: journaled.
   void link_change(const LinkChangeRecord& c);
 
-  bool wants_samples() const { return samples_out_.is_open(); }
+  /// The files a recording of `periods_file` and `samples_file` writes, with the options
+  /// that named them (`periods_option`: "--record" or "--out"): for check_output_files and
+  /// refuse_existing before it is made. The journal FILE.events.yaml is one of them.
+  static std::vector<FileArg> outputs(const std::string& periods_option, const std::optional<std::string>& periods_file,
+                                      const std::string& samples_option, const std::optional<std::string>& samples_file);
+
+  bool wants_samples() const { return samples_out_ != nullptr; }
   bool wants_link_status() const { return mcap_ != nullptr; }
   bool journals_changes() const { return events_file_.has_value(); }
 
@@ -64,9 +72,9 @@ class Recording {
   SampleCsvRecorder samples_;
   std::optional<std::string> periods_file_;
   std::optional<std::string> samples_file_;
-  std::ofstream periods_out_;
-  std::ofstream samples_out_;
-  std::ofstream mcap_out_;
+  std::unique_ptr<std::ostream> periods_out_;
+  std::unique_ptr<std::ostream> samples_out_;
+  std::unique_ptr<std::ostream> mcap_out_;
   std::unique_ptr<McapRecorder> mcap_;  // declared after its stream: destroyed first
   std::optional<std::string> events_file_;
   std::vector<Journaled> journal_;

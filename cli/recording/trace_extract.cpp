@@ -2,10 +2,13 @@
 #include "trace_extract.hpp"
 
 #include <charconv>
-#include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 #include <string_view>
+#include <vector>
+
+#include "netkf/input_file.hpp"
 
 #include "mcap_reader.hpp"
 
@@ -24,36 +27,121 @@ void add(DeliveredSamples& s, int sensor, std::int64_t k, const std::string& whe
   s.last_k = s.last_k ? std::max(*s.last_k, k) : k;
 }
 
+// The longest line a samples CSV may have (a row is k, sensor, stamp, flags and m numbers of
+// at most 24 characters: far below this for any measurement size a scenario runs).
+constexpr std::size_t kMaxLine = 1u << 20;
+
+[[noreturn]] void refuse(const std::string& where, const std::string& what) {
+  throw std::runtime_error(where + ": " + what);
+}
+
+std::string shown(std::string_view text) {
+  constexpr std::size_t kShown = 40;
+  return "'" + std::string(text.substr(0, kShown)) + (text.size() > kShown ? "...'" : "'");
+}
+
 template <typename T>
-T field(std::string_view text, const std::string& where, const char* name) {
+T integer_field(std::string_view text, const std::string& where, const char* name) {
   T v{};
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (ec == std::errc::result_out_of_range) refuse(where, std::string(name) + " is out of range, got " + shown(text));
   if (text.empty() || ec != std::errc() || ptr != text.data() + text.size())
-    throw std::runtime_error(where + ": " + name + " must be an integer, got '" + std::string(text.substr(0, 40)) + "'");
+    refuse(where, std::string(name) + " must be an integer, got " + shown(text));
   return v;
+}
+
+void number_field(std::string_view text, const std::string& where, const std::string& name, bool may_be_empty) {
+  if (text.empty() && may_be_empty) return;
+  double v = 0.0;
+  const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+  if (text.empty() || ec == std::errc::invalid_argument || ptr != text.data() + text.size())
+    refuse(where, name + " must be a number, got " + shown(text));
+}
+
+void flag_field(std::string_view text, const std::string& where, const std::string& name) {
+  if (text != "0" && text != "1") refuse(where, name + " must be 0 or 1, got " + shown(text));
+}
+
+std::vector<std::string_view> split(std::string_view line) {
+  std::vector<std::string_view> fields;
+  for (std::size_t start = 0;;) {
+    const std::size_t comma = line.find(',', start);
+    fields.push_back(line.substr(start, comma == line.npos ? line.npos : comma - start));
+    if (comma == line.npos) return fields;
+    start = comma + 1;
+  }
+}
+
+/// One line without its end of line (CR LF too); false at the end of the file. `ended`: the
+/// line had its '\n' (every row the recorder writes has one: a row without is cut).
+bool next_line(std::streambuf& in, std::string& line, bool& ended, const std::string& where) {
+  line.clear();
+  ended = false;
+  int c = in.sbumpc();
+  if (c == std::char_traits<char>::eof()) return false;
+  while (c != std::char_traits<char>::eof()) {
+    if (c == '\n') {
+      ended = true;
+      break;
+    }
+    if (line.size() >= kMaxLine) refuse(where, "line longer than " + std::to_string(kMaxLine) + " characters");
+    line.push_back(static_cast<char>(c));
+    c = in.sbumpc();
+  }
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return true;
+}
+
+/// The header's columns, checked as the recorder writes them: k,sensor_id,stamp,fused,
+/// [fused_in_time,] y0, y1, ...
+std::vector<std::string> samples_columns(std::string_view header, const std::string& where) {
+  if (header.rfind("\xEF\xBB\xBF", 0) == 0) header.remove_prefix(3);  // a UTF-8 byte-order mark
+  if (header.rfind("k,sensor_id,", 0) != 0)
+    refuse(where, "not a samples CSV (its header starts with 'k,sensor_id,'; it is written by --record-samples)");
+  std::vector<std::string> columns;
+  for (const auto f : split(header)) columns.emplace_back(f);
+  std::size_t i = 2;
+  const auto expect = [&](const std::string& name) {
+    if (i >= columns.size() || columns[i] != name)
+      refuse(where, "bad header: column " + std::to_string(i + 1) + " must be '" + name + "', got " +
+                        (i < columns.size() ? shown(columns[i]) : std::string("nothing")));
+    ++i;
+  };
+  expect("stamp");
+  expect("fused");
+  if (i < columns.size() && columns[i] == "fused_in_time") ++i;
+  for (int y = 0; i < columns.size(); ++y) expect("y" + std::to_string(y));
+  return columns;
 }
 
 DeliveredSamples read_samples_csv(std::istream& in, const std::string& path) {
   DeliveredSamples s;
   std::string line;
+  std::vector<std::string> columns;
   std::size_t line_no = 0;
-  while (std::getline(in, line)) {
+  bool ended = false;
+  auto& buf = *in.rdbuf();
+  while (next_line(buf, line, ended, path + ":" + std::to_string(line_no + 1))) {
     ++line_no;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
     const std::string where = path + ":" + std::to_string(line_no);
     if (line_no == 1) {
-      if (line.rfind("k,sensor_id,", 0) != 0)
-        throw std::runtime_error(where + ": not a samples CSV (its header starts with 'k,sensor_id,'; "
-                                 "it is written by --record-samples)");
+      columns = samples_columns(line, where);
       continue;
     }
+    if (!ended) refuse(where, "the last row is cut (no end of line): the file is truncated");
     if (line.empty()) continue;
-    const std::string_view row(line);
-    const std::size_t c1 = row.find(',');
-    const std::size_t c2 = c1 == row.npos ? row.npos : row.find(',', c1 + 1);
-    if (c2 == row.npos) throw std::runtime_error(where + ": a row needs k and sensor_id");
-    add(s, field<int>(row.substr(c1 + 1, c2 - c1 - 1), where, "sensor_id"),
-        field<std::int64_t>(row.substr(0, c1), where, "k"), where);
+    const auto f = split(line);
+    if (f.size() != columns.size())
+      refuse(where, "a row of " + std::to_string(f.size()) + " fields, the header has " +
+                        std::to_string(columns.size()));
+    const auto k = integer_field<std::int64_t>(f[0], where, "k");
+    const auto sensor = integer_field<int>(f[1], where, "sensor_id");
+    number_field(f[2], where, "stamp", false);
+    for (std::size_t i = 3; i < f.size(); ++i) {
+      if (columns[i][0] == 'y') number_field(f[i], where, columns[i], /*may_be_empty=*/true);
+      else flag_field(f[i], where, columns[i]);
+    }
+    add(s, sensor, k, where);
   }
   if (line_no == 0) throw std::runtime_error(path + ": empty file (a samples CSV starts with 'k,sensor_id,')");
   return s;
@@ -75,10 +163,10 @@ DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path) {
 }  // namespace
 
 DeliveredSamples read_delivered_samples(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open the recording");
+  // A regular file only; the readers bound its records, lines and samples.
+  InputFile file(path, "recording", std::numeric_limits<std::uintmax_t>::max());
   const bool mcap = path.size() >= 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
-  DeliveredSamples s = mcap ? read_samples_mcap(in, path) : read_samples_csv(in, path);
+  DeliveredSamples s = mcap ? read_samples_mcap(file.stream(), path) : read_samples_csv(file.stream(), path);
   if (!s.first_k)
     throw std::runtime_error(path + ": no delivered samples (record them with --record-samples; an MCAP has them "
                              "on netkf/measurement/delivered only then)");

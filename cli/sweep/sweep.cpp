@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -26,7 +27,10 @@
 #include "sweep_report.hpp"
 #include "sweep_runs.hpp"
 #include "sweep_table.hpp"
+#include "exit_code.hpp"
+#include "netkf/input_file.hpp"
 #include "netkf/scenario.hpp"
+#include "output_file.hpp"
 
 namespace netkf::cli::sweep {
 
@@ -57,11 +61,11 @@ void note_live_group(int slot, pid_t pid) {
 }
 
 std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot read " + path.string());
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
+  try {
+    return read_input_file(path, "scenario file", max_yaml_input_bytes);
+  } catch (const InputFileError& e) {
+    throw InputError(e.what());
+  }
 }
 
 /// Everything fixed before the first run.
@@ -127,9 +131,9 @@ std::vector<RunRow> open_runs_file(const SweepConfig& config, const Plan& plan, 
   const fs::path path = fs::path(config.out) / "runs.csv";
   std::vector<RunRow> kept;
   if (resume && fs::exists(path)) {
-    std::ifstream in(path);
     try {
-      for (auto& r : read_runs_csv(in, config.vary, plan.quantities))
+      InputFile in(path, "runs.csv", std::numeric_limits<std::uintmax_t>::max());  // a regular file only
+      for (auto& r : read_runs_csv(in.stream(), config.vary, plan.quantities))
         if (r.ok) kept.push_back(std::move(r));  // a failed run is run again
     } catch (const std::runtime_error& e) {
       throw InputError(path.string() + ": " + e.what());
@@ -373,14 +377,19 @@ std::size_t write_outputs(const SweepConfig& config, const Plan& plan, const std
     } catch (const std::exception&) {
     }
   }
-  std::ofstream points(fs::path(config.out) / "points.csv", std::ios::trunc);
+  std::ostringstream points;
   points << points_header(config.vary, plan.quantities) << "\n";
   for (const auto& p : plan.grid)
     points << points_line(p, plan.quantities.size(), rows, theory[static_cast<std::size_t>(p.index)]) << "\n";
   ReportData data{config.scenario_path, config.live ? "live" : "offline", config.seeds, config.vary, plan.grid,
                   plan.quantities, rows, theory};
-  std::ofstream report(fs::path(config.out) / "report.html", std::ios::trunc);
-  report << render_report(data, assets.uplot_js, assets.uplot_css);
+  try {
+    write_output_file({"--out", (fs::path(config.out) / "points.csv").string()}, points.str());
+    write_output_file({"--out", (fs::path(config.out) / "report.html").string()},
+                      render_report(data, assets.uplot_js, assets.uplot_css));
+  } catch (const CommandError& e) {  // after the runs: a failed write, not bad usage
+    fail(ExitCode::run_failed, e.what());
+  }
   return left_out;
 }
 
@@ -413,16 +422,13 @@ int run_sweep(const SweepConfig& config, bool resume, const ReportAssets& assets
     if (config.live && config.netkf_exe.empty()) throw InputError("no netkf executable to launch the runs");
     fs::create_directories(config.out);
     rows = open_runs_file(config, plan, resume);
+    write_output_file({"--out", (fs::path(config.out) / "sweep.yaml").string()}, sweep_yaml(config, plan.sha256));
   } catch (const StoppedBeforeRuns& e) {
     err << "netkf sweep: " << e.what() << "\n";
     return 1;
   } catch (const std::exception& e) {
     err << "netkf sweep: error: " << e.what() << "\n";
     return 2;
-  }
-  {
-    std::ofstream yaml(fs::path(config.out) / "sweep.yaml", std::ios::trunc);
-    yaml << sweep_yaml(config, plan.sha256);
   }
   const auto pending = pending_runs(config, plan, rows);
   const std::size_t total = plan.grid.size() * static_cast<std::size_t>(config.seeds);

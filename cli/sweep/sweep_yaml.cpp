@@ -4,6 +4,8 @@
 #include <stdexcept>
 #include <yaml-cpp/yaml.h>
 
+#include "netkf/input_file.hpp"
+#include "seconds.hpp"
 #include "sweep.hpp"
 
 #ifndef NETKF_VERSION
@@ -43,13 +45,18 @@ SweepConfig read_sweep_yaml(const std::string& dir, std::string& scenario_sha256
   if (!std::filesystem::exists(path)) throw std::runtime_error(path.string() + " is missing: not a sweep directory");
   SweepConfig c;
   try {
-    const YAML::Node y = YAML::LoadFile(path.string());
+    const YAML::Node y = YAML::Load(read_input_file(path, "sweep.yaml", max_yaml_input_bytes));
     c.command = y["command"].as<std::vector<std::string>>();
     c.scenario_path = y["scenario"]["path"].as<std::string>();
     scenario_sha256 = y["scenario"]["sha256"].as<std::string>();
     for (const auto& v : y["vary"]) c.vary.push_back({v["key"].as<std::string>(), v["values"].as<std::vector<std::string>>()});
     c.seeds = y["seeds"].as<int>();
     if (y["duration_s"]) c.duration_s = y["duration_s"].as<double>();
+    // As --duration is checked on the command line (a hand-edited file could say nan).
+    if (c.duration_s) {
+      const std::string problem = seconds_problem(*c.duration_s, 0.0, kMaxDurationSeconds, /*above_min=*/true);
+      if (!problem.empty()) throw std::runtime_error(path.string() + ": duration_s " + problem);
+    }
     if (y["periods"]) c.periods = y["periods"].as<std::int64_t>();
     c.live = y["mode"].as<std::string>() == "live";
     c.jobs = y["jobs"].as<int>();

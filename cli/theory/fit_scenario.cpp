@@ -1,10 +1,10 @@
 #include "fit_scenario.hpp"
 
 #include <cstdio>
-#include <fstream>
 #include <stdexcept>
 #include <yaml-cpp/yaml.h>
 
+#include "netkf/input_file.hpp"
 #include "netkf/link.hpp"
 #include "netkf/scenario.hpp"
 
@@ -45,28 +45,23 @@ YAML::Node find_sensor(YAML::Node& root, int link_id, const std::string& name) {
 
 }  // namespace
 
-void write_scenario_with_link(const std::filesystem::path& scenario, int link_id, const nlohmann::json& link,
-                              const std::string& note, const std::filesystem::path& out) {
-  load_scenario_file(scenario);  // a valid scenario to start from (its own FILE:LINE:COL errors)
-  std::error_code ec;
-  if (std::filesystem::exists(out, ec) && std::filesystem::equivalent(scenario, out, ec))
-    throw std::runtime_error("-o " + out.string() + " is the scenario itself: the fit writes a copy");
-  YAML::Node root = YAML::LoadFile(scenario.string());
-  YAML::Node sensor = find_sensor(root, link_id, scenario.string());
+ScenarioCopy::ScenarioCopy(const std::filesystem::path& scenario, int link_id)
+    : path_(scenario.string()), text_(read_input_file(scenario, "scenario file", max_yaml_input_bytes)),
+      link_id_(link_id) {
+  parse_scenario(text_, path_);  // a valid scenario to start from (its own FILE:LINE:COL errors)
+  YAML::Node root = YAML::Load(text_);
+  find_sensor(root, link_id_, path_);
+}
+
+std::string ScenarioCopy::with_link(const nlohmann::json& link, const std::string& note, const std::string& name) const {
+  YAML::Node root = YAML::Load(text_);
+  YAML::Node sensor = find_sensor(root, link_id_, path_);
   sensor["link"] = link_node(link);
   YAML::Emitter emitter;
   emitter << YAML::Comment(note) << YAML::Newline << root;
-  {
-    std::ofstream file(out);
-    file << emitter.c_str() << "\n";
-    if (!file) throw std::runtime_error("cannot write " + out.string());
-  }
-  try {
-    load_scenario_file(out);
-  } catch (...) {
-    std::filesystem::remove(out, ec);
-    throw;
-  }
+  std::string text = std::string(emitter.c_str()) + "\n";
+  parse_scenario(text, name);  // a copy that would not load is never written
+  return text;
 }
 
 }  // namespace netkf::cli

@@ -7,12 +7,23 @@
 
 namespace netkf::cli {
 
-/// Writes `scenario` to `out` with sensor `link_id`'s `link:` replaced by `link` (a flat
-/// object of link keys, as fitted_link_json() gives), a comment `note` above the file's
-/// text. The copy is checked by loading it; on any error nothing is left at `out` and
-/// std::runtime_error says why (unknown link id, `out` is the scenario itself, ...).
-/// The copy is re-emitted by yaml-cpp: the original's comments and layout are not kept.
-void write_scenario_with_link(const std::filesystem::path& scenario, int link_id, const nlohmann::json& link,
-                              const std::string& note, const std::filesystem::path& out);
+/// The scenario a fit copies, read and checked before the fit runs: it loads, and it has the
+/// link `link_id`. Throws std::runtime_error saying what is wrong (the loader's
+/// FILE:LINE:COL, an unknown link with the scenario's links).
+class ScenarioCopy {
+ public:
+  ScenarioCopy(const std::filesystem::path& scenario, int link_id);
+
+  /// The copy's text: sensor `link_id`'s `link:` replaced by `link` (a flat object of link
+  /// keys, as fitted_link_json() gives), a comment `note` above it. Checked by loading it
+  /// (as `name`, in the loader's messages); throws std::runtime_error when it does not load.
+  /// Re-emitted by yaml-cpp: the original's comments and layout are not kept.
+  std::string with_link(const nlohmann::json& link, const std::string& note, const std::string& name) const;
+
+ private:
+  std::string path_;
+  std::string text_;
+  int link_id_;
+};
 
 }  // namespace netkf::cli

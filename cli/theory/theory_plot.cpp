@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "output_file.hpp"
+
 namespace netkf::cli {
 namespace {
 
@@ -74,6 +76,7 @@ void run_gnuplot(const std::string& script) {
 
 void check_plot_output(const std::filesystem::path& out) {
   terminal_for(out);
+  check_output_path({"--plot", out.string()});  // a regular file only (output_file.hpp)
   check_writable(out);
 }
 

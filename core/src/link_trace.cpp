@@ -1,13 +1,17 @@
 // Reading a link trace (netkf/link_trace.hpp): every refusal names FILE:LINE:COL.
 #include "netkf/link_trace.hpp"
 
+#include "netkf/input_file.hpp"
+
 #include <algorithm>
 #include <charconv>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <string_view>
 
 namespace netkf {
@@ -47,6 +51,25 @@ std::vector<Field> split_fields(std::string_view line) {
 std::string quoted(std::string_view s) {
   constexpr std::size_t kShown = 40;
   return "'" + std::string(s.substr(0, kShown)) + (s.size() > kShown ? "...'" : "'");
+}
+
+// The start of a header field that is not the expected name, up to its first character
+// that no column name has: the offending word, not the line of a file of another kind
+// (a message never shows what /etc/passwd holds).
+std::string header_token(std::string_view s) {
+  constexpr std::size_t kShown = 20;
+  std::size_t n = 0;
+  while (n < s.size() && n < kShown && (std::isalnum(static_cast<unsigned char>(s[n])) || s[n] == '_')) ++n;
+  if (n == 0 && !s.empty()) {
+    const auto c = static_cast<unsigned char>(s[0]);
+    if (c < 0x20 || c >= 0x7f) {
+      char byte[48];
+      std::snprintf(byte, sizeof byte, "a field starting with the byte 0x%02X", c);
+      return byte;
+    }
+    n = 1;
+  }
+  return "'" + std::string(s.substr(0, n)) + (n < s.size() ? "...'" : "'");
 }
 
 class TraceParser {
@@ -96,6 +119,8 @@ class TraceParser {
       c = buf->sbumpc();
     }
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    // A UTF-8 byte-order mark (some editors write one) is not part of the header.
+    if (line_no_ == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
     return true;
   }
 
@@ -107,11 +132,11 @@ class TraceParser {
   std::size_t check_header(const std::vector<Field>& f, std::size_t line_length) const {
     static const char* const expected[] = {"k", "delivered", "delay_ms"};
     const char* usage = " (the header is 'k,delivered' or 'k,delivered,delay_ms')";
-    if (f.size() > 3) fail(f[3].column, "unexpected column " + quoted(f[3].text) + usage);
+    if (f.size() > 3) fail(f[3].column, "unexpected column " + header_token(f[3].text) + usage);
     for (std::size_t i = 0; i < f.size(); ++i) {
       if (f[i].text != expected[i])
         fail(f[i].column, "bad header: column " + std::to_string(i + 1) + " must be '" + expected[i] + "', got " +
-                              quoted(f[i].text) + usage);
+                              header_token(f[i].text) + usage);
     }
     if (f.size() < 2) fail(line_length + 1, "bad header: missing column 'delivered'" + std::string(usage));
     return f.size();
@@ -202,11 +227,14 @@ void write_link_trace(std::ostream& out, const LinkTrace& trace, const std::stri
 }
 
 LinkTrace read_link_trace_file(const std::string& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw TraceError(path + ":1:1: is a directory, not a trace file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw TraceError(path + ":1:1: cannot open the trace file");
-  return read_link_trace(in, path);
+  // The parser bounds the rows and the line length: no size limit on the file itself.
+  std::optional<InputFile> file;
+  try {
+    file.emplace(path, "trace file", std::numeric_limits<std::uintmax_t>::max());
+  } catch (const InputFileError& e) {
+    throw TraceError(path + ":1:1: " + e.reason());
+  }
+  return read_link_trace(file->stream(), path);
 }
 
 }  // namespace netkf

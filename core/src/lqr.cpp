@@ -30,6 +30,13 @@ std::string shape(const Matrix& M) {
 
 [[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("lqr: " + what); }
 
+// "%g": a residual of 3e-07 is not "0.000000".
+std::string g_text(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
 double scale_of(const Matrix& M) { return std::max(1.0, M.cwiseAbs().maxCoeff()); }
 
 void check_symmetric(const Matrix& M, const char* name) {
@@ -122,9 +129,9 @@ Matrix lqr_gain(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix
   const Matrix residual = A.transpose() * X * A - (BtX * A).transpose() * L + Qx - X;
   if (!L.allFinite() || residual.norm() > 1e-8 * std::max(1.0, X.norm()))
     fail("Riccati solution does not satisfy the DARE (relative residual " +
-         std::to_string(residual.norm() / std::max(1.0, X.norm())) + ")");
+         g_text(residual.norm() / std::max(1.0, X.norm())) + ")");
   const double rho = spectral_radius(A - B * L);
-  if (!(rho < 1.0)) fail("closed loop A - B L is not Schur stable (spectral radius " + std::to_string(rho) + ")");
+  if (!(rho < 1.0)) fail("closed loop A - B L is not Schur stable (spectral radius " + g_text(rho) + ")");
   return L;
 }
 

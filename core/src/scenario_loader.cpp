@@ -21,6 +21,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "netkf/scenario.hpp"
+#include "netkf/input_file.hpp"
 
 namespace netkf {
 namespace {
@@ -34,10 +35,17 @@ std::string join(const std::vector<std::string>& names) {
   return out;
 }
 
+// A value as messages show it: a scalar's first line, cut at 40 characters (a message
+// names the offending value; it never prints a whole file that was not YAML).
 std::string describe(const YAML::Node& node) {
+  constexpr std::size_t kShown = 40;
   switch (node.Type()) {
     case YAML::NodeType::Null: return "nothing (null)";
-    case YAML::NodeType::Scalar: return "'" + node.Scalar() + "'";
+    case YAML::NodeType::Scalar: {
+      const std::string& text = node.Scalar();
+      const std::size_t cut = std::min(text.find('\n'), kShown);
+      return "'" + text.substr(0, cut) + (cut < text.size() ? "...'" : "'");
+    }
     case YAML::NodeType::Sequence: return "a list";
     case YAML::NodeType::Map: return "a mapping";
     default: return "nothing";
@@ -142,11 +150,16 @@ class Loader {
     } catch (const YAML::ParserException& e) {
       fail(e.mark, "YAML syntax error: " + e.msg);
     }
-    if (root.IsNull()) return {};
+    // An empty file is more likely a mistake (a truncated copy, the wrong file) than a replay
+    // without changes, which --record writes as `events: []`.
+    if (root.IsNull())
+      fail(YAML::Mark::null_mark(), "the events file is empty (expected 'events:' with a list of link changes; "
+                                    "'events: []' for none)");
+    if (root.IsScalar())
+      fail(root.Mark(), "an events file is 'events:' with a list of link changes, got plain text (is this a YAML file?)");
     if (root.IsMap()) {
       const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
-      if (!top.has("events")) return {};
-      root = top.values.at("events");
+      root = require(top, "events");
     }
     std::vector<LinkEvent> events = read_events(root, "events", scenario);
     // Checked as they will run: before the scenario's own events of the same period, and
@@ -194,7 +207,11 @@ class Loader {
                    const std::vector<std::string>& allowed) {
     const YAML::Mark at = valid(key_mark) ? key_mark : node.Mark();
     const std::string what = path.empty() ? "the scenario" : path;
-    if (!node.IsMap()) fail(at, what + " must be a mapping (key: value), got " + describe(node));
+    // A whole document that is one scalar is a file of another kind (a text, a CSV): named as
+    // such, its text not shown.
+    if (!node.IsMap())
+      fail(at, what + " must be a mapping (key: value), got " +
+                   (path.empty() && node.IsScalar() ? std::string("plain text (is this a YAML file?)") : describe(node)));
     MapView view{path, at, {}};
     std::map<std::string, YAML::Mark> key_marks;
     for (const auto& kv : node) {
@@ -254,6 +271,9 @@ class Loader {
     const char* last = text.data() + text.size();
     if (first != last && *first == '+') ++first;
     const auto [end, ec] = std::from_chars(first, last, value);
+    if (ec == std::errc::result_out_of_range && end == last)
+      fail(node.Mark(), path + " is out of range (at most " + std::to_string(std::numeric_limits<long long>::max()) +
+                            "), got " + describe(node));
     if (ec != std::errc{} || end != last || first == last)
       fail(node.Mark(), path + " must be an integer, got " + describe(node));
     return value;
@@ -537,15 +557,11 @@ std::uint64_t parse_seed(const std::string& text) {
 
 namespace {
 std::string read_text_file(const std::filesystem::path& path, const char* what) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw ScenarioError(path.string() + ": is a directory, not a " + what);
-  std::ifstream in(path, std::ios::binary);
-  // errno says why (no such file, permission denied); the message names it.
-  if (!in) throw ScenarioError(path.string() + ": cannot open " + what + ": " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw ScenarioError(path.string() + ": error while reading " + what);
-  return text.str();
+  try {
+    return read_input_file(path, what, max_yaml_input_bytes);
+  } catch (const InputFileError& e) {
+    throw ScenarioError(e.what());
+  }
 }
 }  // namespace
 

@@ -3,6 +3,9 @@
 // (`netkf security init`).
 #include "netkf/dds/security.hpp"
 
+#include <sys/stat.h>
+
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -147,6 +150,14 @@ void check_security_files(const SecurityFiles &files) {
     std::ifstream in(*p);
     if (!in || in.peek() == std::ifstream::traits_type::eof())
       throw DdsError("security file " + p->string() + " is unreadable or empty");
+  }
+  // A private key that others may read is no secret any more: refused, as ssh refuses one.
+  struct stat st {};
+  if (::stat(files.identity_key.c_str(), &st) == 0 && (st.st_mode & 077) != 0) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+    throw DdsError("security file " + files.identity_key.string() + " is a private key readable by others (mode " +
+                   mode + "): make it the owner's only: chmod 600 " + files.identity_key.string());
   }
 }
 

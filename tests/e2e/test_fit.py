@@ -8,6 +8,11 @@ docs/cli.md "netkf fit"), against expectations computed here from the file itsel
 - --plot: an SVG naming the fitted model.
 - --scenario/--link/-o: the copy loads (`netkf analyze` on it) and carries the fitted link.
 - A malformed trace: exit 2 and FILE:LINE:COL on stderr.
+- -o (docs/cli.md, "Files"): checked before the fit (an unknown --link prints no fit); only a
+  regular file is written, replaced whole: a device (copies of /dev/null and /dev/full), a FIFO
+  or the trace itself is refused with exit 2 and left in place; a full disk (a 4 KiB tmpfs in
+  a mount namespace of the command's own) is "cannot write X: No space left on device", exit
+  2, and the file that was there is kept.
 - `netkf analyze S.yaml --link 1=TRACE`: on Sinopoli's scalar plant with a simple Gilbert
   trace made here (seeded), the criterion is α²(1 − r̂) with r̂ the trace's recovery
   frequency and the critical mean burst 1/(1 − 1/α²) (Rohr-Marelli-Fu Thm 3.1; the
@@ -18,8 +23,11 @@ import json
 import math
 import os
 import re
+import shutil
+import stat
+import subprocess
 
-from e2e_common import REPO, check, finish, netkf, require_netns, workdir
+from e2e_common import NETKF, REPO, check, finish, netkf, require_netns, workdir
 
 require_netns()
 trace = os.path.join(REPO, "deploy", "traces", "example-gilbert-elliott.csv")
@@ -109,6 +117,54 @@ check(r.returncode == 2 and (bad + ":3:3: delivered must be 0 or 1") in r.stderr
 r = netkf("fit", trace, "--scenario", scenario, "--link", "9", "-o", os.path.join(out, "x.yaml"))
 check(r.returncode == 2 and "no such link" in r.stderr and not os.path.exists(os.path.join(out, "x.yaml")),
       "an unknown --link is refused, nothing written")
+check(r.stdout == "", "... before the fit: no fit was printed")
+
+# ---- -o: a regular file only, written whole; nothing else is touched
+copy_args = ("fit", trace, "--scenario", scenario, "--link", "1", "-o")
+fifo = os.path.join(out, "fifo.yaml")
+os.mkfifo(fifo)
+targets = [(fifo, "is a FIFO")]
+try:
+    for name, minor in (("null", 3), ("full", 7)):
+        os.mknod(os.path.join(out, name), 0o666 | stat.S_IFCHR, os.makedev(1, minor))
+        targets.append((os.path.join(out, name), "is a character device"))
+except PermissionError:
+    print("(mknod not allowed: no device copies)", flush=True)
+for target, says in targets:
+    try:
+        r = netkf(*(copy_args + (target,)), timeout=30)
+    except subprocess.TimeoutExpired:
+        r = None
+    kind = os.lstat(target).st_mode if os.path.lexists(target) else 0  # removed: the defect this checks
+    check(r is not None and r.returncode == 2 and says in r.stderr and r.stdout == "" and
+          (stat.S_ISFIFO(kind) or stat.S_ISCHR(kind)),
+          "-o %s: exit 2 before the fit ('%s'), left in place" % (target, says))
+own_trace = os.path.join(out, "trace.csv")  # a copy: a regression must not write over the shipped trace
+shutil.copyfile(trace, own_trace)
+r = netkf("fit", own_trace, "--scenario", scenario, "--link", "1", "-o", own_trace)
+check(r.returncode == 2 and "an output may not overwrite an input" in r.stderr and
+      open(own_trace).read() == open(trace).read(), "-o TRACE: exit 2, the trace untouched")
+# An existing copy is replaced whole, its mode kept.
+with open(copy, "a") as f:
+    f.write("# an old line\n")
+os.chmod(copy, 0o640)
+r = netkf(*(copy_args + (copy,)))
+check(r.returncode == 0 and "an old line" not in open(copy).read() and stat.S_IMODE(os.stat(copy).st_mode) == 0o640,
+      "-o EXISTING: replaced whole, mode 0640 kept")
+# A full disk: the write error said, the old file kept, no temporary file left.
+disk = os.path.join(out, "disk")
+os.mkdir(disk)
+script = ('mount -t tmpfs -o size=4k netkf-fit-full "$0" && printf old > "$0/fitted.yaml" && '
+          'head -c 4096 /dev/zero > "$0/filler"; "$@"; rc=$?; cat "$0/fitted.yaml"; echo; ls -a "$0"; exit $rc')
+cmd = ["unshare", "-m", "--propagation", "private", "--", "sh", "-c", script, disk, NETKF] + \
+    list(copy_args + (os.path.join(disk, "fitted.yaml"),))
+print("$", " ".join(cmd), flush=True)
+full = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+print(full.stdout, full.stderr, sep="", end="", flush=True)
+check(full.returncode == 2 and "cannot write %s (-o): No space left on device" % os.path.join(disk, "fitted.yaml")
+      in full.stderr, "-o on a full disk: exit 2, 'cannot write X: No space left on device'")
+check("\nold\n" in full.stdout and ".netkf-" not in full.stdout,
+      "... the old file kept as it was, no temporary file left")
 
 # ---- analyze --link: the verdict for a measured link
 import random

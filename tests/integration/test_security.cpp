@@ -176,6 +176,55 @@ TEST(SecurityInit, MakesFilesOpensslVerifies) {
   fs::remove_all(dir.parent_path());
 }
 
+// Paths that cannot be made are exit 2 with a sentence (they were exit 1 with a raw
+// "filesystem error"); a symbolic link is neither followed nor replaced.
+TEST(SecurityInit, UnusablePathsAreRefusedClearly) {
+  const auto base = fresh_dir("paths");
+  fs::create_directories(base);
+  fs::create_symlink(base / "nowhere", base / "dangling");
+  fs::create_directories(base / "real");
+  fs::create_symlink(base / "real", base / "link");
+  std::ofstream(base / "file") << "x";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"", "empty path"},
+      {"/proc/netkf-security-test", "cannot make /proc/netkf-security-test"},
+      {(base / "dangling").string(), "is a symbolic link to a missing path"},
+      {(base / "link").string(), "is a symbolic link"},
+      {(base / "file").string(), "exists and is not a directory"},
+      {(base / "file" / "sub").string(), "is not a directory"},
+  };
+  for (const auto& [dir, says] : cases) {
+    SCOPED_TRACE(dir);
+    testing::internal::CaptureStderr();
+    const int rc = security_cli({"init", dir});
+    const std::string err = testing::internal::GetCapturedStderr();
+    EXPECT_EQ(rc, 2);
+    EXPECT_NE(err.find(says), std::string::npos) << err;
+    EXPECT_EQ(err.find("filesystem error"), std::string::npos) << err;
+  }
+  EXPECT_TRUE(fs::is_symlink(base / "dangling"));
+  EXPECT_FALSE(fs::exists(base / "nowhere"));
+  EXPECT_TRUE(fs::is_empty(base / "real"));
+  // "DIR/" is the directory DIR.
+  ASSERT_EQ(security_cli({"init", (base / "made").string() + "/", "--days", "2"}), 0);
+  EXPECT_TRUE(fs::is_regular_file(base / "made" / "governance.p7s"));
+  // A private key others may read is refused, naming the key and the fix.
+  const auto files = nd::security_files(base / "made", Role::plant);
+  for (const auto mode : {fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read | fs::perms::others_read,
+                          fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read}) {
+    fs::permissions(files.identity_key, mode, fs::perm_options::replace);
+    try {
+      nd::check_security_files(files);
+      ADD_FAILURE() << "a key readable by others was taken";
+    } catch (const nd::DdsError& e) {
+      EXPECT_NE(std::string(e.what()).find("chmod 600 " + files.identity_key.string()), std::string::npos) << e.what();
+    }
+  }
+  fs::permissions(files.identity_key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  EXPECT_NO_THROW(nd::check_security_files(files));
+  fs::remove_all(base.parent_path());
+}
+
 TEST(SecurityInit, MissingOpensslIsAClearError) {
   const char* old = std::getenv("PATH");
   const std::string saved = old ? old : "";

@@ -974,6 +974,21 @@ TEST(LinkEvents, EventsToYamlAndBackGiveEqualEvents) {
               StartsWith(file.path().string() + ":2:18: events[0].at_period: the event is before period 0"));
 }
 
+// An empty events file (0 bytes, or comments only) is a mistake more likely than a replay of
+// no change, which --record writes as `events: []`: refused, not taken as "no changes".
+TEST(LinkEvents, AnEmptyEventsFileIsRefused) {
+  const netkf::Scenario s = base_scenario();
+  const TempFile file("netkf-test-link-events-empty");
+  for (const std::string text : {"", "# only a comment\n", "{}\n"}) {
+    SCOPED_TRACE(text);
+    file.write(text);
+    EXPECT_THAT(scenario_error_of([&] { netkf::load_events_file(file.path(), s); }),
+                testing::AnyOf(HasSubstr("the events file is empty"), HasSubstr("missing required key 'events'")));
+  }
+  file.write("events: []\n");
+  EXPECT_TRUE(netkf::load_events_file(file.path(), s).empty());
+}
+
 // load_events_file checks the file's events together with the scenario's own timeline, as
 // they are replayed (add_replayed_events): a hand-written file may rely on the scenario's
 // timeline (a Gilbert-Elliott key after the timeline made the link Gilbert-Elliott).

@@ -98,12 +98,38 @@ TEST(LinkTrace, RefusesMoreSamplesThanItsLimit) {
   EXPECT_EQ(netkf::max_trace_samples, 10'000'000u);  // the limit docs/scenario-format.md states
 }
 
+// A UTF-8 byte-order mark before the header (some editors write one) is no part of it.
+TEST(LinkTrace, AByteOrderMarkBeforeTheHeaderIsSkipped) {
+  const auto t = parse("\xEF\xBB\xBFk,delivered\n0,1\n1,0\n");
+  EXPECT_EQ(t.delivered, (std::vector<std::uint8_t>{1, 0}));
+  // Another stray byte is named by its value, not echoed.
+  EXPECT_EQ(error_of("\xFEk,delivered\n0,1\n").rfind("t.csv:1:1: bad header: column 1 must be 'k', got a field starting "
+                                                    "with the byte 0xFE", 0), 0u)
+      << error_of("\xFEk,delivered\n0,1\n");
+  // A file of another kind: the offending word, not its line.
+  const std::string passwd = error_of("root:x:0:0:root:/root:/bin/bash\n");
+  EXPECT_NE(passwd.find("got 'root...'"), std::string::npos) << passwd;
+  EXPECT_EQ(passwd.find("/bin/bash"), std::string::npos) << passwd;
+}
+
+TEST(LinkTrace, DevicesAreRefusedUnread) {
+  for (const char* device : {"/dev/zero", "/dev/urandom"}) {
+    try {
+      netkf::read_link_trace_file(device);
+      FAIL() << device;
+    } catch (const netkf::TraceError& e) {
+      EXPECT_EQ(std::string(e.what()), std::string(device) + ":1:1: is a character device, not a trace file (give a "
+                                                             "regular file)");
+    }
+  }
+}
+
 TEST(LinkTrace, MissingFileIsAnErrorAtItsName) {
   try {
     netkf::read_link_trace_file("/nonexistent/trace.csv");
     FAIL();
   } catch (const netkf::TraceError& e) {
-    EXPECT_EQ(std::string(e.what()), "/nonexistent/trace.csv:1:1: cannot open the trace file");
+    EXPECT_EQ(std::string(e.what()), "/nonexistent/trace.csv:1:1: cannot open trace file: No such file or directory");
   }
 }
 

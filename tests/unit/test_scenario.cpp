@@ -2,6 +2,8 @@
 // the shipped scenarios for the papers' examples, the default scenario, round trip.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "test_paths.hpp"
 #include "netkf/analysis/operating_point.hpp"
@@ -17,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/input_file.hpp"
 #include "netkf/scenario.hpp"
 
 namespace fs = std::filesystem;
@@ -203,6 +206,51 @@ TEST(ScenarioErrors, MissingFileIsReported) {
 
 TEST(ScenarioErrors, DirectoryIsReported) {
   EXPECT_THAT(error_of([] { netkf::load_scenario_file(kData); }), HasSubstr("is a directory"));
+}
+
+// Inputs are read bounded (netkf/input_file.hpp): a device or a FIFO is refused by its kind,
+// at once (it used to be read until memory ran out, or to wait for a writer), and so is a file
+// larger than a scenario may be.
+TEST(ScenarioErrors, DevicesFifosAndHugeFilesAreRefusedUnread) {
+  EXPECT_THAT(error_of([] { netkf::load_scenario_file("/dev/zero"); }),
+              HasSubstr("/dev/zero: is a character device, not a scenario file"));
+  EXPECT_THAT(error_of([] { netkf::load_scenario_file("/dev/urandom"); }), HasSubstr("is a character device"));
+  const fs::path dir = fs::temp_directory_path() / ("netkf-test-inputs-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path fifo = dir / "fifo.yaml";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0644), 0);
+  EXPECT_THAT(error_of([&] { netkf::load_scenario_file(fifo); }), HasSubstr("is a FIFO (named pipe), not a scenario file"));
+  const fs::path huge = dir / "huge.yaml";
+  std::ofstream(huge).close();
+  fs::resize_file(huge, netkf::max_yaml_input_bytes + 1);  // sparse: no disk used
+  EXPECT_THAT(error_of([&] { netkf::load_scenario_file(huge); }), HasSubstr("more than a scenario file may have"));
+  fs::remove_all(dir);
+}
+
+// A file of another kind (here /etc/passwd's first line) is named as such; its text is never
+// echoed into the message.
+TEST(ScenarioErrors, PlainTextIsNotEchoed) {
+  const std::string text = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n";
+  const std::string message = error_of([&] { netkf::parse_scenario(text, "passwd"); });
+  EXPECT_THAT(message, HasSubstr("got plain text"));
+  EXPECT_THAT(message, ::testing::Not(HasSubstr("root:x")));
+  // A field's value is shown up to its first line, at most 40 characters.
+  const std::string named = error_of([&] {
+    netkf::parse_scenario("period_ms: 'x\n\n  second line " + std::string(60, 'b') + "'\n", "v.yaml");
+  });
+  EXPECT_THAT(named, HasSubstr("period_ms must be an integer, got 'x...'")) << named;
+}
+
+TEST(ScenarioErrors, AnIntegerBeyondRangeIsSaidToBe) {
+  const std::string text =
+      "period_ms: 10\nplant: { A: [[0.5]], Q: [[1.0]] }\n"
+      "sensors:\n  - { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.3 } }\n"
+      "events:\n  - { at_period: 99999999999999999999, link: 1, set: { loss: 0.5 } }\n";
+  const std::string message = error_of([&] { netkf::parse_scenario(text, "e.yaml"); });
+  EXPECT_THAT(message, HasSubstr("events[0].at_period is out of range")) << message;
+  EXPECT_THAT(error_of([&] { netkf::parse_scenario("period_ms: 99999999999999999999\n", "p.yaml"); }),
+              HasSubstr("period_ms is out of range"));
 }
 
 TEST(ScenarioErrors, DeepNestingIsAnErrorNotACrash) {

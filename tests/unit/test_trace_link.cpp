@@ -297,4 +297,43 @@ TEST_F(TraceFiles, ExtractGivesTheLinkTraceFromSamplesCsvAndMcap) {
   EXPECT_THROW(netkf::cli::read_delivered_samples(write("x.mcap", "not mcap")), std::runtime_error);
 }
 
+// A malformed samples CSV is refused at FILE:LINE with what is wrong (docs/cli.md: exit 2 for
+// a malformed recording); it used to give a different trace, read from k and sensor_id only.
+TEST_F(TraceFiles, ExtractRefusesAMalformedSamplesCsvAtItsLine) {
+  const std::string header = "k,sensor_id,stamp,fused,y0\n";
+  const std::string good = header + "4,1,0.04,1,0.5\n5,1,0.05,0,\n";
+  EXPECT_EQ(netkf::cli::read_delivered_samples(write("good.csv", good)).periods_by_sensor.at(1).size(), 2u);
+  const auto error_of = [&](const std::string& text) {
+    try {
+      netkf::cli::read_delivered_samples(write("bad.csv", text));
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("<accepted>");
+  };
+  const std::string bad = (dir_ / "bad.csv").string();
+  EXPECT_EQ(error_of(good + "5,1,abc,1,zz\n"), bad + ":4: stamp must be a number, got 'abc'");
+  EXPECT_EQ(error_of(good + "5,1,0.05,1,zz\n"), bad + ":4: y0 must be a number, got 'zz'");
+  EXPECT_EQ(error_of(good + "5,1,0.05,2,1\n"), bad + ":4: fused must be 0 or 1, got '2'");
+  EXPECT_EQ(error_of(good + "5,1,0.05,1\n"), bad + ":4: a row of 4 fields, the header has 5");
+  EXPECT_EQ(error_of(good + "5,1,0.05,1,0.5,7\n"), bad + ":4: a row of 6 fields, the header has 5");
+  EXPECT_EQ(error_of(good + "x,1,0.05,1,0.5\n"), bad + ":4: k must be an integer, got 'x'");
+  EXPECT_EQ(error_of(good + "99999999999999999999,1,0.05,1,0.5\n"),
+            bad + ":4: k is out of range, got '99999999999999999999'");
+  // A file cut in the middle of a row (no end of line after it).
+  EXPECT_EQ(error_of(good + "6,1,0.0"), bad + ":4: the last row is cut (no end of line): the file is truncated");
+  EXPECT_EQ(error_of("k,sensor_id,stamp,fused,z0\n"), bad + ":1: bad header: column 5 must be 'y0', got 'z0'");
+  // With fused_in_time (late_policy fuse_within), and a UTF-8 byte-order mark.
+  EXPECT_EQ(error_of("\xEF\xBB\xBFk,sensor_id,stamp,fused,fused_in_time,y0\n4,1,0.04,1,0,0.5\n"), "<accepted>");
+  // A device is refused unread.
+  EXPECT_THAT([] {
+    try {
+      netkf::cli::read_delivered_samples("/dev/zero");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  }(), ::testing::HasSubstr("is a character device"));
+}
+
 }  // namespace

@@ -53,7 +53,8 @@ struct SecurityFiles {
   std::filesystem::path permissions;  // signed (permissions/<role>.p7s)
 };
 SecurityFiles security_files(const std::filesystem::path &dir, Role role);
-/// Throws DdsError naming the first file that is missing or unreadable.
+/// Throws DdsError naming the first file that is missing or unreadable, or the identity key
+/// when its group or others may read it (with the fix: chmod 600).
 void check_security_files(const SecurityFiles &files);
 
 /// Governance document: every domain in [0, 232]; authentication and encryption
