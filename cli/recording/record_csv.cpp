@@ -58,13 +58,11 @@ void PeriodCsvRecorder::add_estimate(const Estimate& estimate) {
   }
   const auto k = static_cast<std::int64_t>(estimate.k);
   if (last_written_ && k <= *last_written_) return;  // after its row was written without it
+  if (estimate.revision == 0) newest_in_time_ = std::max(newest_in_time_.value_or(k), k);
   if (max_delay_periods_ == 0) {
     estimates_[k] = estimate;
   } else {
-    if (estimate.revision == 0) {
-      estimates_.emplace(k, estimate);  // the first in-time estimate is kept
-      newest_in_time_ = std::max(newest_in_time_.value_or(k), k);
-    }
+    if (estimate.revision == 0) estimates_.emplace(k, estimate);  // the first in-time estimate is kept
     auto f = finals_.find(k);
     if (f == finals_.end()) finals_.emplace(k, estimate);
     else if (estimate.revision >= f->second.revision) f->second = estimate;
@@ -96,7 +94,8 @@ void PeriodCsvRecorder::emit(bool finishing) {
     const auto e = estimates_.find(k);
     const bool final = e != estimates_.end() &&
                        (max_delay_periods_ == 0 || finishing || newest_in_time_.value_or(k) >= k + max_delay_periods_ + 1);
-    if (!final && !finishing && *newest_truth_ < k + kGiveUpPeriods) return;
+    const bool estimate_lost = e == estimates_.end() && newest_in_time_.value_or(k) > k;
+    if (!final && !finishing && !estimate_lost && *newest_truth_ < k + kGiveUpPeriods) return;
     write_row(k, t->second, e != estimates_.end() ? &e->second : nullptr);
     truth_.erase(t);
     estimates_.erase(k);

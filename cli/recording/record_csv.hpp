@@ -26,7 +26,9 @@ std::string format_double(double value);
 /// A row waits until the truth and the estimate of k are known (D > 0: until k is final, i.e.
 /// the in-time estimate of k + D + 1 has arrived, after which k is not revised). A period whose
 /// estimate never comes (the estimator was stopped, or the run ended first) still gets its
-/// truth: a row with the estimate's cells empty and state `none`, written once the truth is
+/// truth: a row with the estimate's cells empty and state `none`, written as soon as an estimate
+/// of a later period has arrived (the estimator publishes its periods in order, a restarted one
+/// too, so k's will not come: e.g. lost at a hot standby's takeover), else once the truth is
 /// kGiveUpPeriods periods old or the run ends (finish_pending()). A period without truth (the
 /// recorder joined late) is left out.
 class PeriodCsvRecorder {
@@ -61,7 +63,7 @@ class PeriodCsvRecorder {
   std::map<std::int64_t, Estimate> estimates_;  // the first (in-time) estimate of k
   std::map<std::int64_t, Estimate> finals_;     // D > 0: the newest revision of k
   std::optional<std::int64_t> newest_truth_;
-  std::optional<std::int64_t> newest_in_time_;
+  std::optional<std::int64_t> newest_in_time_;  // the newest period with an in-time estimate
   std::optional<std::int64_t> last_written_;    // rows are written in order: older records come too late
   std::map<std::int64_t, std::string> ready_;
   std::uint64_t rows_written_ = 0;

@@ -372,7 +372,8 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
 
 // Every period the plant ran has a row, in order: one whose estimate never came (the estimator
 // was stopped, or the run ended first) is written with empty estimate cells and state `none`,
-// and the rows after it wait for it (a file a reader can take as a time series).
+// and the rows after it wait for it (a file a reader can take as a time series) until an
+// estimate of a later period says it will not come.
 TEST(PeriodCsv, TruthWithoutEstimateIsARowInOrder) {
   PeriodCsvRecorder r(1);
   std::ostringstream out;
@@ -388,13 +389,16 @@ TEST(PeriodCsv, TruthWithoutEstimateIsARowInOrder) {
   r.add_estimate(estimate(0, 0.5));
   r.add_truth({1, 0.01, {2.0}});  // its estimate never comes
   r.add_truth({2, 0.02, {3.0}});
-  r.add_estimate(estimate(2, 2.5));
-  EXPECT_EQ(r.flush(out), 1u);  // period 2 waits for period 1
-  r.add_estimate(estimate(3, 9.0));  // no truth for 3 before the end: left out
+  EXPECT_EQ(r.flush(out), 1u);  // period 1 waits for its estimate
+  r.add_truth({3, 0.03, {4.0}});
+  r.add_estimate(estimate(3, 3.5));  // a later period's: period 1's and 2's will not come
+  EXPECT_EQ(r.flush(out), 3u);
+  r.add_estimate(estimate(2, 2.5));  // too late: its row is written
+  r.add_estimate(estimate(4, 9.0));  // no truth for 4 before the end: left out
   r.finish_pending();
-  EXPECT_EQ(r.flush(out), 2u);
-  EXPECT_EQ(out.str(), "0,0,1,0.5,1,1,0,ok,\n1,0.01,2,,,,,none,\n2,0.02,3,2.5,1,1,0,ok,\n");
-  EXPECT_EQ(r.rows_without_estimate(), 1u);
+  EXPECT_EQ(r.flush(out), 0u);
+  EXPECT_EQ(out.str(), "0,0,1,0.5,1,1,0,ok,\n1,0.01,2,,,,,none,\n2,0.02,3,,,,,none,\n3,0.029999999999999999,4,3.5,1,1,0,ok,\n");
+  EXPECT_EQ(r.rows_without_estimate(), 2u);
 }
 
 // An estimate that arrives after its period was written without one is not written again, and a
