@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(10, 3600000))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  netkf::dds::SpareGate spare(common.spare);  // before any thread
 
   try {
     netkf::dds::setup_node_logging("channel", common.log_level);
@@ -28,6 +29,7 @@ int main(int argc, char** argv) {
     netkf::dds::Participant participant(
         netkf::dds::node_participant_options(common, "netkf-channel", netkf::dds::Role::channel));
     spdlog::info("scenario '{}': {} links, domain {}", scenario.name, scenario.sensors.size(), participant.domain());
+    if (!spare.wait_until_needed()) return 0;
     {
       netkf::nodes::ChannelApp node(scenario, participant, options);  // logs each link and the timeline
       const netkf::dds::StopOnSignal stop_on_signal(node.io(), [&](int) { node.stop(); });

@@ -105,6 +105,9 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
                 "Run a hot-standby estimator beside the primary: both fuse the same samples, the plant and every "
                 "reader take the primary's inputs and estimates (DDS exclusive ownership) until its liveliness "
                 "lease (5 periods) expires, then the standby's; a dead estimator comes back as the new standby");
+  cmd->add_flag("!--no-warm-spares", o->warm_spares,
+                "Restart a dead channel or estimator as a fresh process instead of activating its warm spare (a "
+                "process started ahead that already joined the network: a restart then costs no DDS discovery)");
   cmd->add_option("--sensor-nice", o->sensor_nice,
                   "CPU priority (nice 0..19) of the sensor processes: they stand in for separate devices; a "
                   "positive value lets the channel and the estimator go first on a small machine")
@@ -116,7 +119,9 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
 void add_view_and_check_options(CLI::App* cmd, LaunchOptions* o) {
   cmd->add_option("--status-interval", o->status_interval, "Seconds between status updates on stderr (0: none)")
       ->check(seconds_in(0.0, 3600.0));
-  cmd->add_option("--pid-file", o->pid_file, "Write 'name pid' of each started process to FILE");
+  cmd->add_option("--pid-file", o->pid_file,
+                  "Write 'name pid' of each running process (spares as 'NAME (spare)') to FILE, rewritten after "
+                  "every start, restart and death");
   cmd->add_option("--dashboard", o->dashboard,
                   "Port of the live dashboard (page, Foxglove WebSocket, /metrics), or 'off' for none")
       ->check(CLI::Validator(

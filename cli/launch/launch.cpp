@@ -274,17 +274,22 @@ void Launch::start() {
   supervisor_ = std::make_unique<Supervisor>(so);
   here_ = dds::this_host();
   start_children();
-  if (o_.pid_file) {
-    // For scripts and tests: name and pid of every child.
-    std::string pids;
-    for (const auto& e : started_) pids += e.child + " " + std::to_string(e.pid) + "\n";
-    try {
-      write_output_file({"--pid-file", *o_.pid_file}, pids);
-    } catch (const CommandError& e) {  // its path was checked before the start: the run goes on
-      std::cerr << "netkf launch: WARNING: " << e.what() << "\n";
-    }
-  }
+  write_pid_file();
   print_launch_line();
+}
+
+/// For scripts and tests: name and pid of every running child and spare, rewritten (whole, in
+/// place) after every start, restart and death, so it always names the processes running now.
+void Launch::write_pid_file() {
+  if (!o_.pid_file) return;
+  std::string pids;
+  for (const auto& c : supervisor_->children())
+    if (c.running) pids += c.name + " " + std::to_string(c.pid) + "\n";
+  try {
+    write_output_file({"--pid-file", *o_.pid_file}, pids);
+  } catch (const CommandError& e) {  // its path was checked before the start: the run goes on
+    std::cerr << "netkf launch: WARNING: " << e.what() << "\n";
+  }
 }
 
 void Launch::start_children() {
@@ -305,6 +310,7 @@ void Launch::start_children() {
   in.sensor_nice = o_.sensor_nice;
   in.ready_timeout_s = o_.ready_timeout;
   in.estimator_standby = o_.standby;
+  in.warm_spares = o_.warm_spares;
   if (o_.standby) estimator_generation_ = 1;
   plan_ = plan_launch(in);
   for (const auto& child : plan_.children) {
@@ -391,11 +397,14 @@ std::vector<dds::PresenceRecord> Launch::refresh_processes() {
 void Launch::report(const std::vector<SupervisorEvent>& events, bool stopping) {
   for (const auto& e : events) {
     const bool clean_exit = e.kind == SupervisorEvent::Kind::exited && e.exit.clean();
-    const bool trouble = !stopping && e.kind != SupervisorEvent::Kind::started && !clean_exit;
+    const bool trouble = !stopping && e.kind != SupervisorEvent::Kind::started &&
+                         e.kind != SupervisorEvent::Kind::spare_started && !clean_exit;
     console_->announce(trouble ? LiveEvent::Level::warning : LiveEvent::Level::info, e.message());
-    if (e.kind == SupervisorEvent::Kind::restart_scheduled) console_->count_restart(e.child);
+    if (e.kind == SupervisorEvent::Kind::restart_scheduled || e.kind == SupervisorEvent::Kind::spare_activated)
+      console_->count_restart(e.child);
   }
   if (!events.empty()) refresh_processes();
+  if (!events.empty() && !stopping) write_pid_file();
 }
 
 // ---------------------------------------------------------------- serve

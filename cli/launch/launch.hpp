@@ -63,6 +63,7 @@ struct LaunchOptions {
   double ready_timeout = 30.0;  // the plant's wait for the whole network (presence)
   bool allow_divergence = false;  // a closed loop leaving plant.state_bound ends the run with exit 0
   bool standby = false;           // a hot-standby estimator beside the primary
+  bool warm_spares = true;        // --no-warm-spares: restarts start fresh processes
 };
 
 /// The scenario file (or the built-in default); CommandError(bad_usage) when it is invalid.
@@ -102,6 +103,7 @@ class Launch {
   std::vector<dds::PresenceRecord> refresh_processes();
   void report(const std::vector<SupervisorEvent>& events, bool stopping = false);
   void write_checkpoint_for_restart();
+  void write_pid_file();
 
   // In the order of the steps that make them: destroyed in reverse (the bus before the
   // recording it feeds, the recording before the io_context, the private files last).

@@ -146,13 +146,19 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
                        const std::function<std::string(const std::string&)>& executable_of) {
   LaunchPlan plan;
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
-  if (in.roles.channel)
-    plan.children.push_back({{"channel_emulator", executable_of("channel_emulator"), common_args(in)}, false});
+  if (in.roles.channel) {
+    ChildSpec channel{"channel_emulator", executable_of("channel_emulator"), common_args(in)};
+    channel.warm_spare = in.warm_spares;
+    plan.children.push_back({channel, false});
+  }
   if (in.roles.estimator) {
     auto args = common_args(in);
     args.insert(args.end(), {"--resume-from", in.checkpoint_file, "--ownership-strength",
                              std::to_string(estimator_ownership_strength(0))});
-    plan.children.push_back({{"estimator_node", executable_of("estimator_node"), args}, true});
+    ChildSpec estimator{"estimator_node", executable_of("estimator_node"), args};
+    // A hot standby covers a death of the primary better than a spare (no blind window at all).
+    estimator.warm_spare = in.warm_spares && !in.estimator_standby;
+    plan.children.push_back({estimator, true});
     if (in.estimator_standby) {
       set_ownership_strength(args, estimator_ownership_strength(1));
       plan.children.push_back({{"estimator_node[standby]", executable_of("estimator_node"), args}, true});

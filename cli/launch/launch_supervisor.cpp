@@ -49,6 +49,9 @@ std::string SupervisorEvent::message() const {
       return "restarting " + child + " in " + std::to_string(backoff.count()) + " ms";
     case Kind::gave_up: return "giving up on " + child + ": " + (reason.empty() ? exit.describe() : reason);
     case Kind::start_failed: return "could not start " + child + (reason.empty() ? "" : ": " + reason);
+    case Kind::spare_started: return "started a spare of " + child + " (pid " + std::to_string(pid) + ")";
+    case Kind::spare_activated:
+      return "restarting " + child + " from its warm spare (pid " + std::to_string(pid) + "), at once";
   }
   return {};
 }
@@ -78,14 +81,17 @@ SupervisorEvent Supervisor::start(ChildSpec spec, std::function<void(ChildSpec&)
     failed_ = true;
     failure_reason_ = event.message();
   }
+  // Its spare comes with the next poll: the child first, so that it claims the network's
+  // resources (the participant id, the presence) before its spare.
+  if (children_.back().spec.warm_spare) children_.back().spare_at = Clock::now();
   return event;
 }
 
-SupervisorEvent Supervisor::spawn(Child& child) {
-  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name, -1, {}, {}, {}};
+pid_t Supervisor::spawn_process(const ChildSpec& spec, const std::vector<std::string>& args, std::string& why,
+                                int& exit_code) {
   std::vector<std::string> argv_storage;
-  argv_storage.push_back(child.spec.executable);
-  argv_storage.insert(argv_storage.end(), child.spec.args.begin(), child.spec.args.end());
+  argv_storage.push_back(spec.executable);
+  argv_storage.insert(argv_storage.end(), args.begin(), args.end());
   std::vector<char*> argv;
   for (auto& a : argv_storage) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -94,18 +100,16 @@ SupervisorEvent Supervisor::spawn(Child& child) {
   // or failed (the child writes errno).
   int pipe_fds[2];
   if (pipe2(pipe_fds, O_CLOEXEC) != 0) {
-    event.kind = SupervisorEvent::Kind::start_failed;
-    event.reason = std::string("pipe: ") + std::strerror(errno);
-    return event;
+    why = std::string("pipe: ") + std::strerror(errno);
+    return -1;
   }
   const pid_t parent = getpid();
   const pid_t pid = fork();
   if (pid < 0) {
-    event.reason = std::string("fork: ") + std::strerror(errno);
+    why = std::string("fork: ") + std::strerror(errno);
     close(pipe_fds[0]);
     close(pipe_fds[1]);
-    event.kind = SupervisorEvent::Kind::start_failed;
-    return event;
+    return -1;
   }
   if (pid == 0) {
     // Child: own process group, so a terminal's Ctrl-C reaches only netkf, which
@@ -120,8 +124,8 @@ SupervisorEvent Supervisor::spawn(Child& child) {
     signal(SIGTERM, SIG_DFL);
     signal(SIGPIPE, SIG_DFL);
     // Before exec the child has one thread; the threads the program starts inherit its nice.
-    if (child.spec.nice != 0) {
-      [[maybe_unused]] const int r = setpriority(PRIO_PROCESS, 0, child.spec.nice);
+    if (spec.nice != 0) {
+      [[maybe_unused]] const int r = setpriority(PRIO_PROCESS, 0, spec.nice);
     }
     close(pipe_fds[0]);
     // The child inherits stdin/out/err only: nothing else the launch holds (the
@@ -142,17 +146,38 @@ SupervisorEvent Supervisor::spawn(Child& child) {
     n = read(pipe_fds[0], &child_errno, sizeof child_errno);
   } while (n < 0 && errno == EINTR);
   close(pipe_fds[0]);
-  event.pid = pid;
   if (n > 0) {
     int status = 0;
     waitpid(pid, &status, 0);
-    event.kind = SupervisorEvent::Kind::start_failed;
-    event.exit.exit_code = 127;
-    event.reason = "could not execute " + child.spec.executable + ": " + std::strerror(child_errno);
-    child.pid = -1;
-    return event;
+    exit_code = 127;
+    why = "could not execute " + spec.executable + ": " + std::strerror(child_errno);
+    return -1;
   }
-  child.pid = pid;
+  return pid;
+}
+
+SupervisorEvent Supervisor::spawn(Child& child) {
+  SupervisorEvent event{SupervisorEvent::Kind::started, child.spec.name, -1, {}, {}, {}};
+  child.pid = spawn_process(child.spec, child.spec.args, event.reason, event.exit.exit_code);
+  event.pid = child.pid;
+  if (child.pid < 0) event.kind = SupervisorEvent::Kind::start_failed;
+  return event;
+}
+
+SupervisorEvent Supervisor::spawn_spare(Child& child, Clock::time_point now) {
+  child.spare_at.reset();
+  SupervisorEvent event{SupervisorEvent::Kind::spare_started, child.spec.name, -1, {}, {}, {}};
+  auto args = child.spec.args;
+  args.emplace_back("--spare");
+  child.spare_pid = spawn_process(child.spec, args, event.reason, event.exit.exit_code);
+  event.pid = child.spare_pid;
+  if (child.spare_pid < 0) {
+    // A restart without a spare still works (a fresh process): retry the spare later.
+    event.kind = SupervisorEvent::Kind::start_failed;
+    event.child += " (spare)";
+    if (++child.spare_failures <= options_.max_restarts)
+      child.spare_at = now + options_.first_backoff * (1 << child.spare_failures);
+  }
   return event;
 }
 
@@ -195,6 +220,17 @@ void Supervisor::restart_or_give_up(Child& child, pid_t old_pid, const ChildExit
     }
     return;
   }
+  if (child.spare_pid > 0) {
+    // The warm spare takes over at once: its participant is already part of the network.
+    child.restarts++;
+    if (child.before_restart) child.before_restart(child.spec);
+    kill(child.spare_pid, SIGUSR1);
+    child.pid = child.spare_pid;
+    child.spare_pid = -1;
+    events.push_back({SupervisorEvent::Kind::spare_activated, child.spec.name, child.pid, exit, {}, {}});
+    events.push_back(spawn_spare(child, now));
+    return;
+  }
   const auto backoff = options_.first_backoff * (1 << child.restarts);
   child.restarts++;
   child.restart_at = now + backoff;
@@ -206,12 +242,25 @@ void Supervisor::restart_or_give_up(Child& child, pid_t old_pid, const ChildExit
 std::vector<SupervisorEvent> Supervisor::poll(Clock::time_point now) {
   std::vector<SupervisorEvent> events;
   for (auto& child : children_) {
+    if (child.spare_pid > 0) {
+      int status = 0;
+      if (waitpid(child.spare_pid, &status, WNOHANG) == child.spare_pid) {
+        // A spare that died before it was needed: another one after a backoff.
+        events.push_back({SupervisorEvent::Kind::exited, child.spec.name + " (spare)", child.spare_pid,
+                          decode_status(status), {}, {}});
+        child.spare_pid = -1;
+        if (++child.spare_failures <= options_.max_restarts)
+          child.spare_at = now + options_.first_backoff * (1 << child.spare_failures);
+      }
+    }
     if (child.pid <= 0) continue;
     int status = 0;
     const pid_t r = waitpid(child.pid, &status, WNOHANG);
     if (r == child.pid) handle_exit(child, decode_status(status), now, events);
   }
   if (!stopping_ && !failed_) {
+    for (auto& child : children_)
+      if (child.spare_pid <= 0 && child.spare_at && *child.spare_at <= now) events.push_back(spawn_spare(child, now));
     for (auto& child : children_) {
       if (child.pid <= 0 && child.restart_at && *child.restart_at <= now) {
         child.restart_at.reset();
@@ -231,22 +280,34 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
   std::vector<SupervisorEvent> events;
   for (auto& child : children_) {
     child.restart_at.reset();
+    child.spare_at.reset();
     if (child.pid > 0) kill(child.pid, SIGTERM);
+    if (child.spare_pid > 0) kill(child.spare_pid, SIGTERM);
   }
   const auto deadline = Clock::now() + options_.stop_timeout;
   auto reap = [&] {
     for (auto& child : children_) {
+      if (child.spare_pid > 0 && waitpid(child.spare_pid, nullptr, WNOHANG) == child.spare_pid) child.spare_pid = -1;
       if (child.pid <= 0) continue;
       int status = 0;
       if (waitpid(child.pid, &status, WNOHANG) == child.pid)
         handle_exit(child, decode_status(status), Clock::now(), events);
     }
   };
-  while (running_count() > 0 && Clock::now() < deadline) {
+  auto spares = [&] {
+    return std::count_if(children_.begin(), children_.end(), [](const Child& c) { return c.spare_pid > 0; });
+  };
+  while ((running_count() > 0 || spares() > 0) && Clock::now() < deadline) {
     reap();
-    if (running_count() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (running_count() > 0 || spares() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   for (auto& child : children_) {
+    if (child.spare_pid > 0) {
+      kill(-child.spare_pid, SIGKILL);
+      kill(child.spare_pid, SIGKILL);
+      waitpid(child.spare_pid, nullptr, 0);
+      child.spare_pid = -1;
+    }
     if (child.pid <= 0) continue;
     // Did not stop in time: SIGKILL the child's whole group (it may have helpers).
     kill(-child.pid, SIGKILL);
@@ -263,8 +324,10 @@ std::vector<SupervisorEvent> Supervisor::stop_all() {
 
 std::vector<Supervisor::ChildStatus> Supervisor::children() const {
   std::vector<ChildStatus> out;
-  for (const auto& child : children_)
+  for (const auto& child : children_) {
     out.push_back({child.spec.name, child.pid, child.pid > 0, child.restarts, child.restart_at.has_value()});
+    if (child.spare_pid > 0) out.push_back({child.spec.name + " (spare)", child.spare_pid, true, 0, false});
+  }
   return out;
 }
 

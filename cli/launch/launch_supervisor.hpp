@@ -25,6 +25,12 @@ struct ChildSpec {
   bool critical = false;
   // CPU priority (nice value, 0..19) of the child and every thread it creates.
   int nice = 0;
+  // Keep a warm spare: a second process of the same argv plus `--spare`, started at once, which
+  // joins the DDS network and waits (dds/node_support.hpp, SpareGate). When the child dies, the
+  // restart activates the spare (SIGUSR1) instead of starting a process that the network must
+  // discover first, and a new spare is started. Under load a new participant was discovered only
+  // after ~1 s (BENCHMARKS.md, "Blind window of a restart").
+  bool warm_spare = false;
 };
 
 /// How a child ended, as waitpid reported it.
@@ -51,7 +57,7 @@ struct SupervisorOptions {
 
 /// Something the supervisor observed; the caller logs it.
 struct SupervisorEvent {
-  enum class Kind { started, exited, restart_scheduled, gave_up, start_failed } kind;
+  enum class Kind { started, exited, restart_scheduled, gave_up, start_failed, spare_started, spare_activated } kind;
   std::string child;
   pid_t pid = -1;
   ChildExit exit;
@@ -115,8 +121,15 @@ class Supervisor {
     pid_t pid = -1;  // -1 when not running
     int restarts = 0;
     std::optional<Clock::time_point> restart_at;
+    pid_t spare_pid = -1;  // warm_spare: the spare waiting to take over (-1: none)
+    std::optional<Clock::time_point> spare_at;  // when to start the next spare
+    int spare_failures = 0;
   };
   SupervisorEvent spawn(Child& child);
+  /// Start the child's spare now (or, failing, after a backoff).
+  SupervisorEvent spawn_spare(Child& child, Clock::time_point now);
+  /// fork/exec `args` of the child's spec; the pid, or -1 with `why`.
+  pid_t spawn_process(const ChildSpec& spec, const std::vector<std::string>& args, std::string& why, int& exit_code);
   void handle_exit(Child& child, const ChildExit& exit, Clock::time_point now,
                    std::vector<SupervisorEvent>& events);
   /// Schedule the child's next restart after its backoff, or fail the run when it may not

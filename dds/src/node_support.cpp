@@ -21,6 +21,9 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
   app.add_option("--discovery-server", flags.discovery_server,
                  "Discover the others through the Fast DDS Discovery Server at ADDR:PORT (default: "
                  "$NETKF_DISCOVERY_SERVER, else the localhost-only profile)");
+  app.add_flag("--spare", flags.spare,
+               "Join the DDS network, then wait for SIGUSR1 before running (a warm spare `netkf launch` activates "
+               "when the running one dies)");
   app.add_option("--log-level", flags.log_level, "Log level")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error"}))
       ->capture_default_str();
@@ -51,6 +54,45 @@ std::optional<DiscoveryServerAddress> resolve_discovery_server(const std::option
   if (const char* env = std::getenv(kDiscoveryServerEnv); env != nullptr && *env != '\0')
     return parse_discovery_server(env);
   return std::nullopt;
+}
+
+namespace {
+sigset_t spare_signals() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGUSR1);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  return set;
+}
+}  // namespace
+
+SpareGate::SpareGate(bool spare) : spare_(spare) {
+  if (!spare_) return;
+  const sigset_t set = spare_signals();
+  pthread_sigmask(SIG_BLOCK, &set, &previous_);
+}
+
+SpareGate::~SpareGate() {
+  if (spare_ && !restored_) pthread_sigmask(SIG_SETMASK, &previous_, nullptr);
+}
+
+bool SpareGate::wait_until_needed() {
+  if (!spare_) return true;
+  const sigset_t set = spare_signals();
+  int sig = 0;
+  while (sigwait(&set, &sig) != 0) {
+  }
+  // The threads started meanwhile (DDS) keep the signals blocked: SIGINT/SIGTERM reach this
+  // thread from now on, where the node's signal handling (StopOnSignal) takes them.
+  pthread_sigmask(SIG_SETMASK, &previous_, nullptr);
+  restored_ = true;
+  if (sig == SIGUSR1) {
+    spdlog::info("spare: activated, taking over");
+    return true;
+  }
+  spdlog::info("spare: signal {} before it was needed; leaving", sig);
+  return false;
 }
 
 StopOnSignal::StopOnSignal(boost::asio::io_context& io, std::function<void(int)> on_stop)

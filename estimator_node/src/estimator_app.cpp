@@ -28,6 +28,7 @@ class EstimatorApp::Impl {
         status_timer_(io_),
         status_period_(std::chrono::milliseconds(options.status_period_ms)),
         liveliness_timer_(io_),
+        readers_timer_(io_),
         estimate_(participant, dds::topics::estimate, dds::WriterOptions{.ownership_strength = options.ownership_strength}),
         control_(participant, dds::topics::control_input,
                  dds::WriterOptions{.ownership_strength = options.ownership_strength}) {
@@ -56,29 +57,48 @@ class EstimatorApp::Impl {
 
   // A restarted estimator publishes the periods it missed at once, as soon as the transient-local
   // ticks arrive. The estimate topic is volatile: a reader that has not matched the new writer
-  // by then loses them (e2e fault_estimator once recorded 15 periods too few). So, before the
-  // first tick is handled, wait (bounded) until some reader has matched. Ticks and samples that
-  // arrive meanwhile wait in the queue and the core; nothing is lost.
+  // by then loses them (e2e fault_estimator once recorded 15 periods too few). So its ticks are
+  // held (bounded) until some reader has matched; samples that arrive meanwhile wait in the core.
   //
   // In a closed loop the plant's control reader must have matched too: an input written before
   // that is lost (the topic is volatile), and the plant runs open loop until the first input
-  // reaches it. Under load the control writer matched last, up to a second after the estimate's
-  // readers, so a restarted estimator published inputs into the void while the plant's unstable
-  // modes grew (issue: "a killed estimator must not cost the plant"); waiting here costs nothing,
-  // since no input of this life could reach the plant earlier anyway.
-  void wait_for_readers_after_restart() {
+  // reaches it. Under load a restarted process's control writer matched up to a second after it
+  // started (the network discovers a new participant at its periodic announcement): holding the
+  // ticks costs nothing, since no input of this life could reach the plant earlier anyway, and the
+  // warm spare (`netkf launch`) is what makes the wait short. The wait polls on the io thread, so a
+  // signal still stops the node at once.
+  void hold_ticks_until_readers_match() {
+    holding_ticks_ = true;
+    readers_wait_started_ = std::chrono::steady_clock::now();
+    poll_readers();
+  }
+
+  // io thread
+  void poll_readers() {
     constexpr auto kWait = std::chrono::seconds(5);
-    const auto started = std::chrono::steady_clock::now();
-    if (!estimate_.wait_for_matched(1, kWait))
+    const bool estimate_ok = estimate_.matched() >= 1;
+    const bool control_ok = input_dim_ == 0 || control_.matched() >= 1;
+    const auto waited = std::chrono::steady_clock::now() - readers_wait_started_;
+    if ((!estimate_ok || !control_ok) && waited < kWait) {
+      readers_timer_.expires_after(std::chrono::milliseconds(2));
+      readers_timer_.async_wait([this](const boost::system::error_code& ec) {
+        if (!ec) poll_readers();
+      });
+      return;
+    }
+    if (!estimate_ok)
       spdlog::warn("restart: no reader of {} matched within {} s; publishing anyway", estimate_.topic_name(),
                    kWait.count());
-    const auto estimate_matched = std::chrono::steady_clock::now();
-    if (input_dim_ > 0 && !control_.wait_for_matched(1, kWait))
+    if (!control_ok)
       spdlog::warn("restart: the plant's control reader ({}) did not match within {} s; publishing anyway",
                    control_.topic_name(), kWait.count());
-    const auto ms = [&](auto t) { return std::chrono::duration<double, std::milli>(t - started).count(); };
-    spdlog::info("restart: estimate readers matched after {:.0f} ms, the plant's control reader after {:.0f} ms",
-                 ms(estimate_matched), ms(std::chrono::steady_clock::now()));
+    spdlog::info("restart: the readers of the estimate{} matched {:.0f} ms after the start; {} ticks were held",
+                 input_dim_ > 0 ? " and the control input" : "",
+                 std::chrono::duration<double, std::milli>(waited).count(), held_ticks_.size());
+    holding_ticks_ = false;
+    auto held = std::move(held_ticks_);
+    held_ticks_.clear();
+    for (const auto& t : held) on_tick(t);
   }
 
   ~Impl() {
@@ -89,8 +109,8 @@ class EstimatorApp::Impl {
   }
 
   void run() {
-    if (resumed_) wait_for_readers_after_restart();
     work_.emplace(io_.get_executor());
+    if (resumed_) boost::asio::post(io_, [this] { hold_ticks_until_readers_match(); });
     io_.run();
   }
 
@@ -99,6 +119,7 @@ class EstimatorApp::Impl {
       deadline_timer_.cancel();
       status_timer_.cancel();
       liveliness_timer_.cancel();
+      readers_timer_.cancel();
       work_.reset();
       io_.stop();
     });
@@ -149,6 +170,10 @@ class EstimatorApp::Impl {
  private:
   // io thread
   void on_tick(const wire::Tick& tick) {
+    if (holding_ticks_) {
+      held_ticks_.push_back(tick);
+      return;
+    }
     const std::lock_guard lock(mutex_);
     Vector applied;
     try {
@@ -274,6 +299,10 @@ class EstimatorApp::Impl {
   boost::asio::steady_timer status_timer_;
   std::chrono::milliseconds status_period_;
   boost::asio::steady_timer liveliness_timer_;
+  boost::asio::steady_timer readers_timer_;  // a restart's wait for its readers
+  bool holding_ticks_ = false;               // io thread: a restart waits for its readers
+  std::vector<wire::Tick> held_ticks_;
+  std::chrono::steady_clock::time_point readers_wait_started_;
   std::optional<std::int64_t> armed_for_;
   std::uint64_t published_ = 0;
   std::uint64_t revisions_ = 0;  // of published_

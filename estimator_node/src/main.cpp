@@ -31,14 +31,17 @@ int main(int argc, char** argv) {
                  "and every reader take the strongest live one's")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  netkf::dds::SpareGate spare(common.spare);  // before any thread
 
   try {
     netkf::dds::setup_node_logging("estimator", common.log_level);
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
-    if (!resume_from.empty() && std::filesystem::exists(resume_from))
-      options.resume = netkf::nodes::read_checkpoint(resume_from);
     netkf::dds::Participant participant(
         netkf::dds::node_participant_options(common, "netkf-estimator", netkf::dds::Role::estimator));
+    // A spare reads the checkpoint the launch wrote just before activating it.
+    if (!spare.wait_until_needed()) return 0;
+    if (!resume_from.empty() && std::filesystem::exists(resume_from))
+      options.resume = netkf::nodes::read_checkpoint(resume_from);
     spdlog::info("scenario '{}': {} sensors, period {} ms, deadline {} ms, {} loop, domain {}", scenario.name,
                  scenario.sensors.size(), scenario.period_ms, scenario.deadline_ms(),
                  scenario.plant.control ? "closed" : "open", participant.domain());

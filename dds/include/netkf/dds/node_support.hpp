@@ -1,4 +1,5 @@
 #pragma once
+#include <signal.h>
 // What every node main shares: the common flags (--scenario, --domain, --dds-profile,
 // --secure, --log-level), spdlog set-up on stderr, and the participant options they resolve to.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
@@ -24,6 +25,7 @@ struct CommonNodeFlags {
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
   std::uint64_t run_id = 0;              // --run-id N (given by `netkf launch`; 0: accept every run)
   std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (default $NETKF_DISCOVERY_SERVER)
+  bool spare = false;                    // --spare: join the network, then wait for SIGUSR1 (SpareGate)
 };
 
 /// " (N more like it left out)" after a throttled warning (netkf::LogThrottle); "" for none.
@@ -47,6 +49,26 @@ void setup_node_logging(const std::string& node_name, const std::string& level);
 /// `role`: the identity the node uses when security is on. Throws DdsError.
 ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name,
                                             Role role);
+
+/// A warm spare (--spare; `netkf launch` keeps one per channel and estimator): the process
+/// creates its DDS participant, so the network discovers it ahead of need, and waits before it
+/// builds its node. SIGUSR1 makes it the node (a restart without a new participant to discover);
+/// SIGINT/SIGTERM end it. Construct it first in main, before any thread exists: it blocks those
+/// signals so that the wait takes them (sigwait) whichever thread they are sent to.
+class SpareGate {
+ public:
+  explicit SpareGate(bool spare);
+  ~SpareGate();
+  SpareGate(const SpareGate&) = delete;
+  SpareGate& operator=(const SpareGate&) = delete;
+  /// Not a spare: true at once. A spare: wait for SIGUSR1 (true) or SIGINT/SIGTERM (false).
+  bool wait_until_needed();
+
+ private:
+  bool spare_;
+  bool restored_ = false;
+  sigset_t previous_{};
+};
 
 /// SIGINT/SIGTERM end the node cleanly: `on_stop(signal)` runs on the io thread, then `io`
 /// stops. Constructed before any blocking start-up wait so a signal then is not fatal.
