@@ -332,8 +332,10 @@ std::vector<Supervisor::ChildStatus> Supervisor::children() const {
 }
 
 std::optional<pid_t> Supervisor::pid_of(const std::string& name) const {
-  for (const auto& child : children_)
+  for (const auto& child : children_) {
     if (child.spec.name == name && child.pid > 0) return child.pid;
+    if (child.spare_pid > 0 && child.spec.name + " (spare)" == name) return child.spare_pid;
+  }
   return std::nullopt;
 }
 

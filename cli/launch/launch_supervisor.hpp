@@ -110,7 +110,7 @@ class Supervisor {
   /// Every child started so far, in start order.
   std::vector<ChildStatus> children() const;
 
-  /// pid of the running child with that name (nullopt when not running).
+  /// pid of the running child with that name (nullopt when not running); "NAME (spare)": its spare.
   std::optional<pid_t> pid_of(const std::string& name) const;
   std::size_t running_count() const;
 

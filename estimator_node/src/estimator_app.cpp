@@ -3,6 +3,7 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <mutex>
 #include <vector>
@@ -249,6 +250,7 @@ class EstimatorApp::Impl {
         if (e.control) control_.write(dds::make_control_input(e.k, *e.control));
         r.stamp_ns = dds::steady_now_ns();
         estimate_.write(dds::to_wire(r));  // to_wire refuses non-finite values: never NaN on the wire
+        last_write_.store(std::chrono::steady_clock::now());
         ++published_;
         if (e.revision > 0) ++revisions_;
       } catch (const std::exception& ex) {
@@ -274,8 +276,12 @@ class EstimatorApp::Impl {
     liveliness_timer_.expires_after(dds::kOwnershipLease / 4);
     liveliness_timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
-      estimate_.assert_liveliness();
-      control_.assert_liveliness();
+      // Only when nothing was written meanwhile (a write asserts it): no extra messages at the
+      // default period, one every lease/4 while the plant is silent.
+      if (std::chrono::steady_clock::now() - last_write_.load() >= dds::kOwnershipLease / 4) {
+        estimate_.assert_liveliness();
+        control_.assert_liveliness();
+      }
       schedule_liveliness();
     });
   }
@@ -299,6 +305,7 @@ class EstimatorApp::Impl {
   boost::asio::steady_timer status_timer_;
   std::chrono::milliseconds status_period_;
   boost::asio::steady_timer liveliness_timer_;
+  std::atomic<std::chrono::steady_clock::time_point> last_write_{};  // of the estimate and control writers
   boost::asio::steady_timer readers_timer_;  // a restart's wait for its readers
   bool holding_ticks_ = false;               // io thread: a restart waits for its readers
   std::vector<wire::Tick> held_ticks_;

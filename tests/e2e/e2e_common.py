@@ -306,9 +306,10 @@ def netkf_processes(domain):
 
 def node_pids(domain):
     """The netkf node processes of this build running on `domain` now (restarted ones included),
-    as {name: pid} with the names the launch gives them: plant_node, channel_emulator,
-    estimator_node (each estimator as "estimator_node@STRENGTH", its --ownership-strength),
-    sensor_node[1,2]."""
+    found in /proc, as {name: pid}: plant_node, channel_emulator, estimator_node (each estimator
+    as "estimator_node@STRENGTH", its --ownership-strength), sensor_node[1,2]. Warm spares (argv
+    --spare, even once activated) are left out: Launch.child_pids() names the running processes
+    of a launch, spares included."""
     found = {}
     for pid in netkf_processes(domain):
         try:
@@ -317,6 +318,8 @@ def node_pids(domain):
         except OSError:
             continue
         name = os.path.basename(argv[0])
+        if "--spare" in argv:
+            continue
         if name == "sensor_node":
             ids = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--sensor-id"]
             name = "sensor_node[%s]" % ",".join(ids)

@@ -17,11 +17,9 @@ import os
 import signal
 import time
 
-from e2e_common import (DATA, Launch, check, finish, last_period, node_pids, read_periods, require_netns, wait_for,
-                        workdir)
+from e2e_common import DATA, Launch, check, finish, last_period, read_periods, require_netns, wait_for, workdir
 
 require_netns()
-domain = int(os.environ["NETKF_DOMAIN"])
 BOUND = 1.0e6
 # name: (scenario, gain L, alpha = |A|, SIGSTOP seconds)
 SCENARIOS = {
@@ -32,11 +30,9 @@ TARGETS = ["estimator_node", "channel_emulator", "sensor_node[2]", "plant_node"]
 SETTLE = 150  # periods after a fault's end until the loop must be back
 
 
-def current_pid(target):
-    for name, pid in node_pids(domain).items():
-        if name == target or name.startswith(target + "@"):
-            return pid
-    return None
+def current_pid(run, target):
+    """The running process the launch names `target` now (its pid file follows restarts)."""
+    return run.child_pids().get(target)
 
 
 def progressed(run, k, seconds):
@@ -52,13 +48,13 @@ def run_case(label, target):
                 name="launch-%s-%s" % (label, target.split("[")[0])) as run:
         check(progressed(run, 150, 60), "[%s %s] the run reaches period 150" % (label, target))
         if target != "plant_node":
-            pid = current_pid(target)
+            pid = current_pid(run, target)
             check(pid is not None, "[%s %s] found the process" % (label, target))
             if pid:
                 faults.append(("kill", last_period(run.record)))
                 os.kill(pid, signal.SIGKILL)
                 progressed(run, faults[-1][1] + SETTLE, 60)
-        pid = current_pid(target)
+        pid = current_pid(run, target)
         if pid and run.proc.poll() is None:
             faults.append(("stop", last_period(run.record)))
             os.kill(pid, signal.SIGSTOP)

@@ -147,6 +147,45 @@ TEST(Supervisor, RestartsADyingChildThenGivesUp) {
   EXPECT_NE(s.failure_reason().find("exited with status 3"), std::string::npos) << s.failure_reason();
 }
 
+// A warm spare: started beside the child with `--spare` (here $0 of the script), it waits for
+// SIGUSR1; when the child dies the spare is activated at once (no backoff) and becomes the
+// child, and a new spare is started. The script shows what it got: activated, it execs `sleep`.
+TEST(Supervisor, AWarmSpareTakesOverAtOnceAndIsReplaced) {
+  SupervisorOptions o;
+  o.first_backoff = 5s;  // a restart without the spare would take this long
+  Supervisor s(o);
+  auto spec = shell("estimator", "if [ \"$0\" = --spare ]; then trap 'exec sleep 31' USR1; "
+                                 "while :; do sleep 0.01; done; else exec sleep 30; fi");
+  spec.warm_spare = true;
+  s.start(spec);
+  auto spare_of = [&]() -> std::optional<pid_t> { return s.pid_of("estimator (spare)"); };
+  auto ev = poll_until(s, [&] { return spare_of().has_value(); });
+  ASSERT_TRUE(spare_of());
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::spare_started), 1);
+  const pid_t first = *s.pid_of("estimator"), spare = *spare_of();
+  kill(first, SIGKILL);
+  ev = poll_until(s, [&] { return s.pid_of("estimator") && *s.pid_of("estimator") != first && spare_of(); });
+  EXPECT_EQ(s.pid_of("estimator"), spare);  // the spare is the child now
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::spare_activated), 1);
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::restart_scheduled), 0);
+  EXPECT_EQ(count(ev, SupervisorEvent::Kind::spare_started), 1);  // its successor
+  EXPECT_NE(spare_of(), spare);
+  // The activated spare got SIGUSR1: it went on to be the node (here: exec sleep 31).
+  std::string cmdline;
+  for (int i = 0; i < 200 && cmdline.find("sleep\0" "31") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(10ms);
+    std::ifstream in("/proc/" + std::to_string(spare) + "/cmdline");
+    cmdline.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  EXPECT_NE(cmdline.find(std::string("sleep\0" "31", 8)), std::string::npos);
+  EXPECT_FALSE(s.failed());
+  const auto children = s.children();
+  EXPECT_EQ(children.size(), 2u);  // the child and its spare
+  s.stop_all();
+  EXPECT_EQ(s.running_count(), 0u);
+  EXPECT_FALSE(spare_of());
+}
+
 TEST(Supervisor, ReportsTheKillingSignal) {
   SupervisorOptions o;
   o.policy = RestartPolicy::fail;
