@@ -145,11 +145,14 @@ def _check_cells(path, text, n, fuse_within, m):
             row = int(np.argmax(filled))
             refuse(row, "state %s (no estimate) but %s is %r: a none row has every estimate cell empty" %
                    (NO_ESTIMATE, c, text[c].iloc[row]))
-    for c in numbers + ["u%d" % i for i in range(m)]:
-        empty = (text[c] == "").to_numpy() & (~none if c in numbers else True)
+    for c in numbers:
+        empty = (text[c] == "").to_numpy() & ~none
         if empty.any():
-            refuse(int(np.argmax(empty)), "%s is empty (only a row with state %s has no estimate)" % (c, NO_ESTIMATE)
-                   if c in numbers else "%s is empty (every row has the applied input)" % c)
+            refuse(int(np.argmax(empty)), "%s is empty (only a row with state %s has no estimate)" % (c, NO_ESTIMATE))
+    for c in ["u%d" % i for i in range(m)]:
+        empty = (text[c] == "").to_numpy()
+        if empty.any():
+            refuse(int(np.argmax(empty)), "%s is empty (every row has the applied input)" % c)
     for c in ["k"] + _integer_columns(fuse_within):
         bad = ~text[c].str.fullmatch(r"-?[0-9]+").to_numpy() & (text[c] != "").to_numpy()
         if bad.any() or (c == "k" and (text[c] == "").any()):
@@ -181,10 +184,7 @@ def read_periods(path):
         converters["fused_final"] = _ids
     nullable = _integer_columns(fuse_within)
     dtypes = dict({"state": str}, **{c: "Int64" for c in nullable})
-    try:
-        df = _read_csv(path, converters, dtypes)
-    except ValueError as e:
-        raise FormatError("%s: %s" % (path, e)) from e
+    df = _read_csv(path, converters, dtypes)
     floats = _float_columns(df.columns)
     _check_numeric(path, df, floats + ["k"], integer=["k"])
     for c in floats:
@@ -368,7 +368,8 @@ def read_mcap_periods(path, fuse_within=None):
             row += [e["trace_P"], e["fused"], e["late"], e["state"], e["late_samples"]]
             if fuse_within:
                 f = final[k]
-                row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n) + [f["trace_P"], f["fused"]]
+                row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n)
+                row += [f["trace_P"], f["fused"]]
         rows.append(row + _vector(m.path, "truth's input u", k, tr["u"], inputs))
     df = pd.DataFrame(rows, columns=period_columns(n, fuse_within, inputs))
     df["k"] = df["k"].astype(np.int64)
