@@ -5,11 +5,16 @@ record_mcap.cpp). A CSV recording and an MCAP recording of the same run give equ
 read_periods(run.csv) and read_mcap_periods(run.mcap) have the same columns, dtypes and
 values (the doubles are the same: the CSV writes 17 significant digits, read back exactly).
 
-Period frame columns, one row per period k:
+Period frame columns, one row per period k the plant ran, in order of k:
   k, t, x0..x{n-1} (truth), xhat0..xhat{n-1} (in-time estimate x̂_{k|k}), trace_P (Tr P_{k|k}),
-  fused (tuple of the fused sensor ids), late (samples counted late in this estimate),
-  state ('ok' / 'diverging'), late_samples (tuple of (period, sensor id) of each late sample);
-  with late_policy fuse_within also revisions, xhat_final0.., trace_P_final, fused_final.
+  fused (tuple of the fused sensor ids), late (samples counted late in this estimate, Int64),
+  state ('ok' / 'diverging', or 'none': no estimate of k was recorded), late_samples (tuple of
+  (period, sensor id) of each late sample); with late_policy fuse_within also revisions (Int64),
+  xhat_final0.., trace_P_final, fused_final; in a closed loop (plant.B) u0..u{m-1} last: the
+  input u_{k-1} the plant applied to produce x_k.
+  A 'none' row holds the period's truth (and u) only: NaN in the estimate's floats, <NA> in
+  late and revisions, () in fused, late_samples and fused_final. df[df.state != "none"] keeps
+  the periods with an estimate.
 Samples frame columns, one row per delivered sample:
   k, sensor_id, stamp, fused (bool), [fused_in_time (bool), with fuse_within], y0..y{m-1}
   (NaN past a sensor's own measurement size).
@@ -31,12 +36,32 @@ class FormatError(ValueError):
 _BASE_TAIL = ["trace_P", "fused", "late", "state", "late_samples"]
 
 
-def period_columns(n, fuse_within=False):
-    """The period CSV's header for state size n (record_csv.cpp's PeriodCsvRecorder::header)."""
-    cols = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + _BASE_TAIL
+# The state of a period whose estimate was never recorded (its row holds the truth only).
+NO_ESTIMATE = "none"
+
+
+def period_columns(n, fuse_within=False, input_dim=0):
+    """The period CSV's header for state size n and input size m = input_dim
+    (record_csv.cpp's PeriodCsvRecorder::header)."""
+    cols = ["k", "t"] + ["x%d" % i for i in range(n)] + _estimate_columns(n, fuse_within)
+    return cols + ["u%d" % i for i in range(input_dim)]
+
+
+def _estimate_columns(n, fuse_within):
+    """The cells a period's estimate fills (empty in a `none` row), state included."""
+    cols = ["xhat%d" % i for i in range(n)] + _BASE_TAIL
     if fuse_within:
         cols += ["revisions"] + ["xhat_final%d" % i for i in range(n)] + ["trace_P_final", "fused_final"]
     return cols
+
+
+def _float_columns(columns):
+    return [c for c in columns if c == "t" or c.startswith("trace_P") or re.fullmatch(r"(x|xhat|xhat_final|u)\d+", c)]
+
+
+def _integer_columns(fuse_within):
+    """Integers of the estimate (nullable: <NA> in a `none` row)."""
+    return ["late"] + (["revisions"] if fuse_within else [])
 
 
 def _ids(text):
@@ -71,14 +96,16 @@ def _header(path):
             raise FormatError("%s: not a CSV file (%s)" % (path, e)) from None
 
 
-def _state_dim(path, header):
-    xs = [c for c in header if re.fullmatch(r"x\d+", c)]
-    n = len(xs)
+def _layout(path, header):
+    """(n, fuse_within, m) of a period CSV's header, which must be exactly the writer's: the
+    inputs u0..u{m-1} in order at its end."""
+    n = sum(1 for c in header if re.fullmatch(r"x\d+", c))
+    m = sum(1 for c in header if re.fullmatch(r"u\d+", c))
     for fuse_within in (False, True):
-        if header == period_columns(n, fuse_within):
-            return n, fuse_within
+        if header == period_columns(n, fuse_within, m):
+            return n, fuse_within, m
     raise FormatError("%s: not a netkf period recording; its header is %s, expected %s" %
-                      (path, ",".join(header), ",".join(period_columns(n))))
+                      (path, ",".join(header), ",".join(period_columns(n, False, m))))
 
 
 def _read_csv(path, converters, dtypes):
@@ -87,8 +114,49 @@ def _read_csv(path, converters, dtypes):
         # one ulp off), so a CSV and an MCAP of one run compare equal.
         return pd.read_csv(path, converters=converters, dtype=dtypes, float_precision="round_trip",
                            keep_default_na=False, na_values=["nan", "NaN", ""])
+    except (ValueError, TypeError, pd.errors.ParserError) as e:
+        raise FormatError("%s: %s" % (path, e)) from e
+
+
+def _read_text(path):
+    """Every cell as written (an empty cell is '', not NaN): what tells an empty cell from `nan`."""
+    try:
+        return pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False)
     except (ValueError, pd.errors.ParserError) as e:
         raise FormatError("%s: %s" % (path, e)) from e
+
+
+def _check_cells(path, text, n, fuse_within, m):
+    """The cells the parsed frame cannot tell apart: a `none` row has every estimate cell empty,
+    any other row has the estimate's numbers (fused and late_samples may be empty lists), every
+    row has its inputs, and integers are written as integers."""
+    if len(text) == 0:
+        return
+    none = (text["state"] == NO_ESTIMATE).to_numpy()
+    estimate = [c for c in _estimate_columns(n, fuse_within) if c != "state"]
+    numbers = [c for c in estimate if c not in ("fused", "late_samples", "fused_final")]
+
+    def refuse(row, what):
+        raise FormatError("%s: line %d (period %s): %s" % (path, row + 2, text["k"].iloc[row], what))
+
+    for c in estimate:
+        filled = (text[c] != "").to_numpy() & none
+        if filled.any():
+            row = int(np.argmax(filled))
+            refuse(row, "state %s (no estimate) but %s is %r: a none row has every estimate cell empty" %
+                   (NO_ESTIMATE, c, text[c].iloc[row]))
+    for c in numbers:
+        empty = (text[c] == "").to_numpy() & ~none
+        if empty.any():
+            refuse(int(np.argmax(empty)), "%s is empty (only a row with state %s has no estimate)" % (c, NO_ESTIMATE))
+    for c in ["u%d" % i for i in range(m)]:
+        empty = (text[c] == "").to_numpy()
+        if empty.any():
+            refuse(int(np.argmax(empty)), "%s is empty (every row has the applied input)" % c)
+    for c in ["k"] + _integer_columns(fuse_within):
+        bad = ~text[c].str.fullmatch(r"-?[0-9]+").to_numpy() & (text[c] != "").to_numpy()
+        if bad.any() or (c == "k" and (text[c] == "").any()):
+            raise FormatError("%s: column %s holds values that are not integers" % (path, c))
 
 
 def _check_numeric(path, df, columns, integer=()):
@@ -103,29 +171,30 @@ def _check_numeric(path, df, columns, integer=()):
 
 
 def read_periods(path):
-    """A period CSV (`--record FILE.csv`) as a DataFrame (columns: the module's docstring).
+    """A period CSV (`--record FILE.csv`) as a DataFrame (columns: the module's docstring), one
+    row per period the plant ran, those without an estimate (state `none`) included.
 
-    attrs: state_dim (n), fuse_within (whether the final-estimate columns are there), path."""
+    attrs: state_dim (n), fuse_within (whether the final-estimate columns are there),
+    input_dim (m, 0 without plant.B), path."""
     header = _header(path)
-    n, fuse_within = _state_dim(path, header)
+    n, fuse_within, m = _layout(path, header)
+    _check_cells(path, _read_text(path), n, fuse_within, m)
     converters = {"fused": _ids, "late_samples": _late_samples}
     if fuse_within:
         converters["fused_final"] = _ids
-    try:
-        df = _read_csv(path, converters, {"state": str})
-    except (ValueError, TypeError) as e:
-        raise FormatError("%s: %s" % (path, e)) from e
-    floats = [c for c in df.columns if c == "t" or re.fullmatch(r"(x|xhat|xhat_final)\d+", c) or
-              c.startswith("trace_P")]
-    ints = ["k", "late"] + (["revisions"] if fuse_within else [])
-    _check_numeric(path, df, floats + ints, integer=ints)
+    nullable = _integer_columns(fuse_within)
+    dtypes = dict({"state": str}, **{c: "Int64" for c in nullable})
+    df = _read_csv(path, converters, dtypes)
+    floats = _float_columns(df.columns)
+    _check_numeric(path, df, floats + ["k"], integer=["k"])
     for c in floats:
         df[c] = df[c].astype(np.float64)
-    for c in ints:
-        df[c] = df[c].astype(np.int64)
+    df["k"] = df["k"].astype(np.int64)
+    for c in nullable:
+        df[c] = df[c].astype("Int64")  # also when the file has no row (an empty column's dtype)
     df["state"] = df["state"].astype(str)
     _check_periods_increase(path, df["k"].tolist(), "line %d", 2)
-    df.attrs.update(state_dim=n, fuse_within=fuse_within, path=str(path))
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=m, path=str(path))
     return df
 
 
@@ -218,7 +287,9 @@ def _str(v):
 
 
 def _truth(msg):
-    return {"k": _int(msg["k"]), "t": _num(msg["t"]), "x": [_num(v) for v in _list(msg["x"])]}
+    """u (closed loop: the input u_{k-1} the plant applied to produce x_k) is optional."""
+    return {"k": _int(msg["k"]), "t": _num(msg["t"]), "x": [_num(v) for v in _list(msg["x"])],
+            "u": [_num(v) for v in _list(msg["u"])] if "u" in msg else []}
 
 
 def _estimate(msg):
@@ -270,35 +341,44 @@ def _vector(path, what, k, values, n):
 
 
 def read_mcap_periods(path, fuse_within=None):
-    """The period frame of an MCAP recording: truth and in-time estimate joined by period, as
-    the CSV recorder joins them (only periods that have both). fuse_within: add the final
-    columns (True), not (False), or only when an estimate was revised (None)."""
+    """The period frame of an MCAP recording: one row per netkf/truth message (in order of k),
+    joined with the period's in-time estimate as the CSV recorder joins them; a period without
+    one is a `none` row, an estimate without truth is left out. fuse_within: add the final
+    columns (True), not (False), or only when an estimate was revised (None). The truth's `u`
+    gives u0..u{m-1} (m from the first truth; every truth must carry the same size)."""
     m = path if isinstance(path, McapFile) else McapFile(path)
     truth_list = _parsed(m, TRUTH, _truth)
     _check_periods_increase(m.path, [tr["k"] for tr in truth_list], TRUTH + " message %d", 0)
-    truths = {tr["k"]: tr for tr in truth_list}
     in_time, final = _estimates(m)
     if fuse_within is None:
         fuse_within = any(e["revision"] > 0 for e in final.values())
-    ks = sorted(k for k in in_time if k in truths)
-    n = len(truths[ks[0]]["x"]) if ks else 0
+    n = len(truth_list[0]["x"]) if truth_list else 0
+    inputs = len(truth_list[0]["u"]) if truth_list else 0
+    no_final = [pd.NA] + [math.nan] * n + [math.nan, ()]
+    no_estimate = [math.nan] * n + [math.nan, (), pd.NA, NO_ESTIMATE, ()] + (no_final if fuse_within else [])
     rows = []
-    for k in ks:
-        tr, e = truths[k], in_time[k]
-        row = [k, tr["t"]] + _vector(m.path, "truth", k, tr["x"], n) + _vector(m.path, "estimate", k, e["x_hat"], n)
-        row += [e["trace_P"], e["fused"], e["late"], e["state"], e["late_samples"]]
-        if fuse_within:
-            f = final[k]
-            row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n) + [f["trace_P"], f["fused"]]
-        rows.append(row)
-    df = pd.DataFrame(rows, columns=period_columns(n, fuse_within))
-    for c in ("k", "late") + (("revisions",) if fuse_within else ()):
-        df[c] = df[c].astype(np.int64)
-    for c in df.columns:
-        if c == "t" or c.startswith("trace_P") or re.fullmatch(r"(x|xhat|xhat_final)\d+", c):
-            df[c] = df[c].astype(np.float64)
+    for tr in truth_list:
+        k = tr["k"]
+        row = [k, tr["t"]] + _vector(m.path, "truth", k, tr["x"], n)
+        e = in_time.get(k)
+        if e is None:
+            row += no_estimate
+        else:
+            row += _vector(m.path, "estimate", k, e["x_hat"], n)
+            row += [e["trace_P"], e["fused"], e["late"], e["state"], e["late_samples"]]
+            if fuse_within:
+                f = final[k]
+                row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n)
+                row += [f["trace_P"], f["fused"]]
+        rows.append(row + _vector(m.path, "truth's input u", k, tr["u"], inputs))
+    df = pd.DataFrame(rows, columns=period_columns(n, fuse_within, inputs))
+    df["k"] = df["k"].astype(np.int64)
+    for c in _integer_columns(fuse_within):
+        df[c] = df[c].astype("Int64")
+    for c in _float_columns(df.columns):
+        df[c] = df[c].astype(np.float64)
     df["state"] = df["state"].astype(str)
-    df.attrs.update(state_dim=n, fuse_within=fuse_within, path=str(m.path))
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=inputs, path=str(m.path))
     return df
 
 
@@ -336,8 +416,10 @@ def read_mcap_samples(path, fuse_within=None):
 # ---- helpers on a period frame -----------------------------------------------------------
 
 def states(df, prefix="x"):
-    """The (periods × n) array of x (truth), xhat or xhat_final."""
-    return df[["%s%d" % (prefix, i) for i in range(df.attrs.get("state_dim") or _count(df, prefix))]].to_numpy()
+    """The (periods × n) array of x (truth), xhat or xhat_final; with prefix "u" the
+    (periods × m) array of the applied inputs. A `none` row's estimate is NaN."""
+    size = df.attrs.get("input_dim" if prefix == "u" else "state_dim")
+    return df[["%s%d" % (prefix, i) for i in range(size or _count(df, prefix))]].to_numpy()
 
 
 def _count(df, prefix):

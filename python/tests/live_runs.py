@@ -1,13 +1,14 @@
 """Writes the files the reader's tests read, with the real launch (conftest.py runs this
 through scripts/in-netns.sh: a private network namespace, loopback only, its own DDS domain).
 
-Three runs, each a `netkf launch` and an attached `netkf record` of the same network, started
+Four runs, each a `netkf launch` and an attached `netkf record` of the same network, started
 once the launch's own recording has its first period (an attached recorder that is up before
 the launch lets the plant start before the launch's own recorder has matched the truth topic,
 and the launch's recording then misses the first periods: docs/python.md):
   csv:   launch --record R.csv --record-samples S.csv --summary J.json; attached A.mcap (+ AS.csv)
   mcap:  launch --record R.mcap --record-samples S.csv --summary J.json; attached A.csv (+ AS.csv)
   late:  the same as csv with deploy/scenarios/late-fusion-boundary.yaml (late_policy fuse_within)
+  loop:  the same as csv with data/closed_loop.yaml (a scalar closed loop with an explicit gain)
 Writes OUT/runs.json: per run its directory, the commands, return codes and log tails.
 Usage: live_runs.py NETKF OUT DOMAIN
 """
@@ -84,6 +85,7 @@ def main():
         "csv": run(netkf, out, domain, "csv", "deploy/scenarios/default.yaml", "R.csv", "A.mcap"),
         "mcap": run(netkf, out, domain, "mcap", "deploy/scenarios/default.yaml", "R.mcap", "A.csv"),
         "late": run(netkf, out, domain, "late", "deploy/scenarios/late-fusion-boundary.yaml", "R.csv", "A.mcap"),
+        "loop": run(netkf, out, domain, "loop", "python/tests/data/closed_loop.yaml", "R.csv", "A.mcap"),
     }
     with open(os.path.join(out, "runs.json"), "w") as f:
         json.dump(runs, f, indent=1)

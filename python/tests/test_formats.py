@@ -68,6 +68,125 @@ def test_empty_and_headerless_files(tmp_path):
         netkf.read_periods(q)
 
 
+# ---- periods without an estimate (state none) and the applied input u ------------------------
+
+def estimate_cells_are_empty(row, n, fuse_within):
+    """What a `none` row holds in the estimate's columns (docs/python.md)."""
+    cells = ["xhat%d" % i for i in range(n)] + ["trace_P"] + \
+        (["xhat_final%d" % i for i in range(n)] + ["trace_P_final"] if fuse_within else [])
+    return all(math.isnan(row[c]) for c in cells) and row["late"] is pd.NA and row["fused"] == () and \
+        row["late_samples"] == () and (not fuse_within or (row["revisions"] is pd.NA and row["fused_final"] == ()))
+
+
+def test_period_csv_rows_without_estimate_open_loop(data_dir):
+    df = netkf.read_periods(data(data_dir, "periods_none.csv"))
+    assert df.attrs["state_dim"] == 2 and not df.attrs["fuse_within"] and df.attrs["input_dim"] == 0
+    assert list(df.columns) == ["k", "t", "x0", "x1", "xhat0", "xhat1", "trace_P", "fused", "late", "state",
+                                "late_samples"]
+    assert df["k"].tolist() == [0, 1, 2, 3] and df["k"].dtype == np.int64
+    assert df["state"].tolist() == ["ok", "none", "diverging", "none"]
+    assert str(df["late"].dtype) == "Int64" and df["xhat0"].dtype == np.float64
+    # The truth of a period without an estimate is kept, value for value.
+    assert df["x0"].tolist()[:3] == [1.0, 1.25, 1.5] and df.loc[3, "t"] == 0.03
+    assert math.isnan(df.loc[3, "x0"]) and df.loc[3, "x1"] == math.inf
+    assert estimate_cells_are_empty(df.loc[1], 2, False) and estimate_cells_are_empty(df.loc[3], 2, False)
+    assert df["fused"].tolist() == [(1, 3), (), (2,), ()]
+    assert df["late_samples"].tolist() == [(), (), ((1, 3),), ()]
+    assert int(df["late"].sum()) == 1  # <NA> is skipped, not counted as a number
+    est = df[df.state != "none"]  # the one-liner docs/python.md gives
+    assert est["k"].tolist() == [0, 2] and est["late"].tolist() == [0, 1]
+    assert netkf.states(est, "xhat").tolist() == [[0.5, -0.25], [1.25, -0.125]]
+    assert netkf.fused_matrix(df).loc[1].tolist() == [False, False, False]
+
+
+def test_period_csv_closed_loop_fuse_within_rows_without_estimate(data_dir):
+    df = netkf.read_periods(data(data_dir, "periods_closed_loop_fuse_within.csv"))
+    assert df.attrs["state_dim"] == 1 and df.attrs["fuse_within"] and df.attrs["input_dim"] == 2
+    assert list(df.columns) == ["k", "t", "x0", "xhat0", "trace_P", "fused", "late", "state", "late_samples",
+                                "revisions", "xhat_final0", "trace_P_final", "fused_final", "u0", "u1"]
+    assert df["u0"].dtype == np.float64 and df["u1"].dtype == np.float64
+    assert df["state"].tolist() == ["none", "ok", "ok", "none"]
+    assert estimate_cells_are_empty(df.loc[0], 1, True) and estimate_cells_are_empty(df.loc[3], 1, True)
+    assert str(df["revisions"].dtype) == "Int64" and df["revisions"].tolist()[1:3] == [1, 0]
+    assert df["fused_final"].tolist() == [(), (1, 2), (), ()] and df["xhat_final0"].tolist()[1:3] == [1.25, 2.0]
+    # The input is in every row, those without an estimate too; exact doubles.
+    assert df["u0"].tolist() == [0.0, -0.5, -1.7976931348623157e308, 0.0]
+    assert df["u1"].tolist() == [0.0, 0.25, 5e-324, 0.0]
+    est = df[df.state != "none"]
+    assert (est["revisions"] > 0).tolist() == [True, False]
+
+
+# The writer's own expected output (tests/unit/test_cli_logic.cpp, PeriodCsv.TruthWithoutEstimateIsARowInOrder
+# and PeriodCsv.ClosedLoopRowsCarryTheAppliedInput), read back.
+@pytest.mark.parametrize("text,states,inputs", [
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n0,0,1,0.5,1,1,0,ok,\n1,0.01,2,,,,,none,\n"
+     "2,0.02,3,,,,,none,\n3,0.029999999999999999,4,3.5,1,1,0,ok,\n", ["ok", "none", "none", "ok"], []),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,u1\n0,0,1,,,,,none,,0,0\n1,0.01,2,1.5,1,,0,ok,,-0.5,0.25\n",
+     ["none", "ok"], [[0.0, 0.0], [-0.5, 0.25]]),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,revisions,xhat_final0,trace_P_final,fused_final,u0\n"
+     "0,0,1,,,,,none,,,,,,0\n", ["none"], [[0.0]]),
+])
+def test_period_csv_as_the_writer_writes_it(tmp_path, text, states, inputs):
+    p = tmp_path / "p.csv"
+    p.write_text(text)
+    df = netkf.read_periods(p)
+    assert df["state"].tolist() == states and df.attrs["input_dim"] == (len(inputs[0]) if inputs else 0)
+    assert netkf.states(df, "u").tolist() == inputs if inputs else "u0" not in df.columns
+    for i in df.index[df.state == "none"]:
+        assert estimate_cells_are_empty(df.loc[i], 1, df.attrs["fuse_within"])
+
+
+NONE_ROW = "k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n0,0,1,0.5,1,1,0,ok,\n%s\n"
+FW_HEADER = "k,t,x0,xhat0,trace_P,fused,late,state,late_samples,revisions,xhat_final0,trace_P_final,fused_final,u0\n"
+
+
+@pytest.mark.parametrize("text,why", [
+    # A none row with any estimate cell filled: not what the writer writes.
+    (NONE_ROW % "1,0.01,2,0.5,,,,none,", r"line 3 \(period 1\): state none .* xhat0 is '0.5'"),
+    (NONE_ROW % "1,0.01,2,nan,,,,none,", r"line 3 \(period 1\): state none .* xhat0 is 'nan'"),
+    (NONE_ROW % "1,0.01,2,,1,,,none,", "trace_P is '1'"),
+    (NONE_ROW % "1,0.01,2,,,3,,none,", "fused is '3'"),
+    (NONE_ROW % "1,0.01,2,,,,0,none,", "late is '0'"),
+    (NONE_ROW % "1,0.01,2,,,,,none,0:1", "late_samples is '0:1'"),
+    (FW_HEADER + "0,0,1,,,,,none,,0,,,,0\n", "revisions is '0'"),
+    (FW_HEADER + "0,0,1,,,,,none,,,1,,,0\n", "xhat_final0 is '1'"),
+    (FW_HEADER + "0,0,1,,,,,none,,,,,2,0\n", "fused_final is '2'"),
+    # A row with an estimate has its numbers (only a none row has empty ones).
+    (NONE_ROW % "1,0.01,2,,1,,0,ok,", r"line 3 \(period 1\): xhat0 is empty"),
+    (NONE_ROW % "1,0.01,2,1,1,,,ok,", "late is empty"),
+    (NONE_ROW % "1,0.01,2,1,1,,,,", "late is empty"),
+    (FW_HEADER + "0,0,1,1,1,,0,ok,,,1,1,,0\n", "revisions is empty"),
+    (NONE_ROW % "1,0.01,2,1,1,,1.0,ok,0:1", "column late holds values that are not integers"),
+    (FW_HEADER + "0,0,1,1,1,,0,ok,,0.5,1,1,,0\n", "column revisions holds values that are not integers"),
+    # Inputs: u0..u{m-1} in order, last, in every row.
+    (FW_HEADER + "0,0,1,,,,,none,,,,,,\n", "u0 is empty"),
+    (FW_HEADER + "0,0,1,,,,,none,,,,,,x\n", "u0 holds values that are not numbers"),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u1\n0,0,1,,,,,none,,0\n", "not a netkf period recording"),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,u2\n0,0,1,,,,,none,,0,0\n", "not a netkf period recording"),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u1,u0\n0,0,1,,,,,none,,0,0\n", "not a netkf period recording"),
+    ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,revisions,xhat_final0,trace_P_final,fused_final\n",
+     "not a netkf period recording"),
+    ("k,t,u0,x0,xhat0,trace_P,fused,late,state,late_samples\n", "not a netkf period recording"),
+], ids=range(22))
+def test_malformed_period_csv_rows_are_refused(tmp_path, text, why):
+    p = tmp_path / "bad.csv"
+    p.write_text(text)
+    with pytest.raises(netkf.FormatError, match="bad.csv: .*" + why):
+        netkf.read_periods(p)
+
+
+def test_period_frames_have_one_dtype_with_and_without_none_rows(data_dir, tmp_path):
+    """`late`, `revisions` are Int64 whether or not a period lacks its estimate, so frames of two
+    recordings (or a CSV and an MCAP) compare and concatenate."""
+    p = tmp_path / "p.csv"
+    p.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n0,0,1,0.5,1,1,0,ok,\n")
+    assert str(netkf.read_periods(p)["late"].dtype) == "Int64"
+    assert str(netkf.read_periods(data(data_dir, "periods_fuse_within.csv"))["revisions"].dtype) == "Int64"
+    p.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0\n")
+    empty = netkf.read_periods(p)
+    assert len(empty) == 0 and str(empty["late"].dtype) == "Int64" and empty.attrs["input_dim"] == 1
+
+
 # ---- samples CSV -------------------------------------------------------------------------
 
 def test_samples_csv_with_two_measurement_sizes(data_dir):
@@ -309,8 +428,10 @@ def estimate(k, revision=0, trace_P=1.0):
 
 
 def netkf_mcap(tmp_path, truths, estimates):
+    """truths: periods (x = [1.0]) or the truth messages themselves."""
     body = HEADER + schema(1, "S") + channel(0, 1, "netkf/truth") + channel(1, 1, "netkf/estimate")
-    body += b"".join(message(0, i, k, {"k": k, "t": k * 0.01, "x": [1.0]}) for i, k in enumerate(truths))
+    truths = [t if isinstance(t, dict) else {"k": t, "t": t * 0.01, "x": [1.0]} for t in truths]
+    body += b"".join(message(0, i, t["k"], t) for i, t in enumerate(truths))
     body += b"".join(message(1, i, i, e) for i, e in enumerate(estimates))
     return write(tmp_path, body + FOOTER)
 
@@ -348,3 +469,42 @@ def test_mcap_estimate_without_its_fields_is_refused(tmp_path, change, why):
     with pytest.raises(netkf.FormatError, match="message 1 on netkf/estimate is not what netkf writes.*" +
                        re.escape(why)):
         netkf.read_mcap_periods(netkf_mcap(tmp_path, [0, 1], [estimate(0), e]))
+
+
+def test_mcap_truth_without_estimate_and_with_input(tmp_path):
+    """Every truth is a row (the CSV recorder's join): one without an in-time estimate is a none
+    row, an estimate without truth is left out; the truth's u gives u0..u{m-1}. The CSV the
+    writer makes of the same records reads as an equal frame."""
+    truths = [{"k": 0, "t": 0.0, "x": [1.0], "u": [0.0, 0.0]}, {"k": 1, "t": 0.01, "x": [2.0], "u": [-0.5, 0.25]},
+              {"k": 2, "t": 0.02, "x": [3.0], "u": [0.1, None]}]
+    es = [dict(estimate(1), x_hat=[1.5], late=1, late_samples=[{"k": 0, "sensor_id": 1}]), estimate(3)]
+    df = netkf.read_mcap_periods(netkf_mcap(tmp_path, truths, es))
+    assert df["k"].tolist() == [0, 1, 2] and df["state"].tolist() == ["none", "ok", "none"]
+    assert df.attrs["input_dim"] == 2 and list(df.columns[-2:]) == ["u0", "u1"]
+    assert df["u0"].tolist() == [0.0, -0.5, 0.1] and df["u1"].tolist()[:2] == [0.0, 0.25]
+    assert math.isnan(df.loc[2, "u1"])  # null: a non-finite double
+    assert estimate_cells_are_empty(df.loc[0], 1, False) and estimate_cells_are_empty(df.loc[2], 1, False)
+    csv = tmp_path / "same.csv"
+    csv.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,u1\n0,0,1,,,,,none,,0,0\n"
+                   "1,0.01,2,1.5,1,1,1,ok,0:1,-0.5,0.25\n2,0.02,3,,,,,none,,0.10000000000000001,nan\n")
+    from_csv = netkf.read_periods(csv)
+    df.attrs = from_csv.attrs = {}
+    pd.testing.assert_frame_equal(df, from_csv, check_exact=True)
+    # fuse_within: the final columns of a none row are empty too.
+    fw = netkf.read_mcap_periods(netkf_mcap(tmp_path, truths, es), fuse_within=True)
+    assert estimate_cells_are_empty(fw.loc[0], 1, True) and fw["revisions"].tolist()[1] == 0
+    assert str(fw["revisions"].dtype) == "Int64"
+    # Open loop: no u in the truth, no u column.
+    plain = netkf.read_mcap_periods(netkf_mcap(tmp_path, [0, 1], [estimate(0)]))
+    assert plain.attrs["input_dim"] == 0 and "u0" not in plain.columns and plain["state"].tolist() == ["ok", "none"]
+
+
+@pytest.mark.parametrize("u1,why", [(None, "truth's input u of period 1 has 0 components, not 1"),
+                                    ([1.0, 2.0], "truth's input u of period 1 has 2 components, not 1"),
+                                    ("x", "message 1 on netkf/truth is not what netkf writes")])
+def test_mcap_truth_inputs_of_different_sizes_are_refused(tmp_path, u1, why):
+    second = {"k": 1, "t": 0.01, "x": [1.0]}
+    if u1 is not None:
+        second["u"] = u1
+    with pytest.raises(netkf.FormatError, match=re.escape(why)):
+        netkf.read_mcap_periods(netkf_mcap(tmp_path, [{"k": 0, "t": 0.0, "x": [1.0], "u": [0.0]}, second], []))

@@ -2,7 +2,12 @@
 
 Independent expectations: the launch's own summary (computed in C++ from the estimates it
 received), a second recording of the same run in the other format (an attached `netkf
-record`), and a second MCAP implementation (@mcap/core, tests/e2e/mcap_read.mjs).
+record`), a second MCAP implementation (@mcap/core, tests/e2e/mcap_read.mjs), and the scenario's
+control gain (the input the plant applied is -L times the previous period's estimate).
+
+Every scenario here is a closed loop (plant.B with one column): the period frames end with u0,
+and a period the plant ran without an estimate recorded (e.g. its last, when the run ended
+first) is a `none` row; the summary's quantities are over the periods with an estimate.
 """
 import math
 import os
@@ -13,6 +18,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 import netkf
 from conftest import REPO
@@ -31,19 +37,31 @@ def close(a, b):
     return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-15)
 
 
-@pytest.mark.parametrize("run", ["csv", "late"])
+def with_estimate(df):
+    return df[df.state != "none"]  # the one-liner of docs/python.md
+
+
+def truth_columns(df):
+    return ["k", "t"] + [c for c in df.columns if c[0] in "xu" and c[1:].isdigit()]
+
+
+@pytest.mark.parametrize("run", ["csv", "late", "loop"])
 def test_csv_rows_are_the_summarys_periods_from_period_0(live, run):
     df = netkf.read_periods(path(live, run, "R.csv"))
     summary = netkf.read_summary(path(live, run, "J.json"))
     assert summary["periods"] > 50
-    assert len(df) == summary["periods"]
+    assert len(with_estimate(df)) == summary["periods"]  # the summary counts the estimates
     assert df["k"].iloc[0] == 0 and df["k"].is_monotonic_increasing and df["k"].is_unique
-    assert np.allclose(df["t"], df["k"] * 0.01, rtol=0, atol=1e-9)  # period_ms 10 in both scenarios
+    assert np.allclose(df["t"], df["k"] * 0.01, rtol=0, atol=1e-9)  # period_ms 10 in every scenario
+    # plant.B has one column: u0 ends each row, 0 at period 0 (no input before the first period).
+    assert df.attrs["input_dim"] == 1 and df.columns[-1] == "u0" and df["u0"].iloc[0] == 0.0
+    # How many inputs arrive in time depends on the load (a starved run had half of them 0).
+    assert df["u0"].notna().all() and (df["u0"] != 0).any()
 
 
-@pytest.mark.parametrize("run", ["csv", "late"])
+@pytest.mark.parametrize("run", ["csv", "late", "loop"])
 def test_summary_quantities_recomputed_from_the_csv(live, run):
-    df = netkf.read_periods(path(live, run, "R.csv"))
+    df = with_estimate(netkf.read_periods(path(live, run, "R.csv")))
     s = netkf.read_summary(path(live, run, "J.json"))
     assert close(rms(df, "xhat"), s["rms_error"])
     final = "xhat_final" if df.attrs["fuse_within"] else "xhat"
@@ -68,6 +86,7 @@ def test_summary_quantities_recomputed_from_the_csv(live, run):
 def test_late_fusion_columns(live):
     df = netkf.read_periods(path(live, "late", "R.csv"))
     assert df.attrs["fuse_within"] and df.attrs["state_dim"] == 1
+    df = with_estimate(df)  # a none row has <NA> revisions, which a mask cannot take
     revised = df[df["revisions"] > 0]
     assert len(revised) > 0, "a fuse_within run over a link delayed by 0-20 ms at 10 ms revises some periods"
     # A revision only adds samples; an unrevised period repeats the in-time estimate.
@@ -91,15 +110,24 @@ def attached_and_launch(live, run):
     return attached, launch
 
 
-@pytest.mark.parametrize("run", ["csv", "mcap", "late"])
+@pytest.mark.parametrize("run", ["csv", "mcap", "late", "loop"])
 def test_csv_and_mcap_of_one_run_are_equal_frames(live, run):
     """The attached recorder (started once the launch recorded its first period) holds a
-    stretch of the run: every one of its periods is the launch's, the same doubles."""
+    stretch of the run: every one of its periods is the launch's, the same doubles (truth,
+    input and, from its first estimate on, the estimate; before that it may have a period's
+    truth whose estimate was published before it subscribed)."""
     attached, launch = attached_and_launch(live, run)
     assert len(attached) >= 10 and set(attached["k"]) <= set(launch["k"])
-    same = launch[launch["k"].isin(attached["k"])].reset_index(drop=True)
+    assert attached.attrs["input_dim"] == launch.attrs["input_dim"] == 1
+    same = launch.set_index("k").loc[attached["k"]].reset_index()
     same.attrs = attached.attrs = {}
-    pd.testing.assert_frame_equal(attached, same, check_exact=True)
+    truth = truth_columns(attached)
+    pd.testing.assert_frame_equal(attached[truth], same[truth], check_exact=True)
+    estimated = (attached["state"] != "none").to_numpy()
+    assert estimated.sum() >= 10
+    first = int(np.argmax(estimated))
+    pd.testing.assert_frame_equal(attached.iloc[first:].reset_index(drop=True),
+                                  same.iloc[first:].reset_index(drop=True), check_exact=True)
 
 
 def test_launch_mcap_samples_equal_its_samples_csv(live):
@@ -115,8 +143,8 @@ def test_launch_mcap_samples_equal_its_samples_csv(live):
 @pytest.mark.parametrize("run", ["csv", "late"])
 def test_attached_samples_csv_and_mcap_are_the_launchs(live, run):
     """The attached recorder's samples, from its MCAP and its CSV, are equal, and each is the
-    launch's sample of that (period, sensor) from its second period on (in its first it may have
-    seen a sample but not the estimate that says whether it was fused)."""
+    launch's sample of that (period, sensor) after its first period with an estimate (before, and
+    in that one, it may have seen a sample but not the estimate that says whether it was fused)."""
     fuse_within = run == "late"
     key = ["k", "sensor_id"]
     m = netkf.read_mcap_samples(path(live, run, "A.mcap"), fuse_within=fuse_within)
@@ -128,7 +156,7 @@ def test_attached_samples_csv_and_mcap_are_the_launchs(live, run):
     pd.testing.assert_frame_equal(a, m, check_exact=True)
     launch = netkf.read_samples(path(live, run, "S.csv"))
     launch.attrs = {}
-    first = netkf.read_mcap_periods(path(live, run, "A.mcap"))["k"].min()
+    first = with_estimate(netkf.read_mcap_periods(path(live, run, "A.mcap")))["k"].min()
     mine = a[a["k"] > first].reset_index(drop=True)
     theirs = launch.merge(mine[key], on=key).sort_values(key).reset_index(drop=True)
     pd.testing.assert_frame_equal(mine, theirs, check_exact=True)
@@ -158,7 +186,10 @@ def test_mcap_periods_are_the_summarys_periods(live):
     estimates = netkf.read_mcap_topic(m, "netkf/estimate")
     assert int((estimates["revision"] == 0).sum()) == s["periods"]
     frame = netkf.read_recording(path(live, "mcap", "R.mcap"))  # by the extension
-    assert len(frame) == s["periods"] and frame["k"].iloc[0] == 0
+    assert frame["k"].iloc[0] == 0 and frame["k"].is_monotonic_increasing
+    assert len(frame) == len(netkf.read_mcap_topic(m, "netkf/truth"))  # a row per truth
+    frame = with_estimate(frame)
+    assert len(frame) == s["periods"]
     assert close(rms(frame, "xhat"), s["rms_error"]) and close(frame["trace_P"].mean(), s["mean_trace_P"])
     assert (estimates["log_time"] == (estimates["t"] * 1e9).round().astype(np.int64)).all()
 
@@ -224,4 +255,35 @@ def test_damaged_launch_mcap_is_an_error_and_a_cut_one_is_not(live, tmp_path):
     assert 0 < len(frame) < len(whole)
     same = whole.iloc[:len(frame)].reset_index(drop=True)
     frame.attrs = same.attrs = {}
-    pd.testing.assert_frame_equal(frame, same, check_exact=True)
+    # The cut may fall between the last periods' truth and their estimates: those read as none.
+    kept = int(frame.index[frame["state"] != "none"].max()) + 1
+    assert kept > 0
+    pd.testing.assert_frame_equal(frame.iloc[:kept], same.iloc[:kept], check_exact=True)
+    truth = truth_columns(frame)
+    pd.testing.assert_frame_equal(frame[truth], same[truth], check_exact=True)
+
+
+@pytest.mark.parametrize("run,name", [("loop", "R.csv"), ("loop", "A.mcap"), ("late", "R.csv"), ("late", "A.mcap")])
+def test_applied_input_is_minus_L_times_the_previous_estimate(live, run, name):
+    """u0 of period k is the input u_{k-1} = -L x̂_{k-1|k-1} the plant applied (certainty
+    equivalence with the scenario's gain L), or 0 where no input arrived in time: exactly, as the
+    estimator computes it (-L times a double) and the recording keeps every double."""
+    scenario_path = live[run]["launch"][2]
+    with open(scenario_path) as f:
+        gain = yaml.safe_load(f)["plant"]["control"]["gain"]
+    assert len(gain) == 1 and len(gain[0]) == 1, "a scalar gain, so -L x̂ is one multiplication"
+    L = float(gain[0][0])
+    p = path(live, run, name)
+    df = netkf.read_periods(p) if name.endswith(".csv") else netkf.read_mcap_periods(p)
+    assert df.attrs["input_dim"] == 1
+    rows = df.to_dict("records")
+    checked = 0
+    for prev, row in zip(rows, rows[1:]):
+        if row["k"] != prev["k"] + 1 or prev["state"] == "none" or row["u0"] == 0.0:
+            continue
+        assert row["u0"] == -L * prev["xhat0"], "period %d: u0 %r, -L x̂ of period %d %r" % (
+            row["k"], row["u0"], prev["k"], -L * prev["xhat0"])
+        checked += 1
+    # Not vacuous; how many inputs arrive in time depends on the load, so no fraction is asked
+    # (a run starved of CPU still had ~100 of 220).
+    assert checked >= 10
