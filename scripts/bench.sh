@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
-       security recovery multi-host shutdown-aborts)
+       security recovery blind-window multi-host shutdown-aborts)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
@@ -25,6 +25,7 @@ declare -A about=(
   [dashboard]="the dashboard's cost: pipeline latency and the launch's CPU with a browser or a protocol client (bench/bench_dashboard.sh)"
   [security]="pipeline latency without and with DDS Security (bench_latency --secure-compare)"
   [recovery]="periods lost to a killed or stopped process (e2e fault_estimator, fault_channel; integration DdsRestart)"
+  [blind-window]="a killed estimator in a closed loop under load: periods without an input, fresh process, warm spare, standby (bench/bench_blind_window.sh)"
   [multi-host]="three hosts over a Discovery Server (e2e multi_host)"
   [shutdown-aborts]="Fast DDS aborts while a run stops, counted over repeated launches"
 )
@@ -372,6 +373,15 @@ launch_stops() {
     fi
   done
   printf '| %d | %s | load average %s at the start%s | %d |\n' "$runs" "$scenario" "$load" "${busy_note:-}" "$aborts"
+}
+
+bench_blind_window() {
+  local mode
+  echo "| restart | run | longest run of periods without an input | max \\|x\\| | restarted estimator's readers matched [ms] |"
+  echo "|---|---|---|---|---|"
+  for mode in fresh spare standby; do
+    $netns bench/bench_blind_window.sh "$netkf" "$mode" 6 150 "$out/blind-window"
+  done
 }
 
 bench_shutdown_aborts() {

@@ -248,6 +248,8 @@ with Launch(None, 60, out, record=False, extra=["--dashboard-bind", "127.0.0.2",
         for c in clients:
             c.close()
     check("127.0.0.2:8471" in listening() and "127.0.0.1:8471" not in listening(), "listens on the given address only")
+    # A run stopped before its first estimate is a failed run (the network never got ready).
+    check(wait_for(lambda: re.search(r"^period \d+ ", run.output(), re.M) is not None, 20), "the network runs")
     rc = run.interrupt()
 check(rc == 0, "launch exits 0 (rc=%s)" % rc)
 

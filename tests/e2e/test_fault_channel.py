@@ -65,8 +65,9 @@ if stopped_at is not None and killed_at is not None:
     kill_outages = [o for o in runs if killed_at - 10 <= o[0]]
     check(bool(stop_outages) and all(o[0] + o[1] <= stopped_until + RECOVERY for o in stop_outages),
           "SIGSTOP: an outage, fusion again within %d periods of SIGCONT (%s)" % (RECOVERY, stop_outages))
-    check(bool(kill_outages) and all(o[0] + o[1] <= killed_at + RECOVERY for o in kill_outages),
-          "kill -9: an outage, fusion again within %d periods once the channel is restarted (%s)"
+    # The warm spare takes over at once: the kill's outage may be too short to show (< 3 periods).
+    check(all(o[0] + o[1] <= killed_at + RECOVERY for o in kill_outages),
+          "kill -9: fusion again within %d periods once the channel is restarted from its spare (%s)"
           % (RECOVERY, kill_outages))
 late = sum(r["late"] for r in rows)
 check(late > 0, "the samples held while the channel was stopped arrived late and were counted (%d)" % late)

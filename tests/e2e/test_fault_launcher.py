@@ -14,8 +14,10 @@ scenario = os.path.join(DATA, "kill.yaml")
 out = workdir("fault-launcher")
 with Launch(scenario, 60, out, extra=["--sensors-per-process", "1"]) as run:
     check(wait_for(lambda: last_period(run.record) >= 50, 60), "the run reaches period 50")
+    check(wait_for(lambda: len(run.child_pids()) == 8, 20), "the launch lists its children and spares")
     children = run.child_pids()
-    check(len(children) == 6, "six children: plant, channel, estimator, three sensors (%s)" % sorted(children))
+    check(len(children) == 8, "six children (plant, channel, estimator, three sensors) and the channel's and the "
+          "estimator's warm spares (%s)" % sorted(children))
     sensor = children.get("sensor_node[1]")
     if sensor:
         os.kill(sensor, signal.SIGKILL)  # leaves its shared-memory segment behind
