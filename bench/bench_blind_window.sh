@@ -21,8 +21,8 @@ trap 'kill "${busy[@]}" 2>/dev/null || true' EXIT
 yes >/dev/null & busy+=($!)
 yes >/dev/null & busy+=($!)
 for i in $(seq 1 "$runs"); do
-  run=$dir/$mode-$i
-  mkdir -p "$run"
+  mkdir -p "$dir"
+  run=$(mktemp -d "$dir/$mode-$i.XXXX")
   "$netkf" launch "$scenario" --duration 8 --dashboard off --status-interval 0 --log-level info \
     --record "$run/r.csv" --pid-file "$run/pids.txt" --domain $((domain0 + i)) "${extra[@]}" >"$run/log.txt" 2>&1 &
   launch=$!
@@ -30,10 +30,11 @@ for i in $(seq 1 "$runs"); do
   if [ "$mode" = standby ]; then
     # The primary: the estimator of the highest --ownership-strength.
     victim=$(for p in $(awk '/^estimator_node/ {print $NF}' "$run/pids.txt"); do
-      tr '\0' ' ' </proc/"$p"/cmdline | sed -n "s/.*--ownership-strength \([0-9]*\).*/\1 $p/p"
+      strength=$(tr '\0' '\n' </proc/"$p"/cmdline | grep -A1 -x -- --ownership-strength | tail -1)
+      echo "$strength $p"
     done | sort -n | tail -1 | cut -d' ' -f2)
   else
-    victim=$(awk '$1 == "estimator_node" {print $2}' "$run/pids.txt")
+    victim=$(awk 'NF == 2 && $1 == "estimator_node" {print $2}' "$run/pids.txt")
   fi
   kill -9 "$victim"
   rc=0
