@@ -25,6 +25,7 @@ class EstimatorApp::Impl {
   Impl(const Scenario& scenario, dds::Participant& participant, EstimatorAppOptions options)
       : core_(scenario),
         input_dim_(scenario.plant.B ? static_cast<int>(scenario.plant.B->cols()) : 0),
+        controls_(scenario.plant.control.has_value()),
         deadline_timer_(io_),
         status_timer_(io_),
         status_period_(std::chrono::milliseconds(options.status_period_ms)),
@@ -51,11 +52,19 @@ class EstimatorApp::Impl {
     delivered_batch_.emplace(participant, dds::topics::delivered_measurement_batch, [this](wire::MeasurementBatch&& b) {
       for (const auto& m : b.samples()) on_sample(m);
     });
-    presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, dds::scenario_hash(scenario));
+    // Its presence (what the plant waits for before period 0) once its readers matched: run().
+    announce_ = [this, &participant, hash = dds::scenario_hash(scenario)] {
+      presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, hash);
+    };
     schedule_status();
     schedule_liveliness();
   }
 
+  // Before it says it is present (the plant starts period 0 when every process is), the estimator
+  // waits (bounded) until a reader of its estimates (the launch's) and, in a closed loop, the
+  // plant's control reader have matched its writers: the topics are volatile, and an estimate or
+  // an input written before is lost (the recording once began with 39 periods without an estimate).
+  //
   // A restarted estimator publishes the periods it missed at once, as soon as the transient-local
   // ticks arrive. The estimate topic is volatile: a reader that has not matched the new writer
   // by then loses them (e2e fault_estimator once recorded 15 periods too few). So its ticks are
@@ -78,7 +87,7 @@ class EstimatorApp::Impl {
   void poll_readers() {
     constexpr auto kWait = std::chrono::seconds(5);
     const bool estimate_ok = estimate_.matched() >= 1;
-    const bool control_ok = input_dim_ == 0 || control_.matched() >= 1;
+    const bool control_ok = !controls_ || control_.matched() >= 1;
     const auto waited = std::chrono::steady_clock::now() - readers_wait_started_;
     if ((!estimate_ok || !control_ok) && waited < kWait) {
       readers_timer_.expires_after(std::chrono::milliseconds(2));
@@ -88,14 +97,17 @@ class EstimatorApp::Impl {
       return;
     }
     if (!estimate_ok)
-      spdlog::warn("restart: no reader of {} matched within {} s; publishing anyway", estimate_.topic_name(),
+      spdlog::warn("no reader of {} matched within {} s; going on anyway", estimate_.topic_name(),
                    kWait.count());
     if (!control_ok)
-      spdlog::warn("restart: the plant's control reader ({}) did not match within {} s; publishing anyway",
+      spdlog::warn("the plant's control reader ({}) did not match within {} s; going on anyway",
                    control_.topic_name(), kWait.count());
-    spdlog::info("restart: the readers of the estimate{} matched {:.0f} ms after the start; {} ticks were held",
-                 input_dim_ > 0 ? " and the control input" : "",
-                 std::chrono::duration<double, std::milli>(waited).count(), held_ticks_.size());
+    const auto text = fmt::format("the readers of the estimate{} matched {:.0f} ms after the start; {} ticks were held",
+                                  controls_ ? " and the control input" : "",
+                                  std::chrono::duration<double, std::milli>(waited).count(), held_ticks_.size());
+    if (resumed_) spdlog::info("restart: {}", text);
+    else spdlog::debug("{}", text);
+    if (announce_) std::exchange(announce_, {})();
     holding_ticks_ = false;
     auto held = std::move(held_ticks_);
     held_ticks_.clear();
@@ -111,7 +123,7 @@ class EstimatorApp::Impl {
 
   void run() {
     work_.emplace(io_.get_executor());
-    if (resumed_) boost::asio::post(io_, [this] { hold_ticks_until_readers_match(); });
+    boost::asio::post(io_, [this] { hold_ticks_until_readers_match(); });
     io_.run();
   }
 
@@ -301,6 +313,7 @@ class EstimatorApp::Impl {
   LogThrottle rejection_log_;  // a broken or rogue sender: a few warnings, then a count
   EstimatorCore core_;
   int input_dim_;
+  bool controls_;  // a closed loop: it sends the plant u = -L x̂
   boost::asio::steady_timer deadline_timer_;
   boost::asio::steady_timer status_timer_;
   std::chrono::milliseconds status_period_;
@@ -321,6 +334,7 @@ class EstimatorApp::Impl {
   std::optional<dds::Reader<wire::Tick>> tick_;
   std::optional<dds::Reader<wire::Measurement>> delivered_;
   std::optional<dds::Reader<wire::MeasurementBatch>> delivered_batch_;
+  std::function<void()> announce_;  // creates presence_ once the readers matched
   std::optional<dds::PresenceAnnouncer> presence_;
 };
 
