@@ -43,7 +43,11 @@ for i in $(seq 1 "$runs"); do
 import csv, re, sys
 run, mode, rc = sys.argv[1], sys.argv[2], sys.argv[3]
 rows = list(csv.DictReader(open(run + "/r.csv")))
-zero = [int(r["k"]) for r in rows if int(r["k"]) > 0 and r["u0"] and float(r["u0"]) == 0.0]
+# An input is missing when u = 0 although the estimate before gives a nonzero one (with the
+# dead-beat gain, x̂ = 0 after a period that fused nothing gives a true u = 0).
+xhat = {int(r["k"]): r["xhat0"] for r in rows}
+zero = [int(r["k"]) for r in rows if int(r["k"]) > 0 and r["u0"] and float(r["u0"]) == 0.0 and
+        (xhat.get(int(r["k"]) - 1) in (None, "") or float(xhat[int(r["k"]) - 1]) != 0.0)]
 best = cur = 0
 last = None
 for k in zero:

@@ -265,6 +265,22 @@ def read_samples(path):
                  "y": [float(v) for v in c[4:] if v != ""]} for c in reader]
 
 
+def inputs_missing(rows):
+    """The periods k >= 1 of a closed loop's recording (read_periods(..., truth_only=True)) whose
+    applied input (u_{k-1}, in row k) was zero because none arrived in time: u == 0 while the
+    recorded estimate of k - 1 is not zero (u = -L x̂ is a true zero when x̂ = 0, e.g. a dead-beat
+    gain after a period that fused nothing), or there is no estimate of k - 1."""
+    by_k = {r["k"]: r for r in rows}
+    missing = []
+    for r in rows:
+        prev = by_k.get(r["k"] - 1)
+        if r["k"] < 1 or not r["u"] or any(v != 0.0 for v in r["u"]):
+            continue
+        if prev is None or prev["xhat"] is None or any(v != 0.0 for v in prev["xhat"]):
+            missing.append(r["k"])
+    return missing
+
+
 def all_finite(rows):
     for r in rows:
         for cell in r["raw"]:

@@ -13,8 +13,8 @@ import random
 import signal
 import time
 
-from e2e_common import (DATA, Launch, check, finish, last_period, node_pids, primary_estimator, read_periods,
-                        require_netns, wait_for, workdir)
+from e2e_common import (DATA, Launch, check, finish, inputs_missing, last_period, node_pids, primary_estimator,
+                        read_periods, require_netns, wait_for, workdir)
 
 require_netns()
 domain = int(os.environ["NETKF_DOMAIN"])
@@ -53,14 +53,15 @@ unexplained = [r["k"] for r in rows[:-20] if r["xhat"] is None and
 check(not unexplained, "every period has an estimate but a few at each takeover (%d without: %s)"
       % (len(unexplained), unexplained[:10]))
 by_k = {r["k"]: r for r in rows}
-mismatched = [r["k"] for r in rows[1:] if r["u"][0] != 0.0 and (by_k[r["k"] - 1]["xhat"] is None or abs(
+missing = set(inputs_missing(rows))
+mismatched = [r["k"] for r in rows[1:] if r["k"] not in missing and (by_k[r["k"] - 1]["xhat"] is None or abs(
     r["u"][0] + GAIN * by_k[r["k"] - 1]["xhat"][0]) > 1e-12 * max(1.0, abs(GAIN * by_k[r["k"] - 1]["xhat"][0])))]
 check(not mismatched, "every applied input is -L x̂ of the recorded estimate (%d differ: %s)"
       % (len(mismatched), mismatched[:5]))
 undisturbed = max(abs(r["x"][0]) for r in rows if 50 <= r["k"] < kills[0][0]) if kills else 1.0
 for i, (k_kill, strength) in enumerate(kills):
     window = [r for r in rows if k_kill - 10 <= r["k"] <= k_kill + 60]
-    zero = [r["k"] for r in window if r["u"][0] == 0.0]
+    zero = sorted(set(inputs_missing(rows)) & {r["k"] for r in window})
     worst = max((abs(r["x"][0]) for r in window), default=0.0)
     print("kill %d (strength %d) near period %d: %d periods without an input %s, max |x| %.3g (undisturbed %.3g)"
           % (i + 1, strength, k_kill, len(zero), zero, worst, undisturbed))
