@@ -104,7 +104,7 @@ void add_process_options(CLI::App* cmd, LaunchOptions* o) {
   cmd->add_flag("--standby", o->standby,
                 "Run a hot-standby estimator beside the primary: both fuse the same samples, the plant and every "
                 "reader take the primary's inputs and estimates (DDS exclusive ownership) until its liveliness "
-                "lease (5 periods) expires, then the standby's; a dead estimator comes back as the new standby");
+                "lease (50 ms) expires, then the standby's; a dead estimator comes back as the new standby");
   cmd->add_flag("!--no-warm-spares", o->warm_spares,
                 "Restart a dead channel or estimator as a fresh process instead of activating its warm spare (a "
                 "process started ahead that already joined the network: a restart then costs no DDS discovery)");

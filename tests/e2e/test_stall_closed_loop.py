@@ -23,16 +23,17 @@ from e2e_common import Launch, check, finish, inputs_missing, last_period, read_
 require_netns()
 
 
-def stall(target, extra=()):
-    out = workdir("stall-%s" % target)
-    with Launch(None, 12, out, extra=["--dashboard", "off"] + list(extra), name="launch-" + target) as run:
+def stall(target, extra=(), seconds=3.0, label=None):
+    label = label or target
+    out = workdir("stall-%s" % label)
+    with Launch(None, 12, out, extra=["--dashboard", "off"] + list(extra), name="launch-" + label) as run:
         check(wait_for(lambda: last_period(run.record) >= 300, 60), "[%s] the run reaches period 300" % target)
         pid = run.child_pids().get(target)
         check(pid is not None, "[%s] found the process" % target)
         stopped_at = last_period(run.record)
         if pid:
             os.kill(pid, signal.SIGSTOP)
-            time.sleep(3.0)
+            time.sleep(seconds)
             os.kill(pid, signal.SIGCONT)
         rc = run.wait(60)
         log = run.output()
@@ -82,16 +83,7 @@ with Launch(None, 0.3, out, extra=["--dashboard", "off"], name="launch-short") a
 check(rc == 1, "a launch that never got ready exits 1 (rc=%s)" % rc)
 check("never got ready" in log, "it says the network never got ready")
 
-out = workdir("allowed")
-with Launch(None, 12, out, extra=["--dashboard", "off", "--allow-divergence"], name="launch-allowed") as run:
-    check(wait_for(lambda: last_period(run.record) >= 300, 60), "[allowed] the run reaches period 300")
-    pid = run.child_pids().get("estimator_node")
-    if pid:
-        os.kill(pid, signal.SIGSTOP)
-        time.sleep(2.0)
-        os.kill(pid, signal.SIGCONT)
-    rc = run.wait(60)
-    log = run.output()
+rc, log, rows, stopped_at = stall("estimator_node", ["--allow-divergence"], 2.0, "allowed")
 check("the closed loop diverged" in log, "[allowed] the loop diverged")
 check(rc == 0, "[allowed] --allow-divergence: a diverged run exits 0 (rc=%s)" % rc)
 finish()
