@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
-       security recovery blind-window multi-host shutdown-aborts)
+       security recovery blind-window multi-host shutdown-aborts setup)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
@@ -28,6 +28,7 @@ declare -A about=(
   [blind-window]="a killed estimator in a closed loop under load: periods without an input, fresh process, warm spare, standby (bench/bench_blind_window.sh)"
   [multi-host]="three hosts over a Discovery Server (e2e multi_host)"
   [shutdown-aborts]="Fast DDS aborts while a run stops, counted over repeated launches"
+  [setup]="the README's two commands on a fresh clone, cold (empty caches) and warm, per step (bench/bench_setup.sh)"
 )
 
 usage() {
@@ -382,6 +383,14 @@ bench_blind_window() {
   for mode in fresh spare standby; do
     $netns bench/bench_blind_window.sh "$netkf" "$mode" 6 150 "$out/blind-window"
   done
+}
+
+# The README's two commands on a fresh clone of HEAD with caches of its own (about an hour on
+# 2 cores): nothing else should run meanwhile. The raw files stay in the work directory.
+bench_setup() {
+  local work
+  work=$out/setup-$(date -u +%Y%m%d-%H%M%S)
+  bench/bench_setup.sh HEAD "$work" 10 >&2
 }
 
 bench_shutdown_aborts() {

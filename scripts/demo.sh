@@ -5,5 +5,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/deps.sh
-scripts/build.sh default
+# Only what the demo runs: the CLI and the four nodes (scripts/test.sh builds the rest).
+scripts/build.sh default netkf plant_node sensor_node channel_emulator estimator_node
 exec build/default/cli/netkf launch "$@"

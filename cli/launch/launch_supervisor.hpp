@@ -23,7 +23,7 @@ struct ChildSpec {
   // Critical children (the plant) are never restarted: the run's clock would restart at
   // k = 0, which would silently corrupt a recording. The plant's clean exit ends the run.
   bool critical = false;
-  // CPU priority (nice value, 0..19) of the child and every thread it creates.
+  // CPU priority (nice value, 1..19) of the child and every thread it creates; 0: the launch's own.
   int nice = 0;
   // Keep a warm spare: a second process of the same argv plus `--spare`, started at once, which
   // joins the DDS network and waits (dds/node_support.hpp, SpareGate). When the child dies, the
