@@ -64,6 +64,7 @@ void add_analyze_command(CLI::App& app) {
     std::string file;
     bool json = false, region = false, sweep = false, no_lmi = false, lmi_always = false;
     int points = 0;
+    std::optional<int> region_sensor;
     std::string plot;
     std::vector<std::string> links;
   };
@@ -71,7 +72,11 @@ void add_analyze_command(CLI::App& app) {
   auto* cmd = app.add_subcommand("analyze", "What the papers predict for a scenario: bounds, critical rates, regions");
   cmd->add_option("scenario", args->file, "scenario YAML file")->required();
   cmd->add_flag("--json", args->json, "print one JSON object (keys: docs/architecture.md, 'Contracts')");
-  cmd->add_flag("--region", args->region, "two sensors: stability region bounds over a grid of lambda1");
+  cmd->add_flag("--region", args->region,
+                "two sensors: stability region bounds over a grid of lambda1; one sensor (or --region-sensor) and an "
+                "actuation link: the (gamma, nu) region");
+  cmd->add_option("--region-sensor", args->region_sensor,
+                  "with --region and an actuation link: the sensor ID of the (gamma, nu) region");
   cmd->add_flag("--sweep", args->sweep, "Tr S-bar and Tr V-bar over a grid of the shared arrival rate");
   cmd->add_option("--points", args->points, "grid points for --sweep / --region")->check(CLI::Range(2, 10001));
   cmd->add_flag("--no-lmi", args->no_lmi, "skip the CSDP LMI (upper bounds from the g iteration only)");
@@ -82,12 +87,24 @@ void add_analyze_command(CLI::App& app) {
   cmd->callback([args] {
     Scenario s = load_or_fail("analyze", args->file);
     check_plot_or_fail("analyze", args->plot);
+    if (args->region_sensor) {
+      std::string why;
+      if (!args->region) why = "--region-sensor needs --region";
+      else if (!s.actuation_link()) why = "--region-sensor needs an actuation link (plant.control.link)";
+      else if (!s.find_sensor(*args->region_sensor))
+        why = "--region-sensor: the scenario has no sensor " + std::to_string(*args->region_sensor);
+      if (!why.empty()) {
+        std::cerr << "netkf analyze: error: " << why << "\n";
+        throw CLI::RuntimeError(2);
+      }
+    }
     std::vector<MeasuredLink> measured = fit_links_or_fail(s, args->links);
     analysis::AnalyzeOptions o;
     o.region = args->region;
     o.sweep = args->sweep || (!args->plot.empty() && !args->region);
     o.use_lmi = !args->no_lmi;
     if (args->lmi_always) o.lmi_max_block = 0;
+    o.region_sensor = args->region_sensor;
     if (args->points > 0) o.region_points = o.sweep_points = args->points;
     analysis::AnalysisReport r;
     try {
@@ -110,8 +127,14 @@ void add_analyze_command(CLI::App& app) {
     }
     if (!args->plot.empty()) {
       try {
-        if (args->region) {
-          if (r.region.empty()) fail("analyze", "--region --plot needs a two-sensor scenario");
+        if (args->region && r.actuation_region) {
+          plot_actuation_region(r, s.name + ": closed-loop stability region (sensor " +
+                                       std::to_string(r.actuation_region->sensor_id) + " x actuation link)",
+                                args->plot);
+        } else if (args->region) {
+          if (r.region.empty())
+            fail("analyze", "--region --plot needs a two-sensor scenario, or one sensor (or --region-sensor) and an "
+                            "actuation link");
           plot_region(r, s.name + ": stability region (Liu-Goldsmith Thm 3)", args->plot);
         } else {
           plot_sweep(r, s.name + ": bounds on lim E[P_{k|k-1}] (Sinopoli Thm 4)", args->plot);

@@ -139,6 +139,25 @@ void plot_region(const analysis::AnalysisReport& report, const std::string& titl
   run_gnuplot(s.str());
 }
 
+void plot_actuation_region(const analysis::AnalysisReport& report, const std::string& title,
+                           const std::filesystem::path& out) {
+  const auto& region = *report.actuation_region;
+  std::ostringstream s;
+  s << header(out, title);
+  s << "$region << EOD\n";
+  for (const auto& p : region.points)
+    s << p.gamma << " " << p.nu_lower << " " << p.nu_upper.value_or(1.0) << "\n";  // no stable ν̄: empty band
+  s << "EOD\n";
+  s << "set xlabel '{/Symbol g} (arrival rate of sensor " << region.sensor_id << ")'\n"
+    << "set ylabel '{/Symbol n} (arrival rate of the control inputs)'\n";
+  s << "set xrange [0:1]\nset yrange [0:1]\nset key top right opaque box\nset size ratio -1\n";
+  s << "plot $region using 1:3:(1) with filledcurves lc rgb '#b8e6b8' title 'stable', \\\n"
+       "     $region using 1:(0):2 with filledcurves lc rgb '#f4b6b6' title 'unstable', \\\n"
+       "     $region using 1:2 with lines lw 2 lc rgb '#b22222' title 'unstable below', \\\n"
+       "     $region using 1:3 with lines lw 2 dt 2 lc rgb '#1a7f1a' title 'stable above'\n";
+  run_gnuplot(s.str());
+}
+
 void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisReport& bounds, const std::string& title,
                       const std::filesystem::path& out) {
   std::ostringstream s;

@@ -19,6 +19,10 @@ void check_plot_output(const std::filesystem::path& out);
 void plot_sweep(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out);
 /// Liu-Goldsmith Figs. 4-5: the (λ1, λ2) stable / unstable / undecided regions.
 void plot_region(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out);
+/// The (γ̄, ν̄) region of one sensor and the actuation link: stable above ν_upper, unstable
+/// below ν_lower, undecided between.
+void plot_actuation_region(const analysis::AnalysisReport& report, const std::string& title,
+                           const std::filesystem::path& out);
 /// Monte Carlo mean Tr P_{k|k-1} and mean squared error with ±2 SE bands, next to S̄ and V̄.
 void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisReport& bounds, const std::string& title,
                       const std::filesystem::path& out);

@@ -18,6 +18,34 @@ namespace {
 using cli::number_or_null;  // the optional form, beside this one
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
+json actuation_json(const analysis::ActuationReport& a) {
+  json j;
+  j["link"] = a.link;
+  j["on_loss"] = to_string(a.on_loss);
+  j["acknowledged"] = a.acknowledged;
+  j["deadline_ms"] = number_or_null(a.deadline_ms);
+  j["loss"] = number_or_null(a.loss);
+  j["in_time"] = number_or_null(a.in_time);
+  j["arrival_rate"] = number_or_null(a.arrival_rate);
+  j["mss_radius"] = number_or_null(a.mss_radius);
+  j["critical_rate"] = number_or_null(a.critical_rate);
+  j["critical_rate_reason"] = a.critical_rate_reason;
+  j["critical_rate_lower"] = number_or_null(a.critical_rate_lower);
+  j["stable"] = analysis::to_string(a.stable);
+  j["stable_reason"] = a.stable_reason;
+  j["gain"] = a.gain;
+  j["gain_arrival_rate"] = number_or_null(a.gain_arrival_rate);
+  if (a.optimal) {
+    j["optimal_critical_rate"] = {{"lower", number_or_null(a.optimal->lower)},
+                                  {"upper", number_or_null(a.optimal->upper)},
+                                  {"upper_iteration", number_or_null(a.optimal->upper_iteration)}};
+  } else {
+    j["optimal_critical_rate"] = nullptr;
+  }
+  j["cost"] = {{"lower", number_or_null(a.cost_lower)}, {"upper", number_or_null(a.cost_upper)}, {"reason", a.cost_reason}};
+  return j;
+}
+
 json report_json(const analysis::AnalysisReport& r) {
   json j;
   j["spectral_radius"] = number_or_null(r.spectral_radius);
@@ -68,6 +96,13 @@ json report_json(const analysis::AnalysisReport& r) {
   } else {
     j["final_estimate"] = nullptr;
   }
+  // Only with an actuation link (plant.control.link): absent otherwise, so the output of a
+  // scenario without one is unchanged.
+  if (r.actuation) {
+    j["estimator_stable"] = analysis::to_string(r.estimator_stable);
+    j["estimator_stable_reason"] = r.estimator_stable_reason;
+    j["actuation"] = actuation_json(*r.actuation);
+  }
   j["notes"] = r.notes;
   return j;
 }
@@ -107,6 +142,41 @@ void print_final_estimate(std::ostream& out, const analysis::FinalEstimateReport
 }
 }  // namespace
 
+namespace {
+void print_actuation(std::ostream& out, const analysis::AnalysisReport& r) {
+  const auto& a = *r.actuation;
+  out << "  estimator alone            " << analysis::to_string(r.estimator_stable) << " ("
+      << r.estimator_stable_reason << ")\n";
+  out << "  actuation link             " << a.link << ", " << to_string(a.on_loss) << " on loss, "
+      << (a.acknowledged ? "acknowledged (TCP-like)" : "unacknowledged (UDP-like)") << "\n";
+  out << "    arrival rate nu          " << show(a.arrival_rate) << " = (1 - loss " << show(a.loss)
+      << ") * P(delay <= " << show(a.deadline_ms) << " ms) " << show(a.in_time) << "\n";
+  out << "    stable                   " << analysis::to_string(a.stable) << " (" << a.stable_reason << ")\n";
+  out << "    mean-square radius       " << show(a.mss_radius, "n/a") << "\n";
+  out << "    critical rate            " << show(a.critical_rate, "none") << " (" << a.critical_rate_reason << ")\n";
+  if (a.critical_rate_lower)
+    out << "    any controller needs     nu > " << show(a.critical_rate_lower) << " (zero on loss: open loop while inputs are lost)\n";
+  out << "    gain                     " << a.gain;
+  if (a.gain_arrival_rate && *a.gain_arrival_rate < 1.0) out << " " << show(a.gain_arrival_rate);
+  out << "\n";
+  if (a.optimal)
+    out << "    optimal controller nu_c  lower " << show(a.optimal->lower) << ", upper (LMI) "
+        << show(a.optimal->upper, "none") << ", upper (iteration) " << show(a.optimal->upper_iteration, "none") << "\n";
+  if (a.cost_lower || a.cost_upper)
+    out << "    cost J                   between " << show(a.cost_lower) << " and " << show(a.cost_upper) << "\n";
+  else
+    out << "    cost J                   n/a (" << a.cost_reason << ")\n";
+  if (r.actuation_region) {
+    const auto& g = *r.actuation_region;
+    out << "  region (sensor " << g.sensor_id << " x actuation): gamma -> estimator, nu below which unstable / above which stable"
+        << " (gamma_c in [" << show(g.gamma_lower, "none") << ", " << show(g.gamma_upper, "none") << "])\n";
+    for (const auto& p : g.points)
+      out << "    " << std::setw(5) << p.gamma << "  " << std::setw(7) << analysis::to_string(p.estimator) << "  "
+          << std::setw(9) << show(p.nu_lower) << "  " << std::setw(9) << show(p.nu_upper, "none") << "\n";
+  }
+}
+}  // namespace
+
 void print_analysis(std::ostream& out, const Scenario& s, const analysis::AnalysisReport& r) {
   out << "scenario " << s.name << " (" << s.state_dim() << " states, " << s.sensors.size() << " sensors)\n";
   out << "  spectral radius alpha      " << std::setprecision(6) << r.spectral_radius << "\n";
@@ -126,6 +196,7 @@ void print_analysis(std::ostream& out, const Scenario& s, const analysis::Analys
     out << "    " << std::setw(4) << l.sensor_id << "  " << std::setw(9) << show(l.loss) << "  " << std::setw(9)
               << show(l.in_time) << "  " << std::setw(9) << show(l.effective_arrival_rate) << "\n";
   if (r.final_estimate) print_final_estimate(out, *r.final_estimate);
+  if (r.actuation) print_actuation(out, r);
   if (r.critical_rate) {
     const auto& cr = *r.critical_rate;
     out << "  critical arrival rate      lower " << show(cr.lower) << ", upper (LMI) " << show(cr.upper, "none")
@@ -159,6 +230,19 @@ json analysis_json(const analysis::AnalysisReport& r, bool with_region, bool wit
                         {"lambda2_upper_iteration", number_or_null(p.lambda2_upper_iteration)},
                         {"lambda2_exact", number_or_null(p.lambda2_exact)}});
     j["region"] = region;
+    if (r.actuation_region) {
+      const auto& g = *r.actuation_region;
+      json points = json::array();
+      for (const auto& p : g.points)
+        points.push_back({{"gamma", p.gamma},
+                          {"estimator_stable", analysis::to_string(p.estimator)},
+                          {"nu_lower", number_or_null(p.nu_lower)},
+                          {"nu_upper", number_or_null(p.nu_upper)}});
+      j["actuation_region"] = {{"sensor_id", g.sensor_id},
+                               {"gamma_lower", number_or_null(g.gamma_lower)},
+                               {"gamma_upper", number_or_null(g.gamma_upper)},
+                               {"points", std::move(points)}};
+    }
   }
   if (with_sweep) {
     json sweep = json::array();

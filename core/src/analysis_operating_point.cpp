@@ -11,6 +11,27 @@
 namespace netkf::analysis {
 namespace {
 
+// With an actuation link the verdict becomes the closed loop's, as analyze's does.
+OperatingPointAssessment with_actuation(OperatingPointAssessment out, std::optional<ActuationReport> actuation) {
+  out.estimator_stable = out.stable;
+  if (!actuation) return out;
+  const ClosedLoopVerdict loop = closed_loop_verdict(out.stable, out.reason, *actuation);
+  out.stable = loop.stable;
+  out.reason = loop.reason;
+  out.actuation = std::move(actuation);
+  return out;
+}
+
+// The live status is recomputed about once a second: the verdict, its radius and the
+// critical rate; no LMI, no cost.
+ActuationOptions live_actuation_options() {
+  ActuationOptions o;
+  o.optimal = false;
+  o.use_lmi = false;
+  o.cost = false;
+  return o;
+}
+
 OperatingPointAssessment assess(const Scenario& scenario, const std::vector<SensorSpec>& sensors,
                                 const std::vector<double>& rates) {
   OperatingPointAssessment out;
@@ -51,7 +72,8 @@ std::vector<double> configured_arrival_rates(const Scenario& scenario) {
   return rates;
 }
 
-OperatingPointAssessment assess_operating_point(const Scenario& scenario, const std::vector<double>& arrival_rates) {
+OperatingPointAssessment assess_operating_point(const Scenario& scenario, const std::vector<double>& arrival_rates,
+                                                std::optional<double> actuation_arrival_rate) {
   if (arrival_rates.size() != scenario.sensors.size()) {
     OperatingPointAssessment out;
     out.reason = "expected " + std::to_string(scenario.sensors.size()) + " arrival rates, got " +
@@ -69,12 +91,16 @@ OperatingPointAssessment assess_operating_point(const Scenario& scenario, const 
   }
   std::vector<SensorSpec> sensors = scenario.sensors;
   for (std::size_t i = 0; i < sensors.size(); ++i) sensors[i].link = BernoulliLink{1.0 - rates[i]};
-  return assess(scenario, sensors, rates);
+  return with_actuation(assess(scenario, sensors, rates),
+                        actuation_arrival_rate
+                            ? analyze_actuation_at(scenario, *actuation_arrival_rate, live_actuation_options())
+                            : analyze_actuation(scenario, live_actuation_options()));
 }
 
 OperatingPointAssessment assess_configured_links(const Scenario& scenario) {
   const Scenario effective = with_effective_links(scenario);  // what reaches the estimator in time
-  return assess(effective, effective.sensors, configured_arrival_rates(scenario));
+  return with_actuation(assess(effective, effective.sensors, configured_arrival_rates(scenario)),
+                        analyze_actuation(scenario, live_actuation_options()));
 }
 
 }  // namespace netkf::analysis

@@ -221,9 +221,25 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     }
   }
 
-  report.stable = decision.stable;
-  report.stable_reason = decision.reason;
+  report.stable = report.estimator_stable = decision.stable;
+  report.stable_reason = report.estimator_stable_reason = decision.reason;
   report.notes.push_back(decision.reason);
+  ActuationOptions actuation_options;
+  actuation_options.use_lmi = options.use_lmi;
+  report.actuation = analyze_actuation(configured, actuation_options);
+  if (report.actuation) {
+    // Acknowledged inputs: separation, so the loop is stable iff both sides are.
+    const ClosedLoopVerdict loop = closed_loop_verdict(decision.stable, decision.reason, *report.actuation);
+    report.stable = loop.stable;
+    report.stable_reason = loop.reason;
+    report.notes.push_back(loop.reason);
+    if (!report.actuation->cost_reason.empty()) report.notes.push_back(report.actuation->cost_reason);
+    if (report.actuation->gain == "lqr at the arrival rate")
+      report.notes.push_back("plant.control.gain: the TCP-like optimum for inputs arriving at rate " +
+                             verdict_number(*report.actuation->gain_arrival_rate) +
+                             " (S = A'SA + Qx - rate A'SB(B'SB + Ru)^-1 B'SA, Schenato et al. 2007 Sec. V), "
+                             "fixed at load time");
+  }
   if (configured.estimator.fusable_delay_periods() > 0) {
     report.final_estimate = final_estimate_report(configured);
     report.notes.push_back(
@@ -296,7 +312,18 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
       report.sweep.push_back(p);
     }
   }
-  if (options.region) {
+  const bool with_actuation_region =
+      options.region && report.actuation && (options.region_sensor.has_value() || d == 1);
+  if (with_actuation_region) {
+    const int id = options.region_sensor.value_or(d == 1 ? sensors.front().id : 0);
+    report.actuation_region = analysis::actuation_region(configured, id, options.region_points, options.progress);
+    report.notes.push_back("actuation_region: for sensor " + std::to_string(id) +
+                           "'s arrival rate gamma (its link i.i.d., the other sensors as configured), the "
+                           "actuation arrival rates nu below which the loop is unstable (nu_lower) and above which "
+                           "it is stable (nu_upper): with acknowledgements the estimator's verdict at gamma times "
+                           "the jump system's critical rate (separation)");
+  }
+  if (options.region && !with_actuation_region) {
     if (d == 2) {
       RegionOptions ro;
       ro.points = options.region_points;

@@ -9,9 +9,7 @@
 #include <utility>
 
 namespace netkf::analysis {
-namespace {
 
-// Kronecker product a ⊗ b: vec(F X F') = (F ⊗ F) vec(X) for column-major vec.
 Matrix kron(const Matrix& a, const Matrix& b) {
   Matrix out(a.rows() * b.rows(), a.cols() * b.cols());
   for (Eigen::Index i = 0; i < a.rows(); ++i)
@@ -19,6 +17,8 @@ Matrix kron(const Matrix& a, const Matrix& b) {
       out.block(i * b.rows(), j * b.cols(), b.rows(), b.cols()) = a(i, j) * b;
   return out;
 }
+
+namespace {
 
 Matrix symmetrised(const Matrix& m) { return 0.5 * (m + m.transpose()); }
 

@@ -20,6 +20,9 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
+
+#include "netkf/analysis/riccati.hpp"
 
 namespace netkf {
 namespace {
@@ -79,9 +82,8 @@ void check_pbh(const Matrix& A, const Matrix& B, const Matrix& Qx) {
   }
 }
 
-}  // namespace
-
-Matrix solve_dare(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru) {
+// The arguments of the Riccati equations: shapes, finiteness, symmetry, definiteness, PBH.
+void check_arguments(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru) {
   const Eigen::Index n = A.rows();
   if (n == 0 || A.cols() != n) fail("A must be square and non-empty, got " + shape(A));
   if (B.rows() != n || B.cols() == 0) fail("B must be " + std::to_string(n) + "xp with p >= 1, got " + shape(B));
@@ -95,7 +97,13 @@ Matrix solve_dare(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matr
   if (smallest_eigenvalue(Qx) < -1e-10 * scale_of(Qx)) fail("Qx is not positive semidefinite");
   if (smallest_eigenvalue(Ru) <= 1e-12 * scale_of(Ru)) fail("Ru is not positive definite");
   check_pbh(A, B, Qx);
+}
 
+}  // namespace
+
+Matrix solve_dare(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru) {
+  check_arguments(A, B, Qx, Ru);
+  const Eigen::Index n = A.rows();
   const Matrix I = Matrix::Identity(n, n);
   Matrix Ak = A;
   Matrix G = B * Ru.ldlt().solve(B.transpose());
@@ -132,6 +140,40 @@ Matrix lqr_gain(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix
          g_text(residual.norm() / std::max(1.0, X.norm())) + ")");
   const double rho = spectral_radius(A - B * L);
   if (!(rho < 1.0)) fail("closed loop A - B L is not Schur stable (spectral radius " + g_text(rho) + ")");
+  return L;
+}
+
+
+std::optional<Matrix> solve_lossy_dare(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru,
+                                       double arrival_rate) {
+  if (!(arrival_rate >= 0.0 && arrival_rate <= 1.0))
+    fail("the arrival rate must be in [0, 1], got " + g_text(arrival_rate));
+  if (arrival_rate == 1.0) return solve_dare(A, B, Qx, Ru);
+  check_arguments(A, B, Qx, Ru);
+  // Duality: with A → A', C → B', Q → Qx, R → Ru the estimator's g_ν(X) = A X A' + Q
+  // − ν A X C'(C X C' + R)^{-1} C X A' is this equation's right-hand side; "no inputs
+  // arrive" is the empty pattern, "the input arrives" the pattern with C = B'.
+  std::vector<analysis::ArrivalPattern> patterns;
+  if (arrival_rate < 1.0) patterns.push_back({{}, 1.0 - arrival_rate, Matrix(0, A.rows()), Matrix(0, 0)});
+  if (arrival_rate > 0.0) patterns.push_back({{0}, arrival_rate, B.transpose(), Ru});
+  const analysis::UpperBound S = analysis::expected_covariance_upper_bound(A.transpose(), Qx, patterns);
+  if (S.status == analysis::BoundStatus::unbounded) return std::nullopt;
+  if (S.status == analysis::BoundStatus::undecided)
+    fail("the Riccati equation for arrival rate " + g_text(arrival_rate) + " was neither solved nor shown unsolvable in " +
+         std::to_string(S.iterations) + " iterations (the rate is within a hair of its critical value)");
+  return 0.5 * (S.V + S.V.transpose());
+}
+
+Matrix lossy_lqr_gain(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru, double arrival_rate) {
+  if (arrival_rate == 1.0) return lqr_gain(A, B, Qx, Ru);
+  const auto S = solve_lossy_dare(A, B, Qx, Ru, arrival_rate);
+  if (!S)
+    fail("no gain is optimal (or mean-square stabilising) when inputs arrive at rate " + g_text(arrival_rate) +
+         ": the Riccati equation S = A'SA + Qx - rate A'SB(B'SB + Ru)^-1 B'SA has no solution (the rate is at or "
+         "below the critical rate of the optimal controller, Schenato et al. 2007)");
+  const Matrix BtS = B.transpose() * *S;
+  const Matrix L = (Ru + BtS * B).ldlt().solve(BtS * A);
+  if (!L.allFinite()) fail("the gain for arrival rate " + g_text(arrival_rate) + " is not finite");
   return L;
 }
 

@@ -58,6 +58,26 @@ std::string without_lqr_prefix(const std::string& what) {
   return what.rfind("lqr: ", 0) == 0 ? what.substr(5) : what;
 }
 
+// The gain plant.control.lqr stands for: the LQR gain, or with an actuation link that loses
+// inputs the TCP-like optimum at its arrival rate ν̄ (lossy_lqr_gain, Schenato et al. 2007
+// Sec. V). Chosen for every on_loss and for UDP-like links too: the papers give no linear
+// optimum there, and analyze judges the loop with whatever gain this is.
+Matrix lqr_gain_of(const Scenario& s, const ScenarioLocator& locate) {
+  const ControlSpec& c = *s.plant.control;
+  const double rate = actuation_arrival_rate(s);
+  try {
+    return rate < 1.0 ? lossy_lqr_gain(s.plant.A, *s.plant.B, *c.lqr_Qx, *c.lqr_Ru, rate)
+                      : lqr_gain(s.plant.A, *s.plant.B, *c.lqr_Qx, *c.lqr_Ru);
+  } catch (const std::invalid_argument& e) {
+    std::string hint;
+    if (rate < 1.0)
+      hint = " (the actuation link delivers inputs in time at rate " + num(rate) +
+             "; give plant.control.gain to run a fixed gain at this rate)";
+    throw ScenarioError(message_prefix(s, locate, "plant.control.lqr") + "plant.control.lqr: " +
+                        without_lqr_prefix(e.what()) + hint);
+  }
+}
+
 class Validator {
  public:
   Validator(const Scenario& s, const ScenarioLocator& locate) : s_(s), locate_(locate) {}
@@ -179,6 +199,7 @@ class Validator {
     finite("plant.B", B);
     const Eigen::Index inputs = B.cols();
     const ControlSpec& c = *p.control;
+    if (c.link) link("plant.control.link", *c.link);  // before the gain, which reads its rate
     if (c.lqr_Qx.has_value() != c.lqr_Ru.has_value())
       fail("plant.control.lqr", "plant.control.lqr needs both Qx and Ru");
     const bool lqr = c.lqr_Qx.has_value();
@@ -203,12 +224,7 @@ class Validator {
       fail("plant.control.gain", "plant.control.gain does not stabilise the plant: A - B*gain has spectral radius " +
                                      num(rho) + " (must be < 1)");
     if (lqr) {
-      Matrix expected;
-      try {
-        expected = lqr_gain(p.A, B, *c.lqr_Qx, *c.lqr_Ru);
-      } catch (const std::invalid_argument& e) {
-        fail("plant.control.lqr", "plant.control.lqr: " + without_lqr_prefix(e.what()));
-      }
+      const Matrix expected = lqr_gain_of(s_, locate_);
       if ((expected - c.gain).norm() > 1e-8 * std::max(1.0, expected.norm()))
         fail("plant.control.gain", "plant.control.gain differs from the LQR gain of plant.control.lqr (give one of them)");
     }
@@ -386,14 +402,16 @@ void validate_scenario(const Scenario& scenario) { validate_scenario(scenario, S
 void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
   Validator(scenario, locate).run(true);
   if (scenario.plant.control && scenario.plant.control->gain.size() == 0) {
-    ControlSpec& c = *scenario.plant.control;
-    try {
-      c.gain = lqr_gain(scenario.plant.A, *scenario.plant.B, *c.lqr_Qx, *c.lqr_Ru);
-    } catch (const std::invalid_argument& e) {
-      throw ScenarioError(message_prefix(scenario, locate, "plant.control.lqr") + "plant.control.lqr: " + without_lqr_prefix(e.what()));
-    }
+    scenario.plant.control->gain = lqr_gain_of(scenario, locate);
     validate_scenario(scenario, locate);
   }
+}
+
+const char* to_string(OnLoss on_loss) { return on_loss == OnLoss::hold ? "hold" : "zero"; }
+
+double actuation_arrival_rate(const Scenario& scenario) {
+  const LinkSpec* link = scenario.actuation_link();
+  return link ? effective_arrival_rate(*link, scenario.actuation_deadline_ms()) : 1.0;
 }
 
 Scenario default_scenario() {
@@ -456,6 +474,13 @@ std::string scenario_to_yaml(const Scenario& s) {
       out << YAML::Key << "gain" << YAML::Value;
       emit_matrix(out, c.gain);
     }
+    // Only what is set: a scenario without an actuation link keeps its text (and its hash).
+    if (c.link) {
+      out << YAML::Key << "link" << YAML::Value;
+      emit_link_keys(out, link_keys(*c.link));
+    }
+    if (c.on_loss != OnLoss::zero) out << YAML::Key << "on_loss" << YAML::Value << to_string(c.on_loss);
+    if (!c.acknowledged) out << YAML::Key << "acknowledged" << YAML::Value << false;
     out << YAML::EndMap;
   }
   out << YAML::Key << "x0" << YAML::Value << YAML::Flow << YAML::BeginSeq;

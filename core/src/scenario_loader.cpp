@@ -279,6 +279,13 @@ class Loader {
     return value;
   }
 
+  bool read_bool(const YAML::Node& node, const std::string& path) const {
+    bool value = false;
+    if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value))
+      fail(mark_of(node, path), path + " must be true or false, got " + describe(node));
+    return value;
+  }
+
   int read_int(const YAML::Node& node, const std::string& path) const {
     const long long v = read_integer(node, path);
     if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max())
@@ -349,7 +356,8 @@ class Loader {
     if (m.has("state_bound")) plant.state_bound = read_positive(m.values.at("state_bound"), "plant.state_bound");
     if (m.has("B")) plant.B = read_matrix(m.values.at("B"), "plant.B");
     if (m.has("control")) {
-      const MapView c = open_map(m.values.at("control"), "plant.control", marks_["plant.control"], {"gain", "lqr"});
+      const MapView c = open_map(m.values.at("control"), "plant.control", marks_["plant.control"],
+                                 {"gain", "lqr", "link", "on_loss", "acknowledged"});
       ControlSpec control;
       if (c.has("gain") && c.has("lqr"))
         fail(c.mark, "plant.control takes either 'gain' or 'lqr', not both (the LQR weights define the gain)");
@@ -361,6 +369,16 @@ class Loader {
         control.lqr_Qx = read_matrix(require(l, "Qx"), "plant.control.lqr.Qx");
         control.lqr_Ru = read_matrix(require(l, "Ru"), "plant.control.lqr.Ru");
       }
+      // The actuation link: the same keys and rules as a sensor's link.
+      if (c.has("link")) control.link = read_link(c.values.at("link"), "plant.control.link");
+      if (c.has("on_loss")) {
+        const YAML::Node& v = c.values.at("on_loss");
+        const std::string word = read_string(v, "plant.control.on_loss");
+        if (word == "zero") control.on_loss = OnLoss::zero;
+        else if (word == "hold") control.on_loss = OnLoss::hold;
+        else fail(v.Mark(), "plant.control.on_loss must be zero or hold, got '" + word + "'");
+      }
+      if (c.has("acknowledged")) control.acknowledged = read_bool(c.values.at("acknowledged"), "plant.control.acknowledged");
       plant.control = std::move(control);
     }
   }

@@ -24,11 +24,25 @@ struct SensorSpec {
   LinkSpec link;  // what happens to its samples on the way (loss, delay)
 };
 
+/// What the plant applies at a tick whose input u_{k-1} did not arrive over the actuation link.
+enum class OnLoss {
+  zero,  // nothing: u = 0 (Schenato et al. 2007's actuator)
+  hold,  // the input it applied at the previous tick (zero before the first one arrived)
+};
+const char* to_string(OnLoss on_loss);
+
 /// LQG feedback u = -gain x̂_{k|k}; either given, or computed from LQR weights.
 struct ControlSpec {
   Matrix gain;                 // L (p x n); filled from lqr weights at load time when absent
   std::optional<Matrix> lqr_Qx;
   std::optional<Matrix> lqr_Ru;
+  /// The actuation link: how u_k travels from the estimator to the plant (a link like a
+  /// sensor's). nullopt: a perfect path, every input applied at the next tick.
+  std::optional<LinkSpec> link;
+  OnLoss on_loss = OnLoss::zero;
+  /// true (TCP-like): the plant reports the input it applied and the estimator predicts with
+  /// it. false (UDP-like): the estimator never learns whether its input arrived.
+  bool acknowledged = true;
 };
 
 struct PlantSpec {
@@ -95,6 +109,15 @@ struct Scenario {
   double final_horizon_ms() const {
     return deadline_ms() + static_cast<double>(estimator.fusable_delay_periods()) * period_ms;
   }
+  /// The actuation link (plant.control.link), or null for a perfect path or an open loop.
+  const LinkSpec* actuation_link() const {
+    return plant.control && plant.control->link ? &*plant.control->link : nullptr;
+  }
+  /// How long an input may travel and still be applied: u_k leaves the estimator when period k
+  /// is fused (at the latest at the deadline) and is applied at tick k + 1, so a delay up to
+  /// period_ms − deadline_ms is in time (exact when the period is fused at its deadline; an
+  /// estimator that fused earlier leaves its input more time).
+  double actuation_deadline_ms() const { return static_cast<double>(period_ms) - deadline_ms(); }
 };
 
 class ScenarioError : public std::runtime_error {
@@ -153,7 +176,9 @@ void validate_scenario(const Scenario& scenario);
 //   seed                  0 (a scenario without a seed is still reproducible)
 //   plant.x0 / plant.P0   zeros / identity
 //   plant.B + plant.control   both or neither; control is { gain: [[..]] } (p x n,
-//                         u = -gain x̂) or { lqr: { Qx: .., Ru: .. } } (gain from lqr_gain)
+//                         u = -gain x̂) or { lqr: { Qx: .., Ru: .. } } (gain from lqr_gain;
+//                         with a lossy actuation link from lossy_lqr_gain at its arrival rate)
+//   plant.control.link / on_loss / acknowledged   a perfect path / zero / true
 //   plant.state_bound     1e8 (|x|_inf ending an uncontrolled run)
 //   link.loss_good / link.loss_bad   0 / 1 (the simple Gilbert channel)
 //   link.delay_ms / jitter_ms / delay_distribution   0 / 0 / uniform (netkf/link.hpp)
@@ -178,8 +203,20 @@ using ScenarioLocator = std::function<SourceLocation(const std::string& key_path
 void validate_scenario(const Scenario& scenario, const ScenarioLocator& locate);
 
 /// Fill what is derived from other fields, then validate: when plant.control has LQR
-/// weights and no gain, the gain is computed with lqr_gain() (netkf/lqr.hpp).
-/// Use this for programmatic scenarios that give control by LQR weights.
+/// weights and no gain, the gain is computed with lqr_gain() (netkf/lqr.hpp), or, with an
+/// actuation link that loses inputs, with lossy_lqr_gain() at its arrival rate
+/// (actuation_arrival_rate). Use this for programmatic scenarios that give control by LQR weights.
 void complete_scenario(Scenario& scenario, const ScenarioLocator& locate = {});
+
+/// The rate ν̄ at which inputs reach the plant in time: the actuation link's effective arrival
+/// rate at actuation_deadline_ms() (netkf/link.hpp); 1 without an actuation link.
+double actuation_arrival_rate(const Scenario& scenario);
+
+/// Seeded streams of the links' decisions (netkf/random.hpp, derive_seed): a sensor's link i
+/// draws its losses from derive_seed(seed, "link", i) and its delays from
+/// derive_seed(seed, "link-delay", i); the actuation link from the names below (index 0),
+/// streams of their own, so adding an actuation link changes no sensor's decisions.
+inline constexpr const char* kActuationLinkStream = "actuation-link";
+inline constexpr const char* kActuationLinkDelayStream = "actuation-link-delay";
 
 }  // namespace netkf

@@ -37,13 +37,19 @@ struct OperatingPointAssessment {
   double upper_standard_error = 0.0;
   std::optional<double> markov_criterion;  // < 1 stable (when it applies)
   std::string reason;                  // decide_stability()'s line (which result decided, or why none
-                                       // did), or what is wrong with the rates
+                                       // did), or what is wrong with the rates; with an actuation link
+                                       // the closed loop's (analysis/actuation.hpp, closed_loop_verdict)
+  Verdict estimator_stable = Verdict::unknown;  // decide_stability()'s verdict alone
+  std::optional<ActuationReport> actuation;     // with plant.control.link (no LMI, no cost)
 };
 
 /// Assess the scenario's plant and sensors with each sensor's samples arriving i.i.d. at
 /// the given rate (observed or configured), in the scenario's sensor order.
 /// Rates are clamped to [0, 1]; a wrong count or a NaN gives Verdict::unknown with the reason.
-OperatingPointAssessment assess_operating_point(const Scenario& scenario, const std::vector<double>& arrival_rates);
+/// With an actuation link: the closed loop's verdict, the inputs arriving i.i.d. at
+/// `actuation_arrival_rate` when given (an observed rate), else the link as configured.
+OperatingPointAssessment assess_operating_point(const Scenario& scenario, const std::vector<double>& arrival_rates,
+                                                std::optional<double> actuation_arrival_rate = std::nullopt);
 
 /// The same for the links as configured, delays folded in: `stable` and `reason` are those of
 /// analyze(scenario). Gilbert-Elliott links keep their memory: decided by the Markov criterion

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "netkf/analysis/actuation.hpp"
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/stability.hpp"  // Verdict
 #include "netkf/scenario.hpp"
@@ -54,8 +55,14 @@ struct FinalEstimateReport {
 
 struct AnalysisReport {
   double spectral_radius = 0.0;
-  Verdict stable = Verdict::unknown;   // decide_stability() for the configured links
+  /// decide_stability() for the configured links; with an actuation link the closed loop's
+  /// (closed_loop_verdict: the estimator's and the actuation link's).
+  Verdict stable = Verdict::unknown;
   std::string stable_reason;           // its one line, as the live status says it (also in `notes`)
+  Verdict estimator_stable = Verdict::unknown;  // decide_stability() alone (= stable without an actuation link)
+  std::string estimator_stable_reason;
+  std::optional<ActuationReport> actuation;     // with plant.control.link only
+  std::optional<ActuationRegion> actuation_region;  // AnalyzeOptions::region with an actuation link
   std::optional<double> lower_trace;   // Tr S̄ for the configured links
   std::optional<double> upper_trace;   // Tr V̄
   bool iid_bounds = false;             // S̄/V̄ were computed (every link Bernoulli); else not reported
@@ -88,6 +95,9 @@ struct AnalyzeOptions {
   int lmi_max_block = 48;
   /// With `region`: the region's grid points done (netkf/progress.hpp).
   ProgressCallback progress;
+  /// With `region` and an actuation link: the sensor of the (γ̄, ν̄) region; by default the
+  /// only sensor of a one-sensor scenario.
+  std::optional<int> region_sensor;
 };
 
 /// Analyse a validated scenario. Never throws for a valid scenario; what does not apply

@@ -84,6 +84,9 @@ double linearised_spectral_radius(const Matrix& A, std::span<const ArrivalPatter
 /// α = max |eig(A)|.
 double spectral_radius(const Matrix& A);
 
+/// Kronecker product a ⊗ b: vec(F X F') = (F ⊗ F) vec(X) for column-major vec.
+Matrix kron(const Matrix& a, const Matrix& b);
+
 }  // namespace netkf::analysis
 
 namespace netkf::analysis {
