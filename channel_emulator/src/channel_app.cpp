@@ -26,7 +26,6 @@ class ChannelApp::Impl {
  public:
   Impl(const Scenario& scenario, dds::Participant& participant, ChannelAppOptions options)
       : links_(scenario),
-        deadline_ms_(scenario.deadline_ms()),
         release_timer_(io_),
         status_timer_(io_),
         status_period_(std::chrono::milliseconds(options.status_period_ms)),
@@ -39,14 +38,19 @@ class ChannelApp::Impl {
         reply_(participant, dds::topics::link_control_reply),
         journal_(participant, dds::topics::link_change) {
     for (const auto& r : links_.reports()) {
-      spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", r.sensor_id,
-                   describe_link(r.link), stationary_loss(r.link.loss), probability_within(r.link.delay, deadline_ms_));
+      spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", link_name(r.sensor_id),
+                   describe_link(r.link), stationary_loss(r.link.loss), probability_within(r.link.delay, r.deadline_ms));
     }
+    // The actuation link: the estimator's inputs reach the plant through this process.
+    if (scenario.actuation_link())
+      input_out_.emplace(participant, dds::topics::control_input, dds::WriterOptions{.samples_per_second = 1.0 / scenario.period_s()});
     if (!scenario.events.empty()) spdlog::info("timeline: {} link events", scenario.events.size());
     // The readers last: their callbacks use everything above.
     raw_.emplace(participant, dds::topics::raw_measurement, [this](wire::Measurement&& m) { on_raw(m); });
     raw_batch_.emplace(participant, dds::topics::raw_measurement_batch,
                        [this](wire::MeasurementBatch&& b) { on_raw_batch(std::move(b)); });
+    if (input_out_)
+      input_in_.emplace(participant, dds::topics::sent_control_input, [this](wire::ControlInput&& c) { on_input(c); });
     control_.emplace(participant, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
     presence_.emplace(participant, dds::presence_role::channel, std::vector<int>{}, dds::scenario_hash(scenario));
@@ -60,6 +64,7 @@ class ChannelApp::Impl {
   ~Impl() {
     // The readers first: no callback may run into a half-destroyed object.
     control_.reset();
+    input_in_.reset();
     raw_batch_.reset();
     raw_.reset();
   }
@@ -70,6 +75,8 @@ class ChannelApp::Impl {
     {
       const std::lock_guard lock(mutex_);
       if (held_.size() > 0) spdlog::info("{} delayed samples still held at shutdown: not relayed", held_.size());
+      if (held_inputs_.size() > 0)
+        spdlog::info("{} delayed control inputs still held at shutdown: not relayed", held_inputs_.size());
     }
     publish_status();  // final counts for late joiners (transient-local)
     status_.wait_for_acknowledgments(std::chrono::milliseconds(500));
@@ -91,7 +98,7 @@ class ChannelApp::Impl {
     {
       const std::lock_guard lock(mutex_);
       s.links = links_.reports();
-      s.held = held_.size();
+      s.held = held_.size() + held_inputs_.size();
       s.unknown_sensor_samples = links_.unknown_sensor_samples();
     }
     s.delivered_readers = std::min(delivered_.matched(), delivered_batch_.matched());
@@ -105,7 +112,7 @@ class ChannelApp::Impl {
                    raw_batch_->received());
     const std::lock_guard lock(mutex_);  // the raw reader still delivers until it is gone
     for (const auto& r : links_.reports()) {
-      spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", r.sensor_id,
+      spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", link_name(r.sensor_id),
                    r.lifetime.samples(), r.lifetime.delivered(), r.lifetime.dropped(), r.lifetime.observed_loss(),
                    r.lifetime.mean_burst_length());
     }
@@ -119,8 +126,10 @@ class ChannelApp::Impl {
     {
       const std::lock_guard lock(mutex_);
       for (const auto& r : links_.reports()) {
-        facts.push_back({r.sensor_id, r.link, probability_within(r.link.delay, deadline_ms_), r.stats, r.lifetime,
-                         r.last_request_id, r.last_request_rejected, r.reject_reason, held_.held(r.sensor_id),
+        const std::uint64_t held =
+            r.sensor_id == kControlLinkId ? held_inputs_.held(r.sensor_id) : held_.held(r.sensor_id);
+        facts.push_back({r.sensor_id, r.link, probability_within(r.link.delay, r.deadline_ms), r.stats, r.lifetime,
+                         r.last_request_id, r.last_request_rejected, r.reject_reason, held,
                          r.past_deadline, r.recent_fit});
       }
     }
@@ -132,11 +141,12 @@ class ChannelApp::Impl {
   void publish_changes(const std::vector<AppliedLinkChange>& changes) {
     for (const auto& c : changes) {
       if (!c.failure.empty()) {
-        spdlog::warn("timeline: link {} event at period {} not applied: {}", c.sensor_id, c.at_period, c.failure);
+        spdlog::warn("timeline: link {} event at period {} not applied: {}", link_name(c.sensor_id), c.at_period,
+                     c.failure);
         continue;
       }
       if (c.origin == AppliedLinkChange::Origin::timeline)
-        spdlog::info("timeline: link {} from period {}: {}", c.sensor_id, c.at_period, describe_link(c.link));
+        spdlog::info("timeline: link {} from period {}: {}", link_name(c.sensor_id), c.at_period, describe_link(c.link));
       journal_.write(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), to_string(c.origin),
                                            c.request_id, c.link, dds::steady_now_ns()));
     }
@@ -146,13 +156,19 @@ class ChannelApp::Impl {
   // re-armed from the receive thread (posted) when a new earliest sample arrives.
   void release_due() {
     std::vector<wire::Measurement> due;
+    std::vector<wire::ControlInput> inputs_due;
     std::optional<std::chrono::steady_clock::time_point> next;
     {
       const std::lock_guard lock(mutex_);
-      due = held_.take_due(std::chrono::steady_clock::now());
+      const auto now = std::chrono::steady_clock::now();
+      due = held_.take_due(now);
+      inputs_due = held_inputs_.take_due(now);
       next = held_.next_release();
+      if (const auto input_next = held_inputs_.next_release(); input_next && (!next || *input_next < *next))
+        next = input_next;
     }
     for (const auto& m : due) delivered_.write(m);
+    for (const auto& c : inputs_due) input_out_->write(c);
     if (next) {
       release_timer_.expires_at(*next);
       release_timer_.async_wait([this](const boost::system::error_code& ec) {
@@ -242,6 +258,31 @@ class ChannelApp::Impl {
     if (rearm) boost::asio::post(io_, [this] { release_due(); });
   }
 
+  // DDS receive thread: an input the estimator sent goes the actuation link's way (a draw and
+  // a write, as a sample); a delayed one is held like a delayed sample. The plant applies it
+  // only if it arrives before the tick that needs it.
+  void on_input(const wire::ControlInput& c) {
+    std::vector<AppliedLinkChange> changes;
+    SampleFate fate;
+    bool rearm = false;
+    {
+      const std::lock_guard lock(mutex_);
+      fate = links_.on_sample(kControlLinkId, static_cast<std::int64_t>(c.k()));
+      auto taken = links_.take_changes();
+      changes.insert(changes.end(), std::make_move_iterator(taken.begin()), std::make_move_iterator(taken.end()));
+      if (fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms > 0.0) {
+        const auto release = std::chrono::steady_clock::now() +
+                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double, std::milli>(fate.delay_ms));
+        rearm = held_inputs_.hold(release, kControlLinkId, c);
+      }
+    }
+    if (!changes.empty()) publish_changes(changes);
+    if (fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms <= 0.0) input_out_->write(c);
+    if (fate.verdict == SampleFate::Verdict::dropped) spdlog::trace("dropped the control input of period {}", c.k());
+    if (rearm) boost::asio::post(io_, [this] { release_due(); });
+  }
+
   // io thread
   void on_control(const wire::LinkControl& c) {
     LinkChangeResult result;
@@ -259,7 +300,7 @@ class ChannelApp::Impl {
       }
     }
     if (!result.reason.empty()) {
-      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), c.sensor_id(), result.reason);
+      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), link_name(c.sensor_id()), result.reason);
       reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, false, result.reason));
       publish_status();
       return;
@@ -271,9 +312,9 @@ class ChannelApp::Impl {
     }
     if (result.applied) {
       spdlog::info("request {}: link {} set to {} (stationary loss {:.4f}) from its next sample", c.request_id(),
-                   c.sensor_id(), describe_link(applied), stationary_loss(applied.loss));
+                   link_name(c.sensor_id()), describe_link(applied), stationary_loss(applied.loss));
     } else {
-      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), c.sensor_id(), result.reason);
+      spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), link_name(c.sensor_id()), result.reason);
     }
     reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, result.applied, result.reason));
     publish_status();
@@ -299,8 +340,8 @@ class ChannelApp::Impl {
   mutable std::mutex mutex_;  // the links, the release queue and the throttle
   ChannelLinks links_;
   ReleaseQueue<wire::Measurement> held_;
+  ReleaseQueue<wire::ControlInput> held_inputs_;  // the actuation link's delayed inputs
   LogThrottle unknown_log_;  // a rogue sender: a few warnings, then a count
-  int deadline_ms_;
   boost::asio::steady_timer release_timer_;
   boost::asio::steady_timer status_timer_;
   std::chrono::milliseconds status_period_;
@@ -314,6 +355,8 @@ class ChannelApp::Impl {
   std::optional<dds::Reader<wire::MeasurementBatch>> raw_batch_;
   std::atomic<std::uint64_t> batched_samples_{0};
   std::optional<dds::Reader<wire::LinkControl>> control_;
+  std::optional<dds::Writer<wire::ControlInput>> input_out_;  // with an actuation link: to the plant
+  std::optional<dds::Reader<wire::ControlInput>> input_in_;   // the inputs the estimator sent
   std::optional<dds::PresenceAnnouncer> presence_;
 };
 

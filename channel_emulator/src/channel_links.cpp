@@ -12,15 +12,26 @@ const char* to_string(AppliedLinkChange::Origin origin) {
   return origin == AppliedLinkChange::Origin::request ? "request" : "timeline";
 }
 
-ChannelLinks::ChannelLinks(const Scenario& scenario) : deadline_ms_(scenario.deadline_ms()) {
-  for (const auto& s : scenario.sensors) {
+ChannelLinks::ChannelLinks(const Scenario& scenario) {
+  auto add = [&](int id, const LinkSpec& spec, std::uint64_t loss_seed, std::uint64_t delay_seed, double deadline_ms) {
     LinkReport r;
-    r.sensor_id = s.id;
-    r.link = s.link;
+    r.sensor_id = id;
+    r.link = spec;
+    r.deadline_ms = deadline_ms;
+    Link link{.loss = LinkLossProcess(spec.loss, loss_seed), .delay = LinkDelayProcess(delay_seed), .report = std::move(r)};
+    link.deadline_ms = deadline_ms;
+    links_.emplace(id, std::move(link));
+  };
+  for (const auto& s : scenario.sensors) {
     const auto id = static_cast<std::uint64_t>(s.id);
-    links_.emplace(s.id, Link{LinkLossProcess(s.link.loss, derive_seed(scenario.seed, "link", id)),
-                              LinkDelayProcess(derive_seed(scenario.seed, "link-delay", id)), std::move(r), {}, 0,
-                              std::nullopt, std::nullopt, 0});
+    add(s.id, s.link, derive_seed(scenario.seed, "link", id), derive_seed(scenario.seed, "link-delay", id),
+        scenario.deadline_ms());
+  }
+  // The actuation link: streams of its own, so adding it changes no sensor's decisions. An
+  // input is in time when it reaches the plant before the next tick.
+  if (const LinkSpec* control = scenario.actuation_link()) {
+    add(kControlLinkId, *control, derive_seed(scenario.seed, kActuationLinkStream, 0),
+        derive_seed(scenario.seed, kActuationLinkDelayStream, 0), scenario.actuation_deadline_ms());
   }
   for (const std::size_t i : event_application_order(scenario.events)) {
     const LinkEvent& e = scenario.events[i];
@@ -134,7 +145,7 @@ SampleFate ChannelLinks::on_sample(int sensor_id, std::int64_t k) {
   if (dropped) return {Verdict::dropped, 0.0};
   const double delay_ms =
       std::isnan(trace_delay_ms) ? link.delay.next_delay_ms(link.report.link.delay) : trace_delay_ms;
-  if (delay_ms > deadline_ms_) ++link.report.past_deadline;
+  if (delay_ms > link.deadline_ms) ++link.report.past_deadline;
   return {Verdict::delivered, delay_ms};
 }
 

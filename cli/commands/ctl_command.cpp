@@ -27,7 +27,7 @@ using Clock = std::chrono::steady_clock;
 struct CtlOptions {
   NetworkSettings network;
   double timeout = 10.0;
-  int sensor_id = 0;
+  std::string link;  // a sensor id, or "control"
   std::optional<double> bernoulli;
   std::vector<double> gilbert_elliott;
   std::optional<std::string> model;
@@ -227,21 +227,22 @@ int run_ctl_set_link(const CtlOptions& o) {
   if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
     fail(ExitCode::no_network, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
                 number_text(o.timeout) + " s (is a network running? netkf launch)");
-  if (!bus->send_link_control(request_id, o.sensor_id, keys)) fail(ExitCode::no_network, "DDS refused to send the link change");
+  const int sensor_id = *parse_link_name(o.link);
+  if (!bus->send_link_control(request_id, sensor_id, keys)) fail(ExitCode::no_network, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
     fail(ExitCode::no_network, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
                 number_text(o.timeout) + " s");
-  if (!reply->applied) fail(ExitCode::refused, "link " + std::to_string(o.sensor_id) + ": change rejected: " + reply->reason);
+  if (!reply->applied) fail(ExitCode::refused, "link " + o.link + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
   if (acknowledged) {
     const auto& l = *acknowledged;
-    std::cout << "link " << o.sensor_id << ": applied " << describe_link(l.link) << " (request " << request_id
+    std::cout << "link " << o.link << ": applied " << describe_link(l.link) << " (request " << request_id
               << ", effective arrival rate " << l.arrival_rate() << ")\n";
     std::cout << render_link_table({l});
   } else {
-    std::cout << "link " << o.sensor_id << ": applied (request " << request_id << ")\n";
+    std::cout << "link " << o.link << ": applied (request " << request_id << ")\n";
   }
   return 0;
 }
@@ -254,7 +255,11 @@ void add_ctl_command(CLI::App& app) {
   cmd->require_subcommand(1);
   auto* set = cmd->add_subcommand(
       "set-link", "Change one link from its next sample on: only what is given changes (e.g. --delay keeps the loss)");
-  set->add_option("id", o->sensor_id, "Sensor id of the link")->required();
+  set->add_option("link", o->link, "The link: a sensor id, or control (the actuation link, plant.control.link)")
+      ->required()
+      ->check([](const std::string& text) {
+        return parse_link_name(text) ? std::string() : "a link is a sensor id or control, got '" + text + "'";
+      });
   auto* b = set->add_option("--bernoulli", o->bernoulli, "i.i.d. drops with probability LOSS");
   auto* ge = set->add_option("--gilbert-elliott", o->gilbert_elliott,
                              "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")

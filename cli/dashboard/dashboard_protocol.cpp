@@ -62,6 +62,7 @@ std::optional<std::pair<int, std::string>> split_parameter_name(const std::strin
   const auto dot = name.find('.', 5);
   if (dot == std::string::npos || dot == 5 || dot + 1 >= name.size()) return std::nullopt;
   const std::string id_text = name.substr(5, dot - 5);
+  if (id_text == kControlLinkName) return std::make_pair(kControlLinkId, name.substr(dot + 1));  // the actuation link
   if (id_text.size() > 9) return std::nullopt;
   std::size_t i = id_text[0] == '-' ? 1 : 0;
   if (i == id_text.size()) return std::nullopt;
@@ -147,7 +148,7 @@ ClientMessage parse_client_message(std::string_view text) {
 
 json link_parameter_values(const LinkView& link, const std::optional<std::string>& id) {
   json list = json::array();
-  const std::string prefix = "link." + std::to_string(link.sensor_id) + ".";
+  const std::string prefix = "link." + link_name(link.sensor_id) + ".";
   const json keys = catalogue::link_json(link.link);  // named: items() refers into it
   for (const auto& [name, value] : keys.items()) {
     json p{{"name", prefix + name}, {"value", value}};
@@ -195,7 +196,7 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
     for (const auto& l : links)
       if (l.sensor_id == sensor_id) link = &l;
     if (!link) {
-      change.refusal = "link " + std::to_string(sensor_id) + ": unknown link (no sensor with that id)";
+      change.refusal = "link " + link_name(sensor_id) + ": unknown link (no sensor with that id, or no actuation link)";
       out.push_back(change);
       continue;
     }
@@ -228,7 +229,7 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
         problem = e.what();
       }
     }
-    if (!problem.empty()) change.refusal = "link " + std::to_string(sensor_id) + ": " + problem;
+    if (!problem.empty()) change.refusal = "link " + link_name(sensor_id) + ": " + problem;
     out.push_back(std::move(change));
   }
   out.insert(out.end(), refused.begin(), refused.end());

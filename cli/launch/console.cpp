@@ -117,7 +117,7 @@ void LiveConsole::link_reply(const LinkReplyRecord& reply) {
     dashboard_->send_to(change.client, dashboard::link_parameter_values(current_link(change.sensor_id), change.id));
   } else {
     answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
-           "link " + std::to_string(change.sensor_id) + ": change refused by the channel: " + reply.reason);
+           "link " + link_name(change.sensor_id) + ": change refused by the channel: " + reply.reason);
   }
   if (reply.applied && !change.took_effect) {
     // The link's next change waits for this one's journal entry (a link whose sensor sends
@@ -180,7 +180,7 @@ void LiveConsole::on_set_parameters(DashboardServer::ClientId client, const dash
     const auto [waiting, first] = waiting_.try_emplace(change.sensor_id);
     if (!first)
       answer(waiting->second.client, waiting->second.id, change.sensor_id, LiveEvent::Level::warning,
-             "link " + std::to_string(change.sensor_id) +
+             "link " + link_name(change.sensor_id) +
                  ": change superseded by a newer one before it was sent to the channel (not applied)");
     waiting->second = {client, request.id, std::move(*change.keys)};
   }
@@ -203,20 +203,20 @@ void LiveConsole::send_waiting_changes() {
 }
 
 void LiveConsole::send_change(int sensor_id, const LinkRequest& request) {
-  const std::string link_name = "link " + std::to_string(sensor_id);
+  const std::string link_text = "link " + link_name(sensor_id);
   LinkSpec link;
   try {
     // The keys sent change; the link keeps the others as it is now (a change applied since
     // the request was made included).
     link = apply_link_keys(current_link(sensor_id).link, request.keys);
   } catch (const LinkError& e) {
-    return answer(request.client, request.id, sensor_id, LiveEvent::Level::error, link_name + ": " + e.what());
+    return answer(request.client, request.id, sensor_id, LiveEvent::Level::error, link_text + ": " + e.what());
   }
   const std::uint64_t request_id = next_request_id_++;
   model_.note_own_request(request_id, "dashboard");
   if (!send_link_control_ || !send_link_control_(request_id, sensor_id, request.keys))
     return answer(request.client, request.id, sensor_id, LiveEvent::Level::error,
-                  link_name + ": the change could not be sent (no channel emulator?)");
+                  link_text + ": the change could not be sent (no channel emulator?)");
   pending_[request_id] = {request.client, request.id, sensor_id, link, Clock::now() + kLinkChangeTimeout};
 }
 
@@ -239,6 +239,7 @@ void LiveConsole::request_theory(bool with_region) {
   TheoryRequest r;
   r.configured = model_.configured_scenario();
   r.observed_rates = model_.observed_rates_since_change();
+  r.observed_actuation_rate = model_.observed_actuation_rate_since_change();
   r.k = model_.snapshot().period ? static_cast<std::int64_t>(model_.snapshot().period->estimate.k) : -1;
   r.with_region = with_region;
   theory_->request(std::move(r));
@@ -272,7 +273,7 @@ void LiveConsole::tick(Clock::time_point now) {
     it = pending_.erase(it);
     if (!change.answered)
       answer(change.client, change.id, change.sensor_id, LiveEvent::Level::error,
-             "link " + std::to_string(change.sensor_id) + ": the channel emulator did not answer the change");
+             "link " + link_name(change.sensor_id) + ": the channel emulator did not answer the change");
   }
   if (pending_.size() < in_flight) send_waiting_changes();
   // Theory and the page's network summary about once a second, and the theory at once

@@ -147,7 +147,9 @@ void Launch::read_inputs() {
   for (const auto& sensor : scenario_.sensors) sensor_ids.push_back(sensor.id);
   roles_ = or_bad_usage([&] { return parse_launch_roles(o_.only, sensor_ids); });
   scenario_hash_ = dds::scenario_hash(scenario_);
-  for (const auto& text : o_.checks) checks_.push_back(or_bad_usage([&] { return parse_check(text, sensor_ids); }));
+  std::vector<int> link_ids = sensor_ids;
+  if (scenario_.actuation_link()) link_ids.push_back(kControlLinkId);
+  for (const auto& text : o_.checks) checks_.push_back(or_bad_usage([&] { return parse_check(text, link_ids); }));
   if (o_.summary) summary_out_ = open_output_stream({"--summary", *o_.summary});
   if (o_.summary || !checks_.empty()) summary_ = std::make_unique<RunSummaryBuilder>(scenario_);
 }

@@ -24,6 +24,7 @@ void add_snapshot_facts(const LiveSnapshot& s, RunFacts& f) {
   f.silent_sensors.clear();
   f.all_links_drop_everything = true;
   for (const auto& l : s.links) {
+    if (l.sensor_id == kControlLinkId) continue;  // the actuation link carries inputs, not samples
     if (l.samples_total == 0) f.silent_sensors.push_back(l.sensor_id);
     if (stationary_loss(l.link.loss) < 1.0) f.all_links_drop_everything = false;
   }

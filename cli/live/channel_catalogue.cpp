@@ -42,7 +42,19 @@ json assessment_schema() {
                 {"upper_method", {{"type", "string"}, {"enum", {"enumerated", "grouped", "sampled"}}}},
                 {"upper_standard_error", nullable_number()},
                 {"markov_criterion", nullable_number()},
-                {"reason", {{"type", "string"}}}}}};
+                {"reason", {{"type", "string"}}},
+                {"estimator_stable", {{"type", "string"}, {"enum", {"yes", "no", "unknown"}}}},
+                {"actuation",
+                 {{"type", json::array({"object", "null"})},
+                  {"properties",
+                   {{"arrival_rate", nullable_number()},
+                    {"critical_rate", nullable_number()},
+                    {"critical_rate_lower", nullable_number()},
+                    {"mss_radius", nullable_number()},
+                    {"stable", {{"type", "string"}, {"enum", {"yes", "no", "unknown"}}}},
+                    {"reason", {{"type", "string"}}},
+                    {"on_loss", {{"type", "string"}, {"enum", {"zero", "hold"}}}},
+                    {"acknowledged", {{"type", "boolean"}}}}}}}}}};
 }
 
 // The link status message's properties: the link's keys and what the link did.
@@ -92,7 +104,13 @@ std::vector<Channel> make_channels() {
                                 {"items", schema_object({{"id", {{"type", "integer"}}},
                                                          {"measurement_dim", {{"type", "integer"}}},
                                                          {"link", schema_object(link_props, {"model"})}},
-                                                        {"id", "link"})}}}},
+                                                        {"id", "link"})}}},
+                              {"actuation",
+                               {{"type", json::array({"object", "null"})},
+                                {"properties",
+                                 {{"link", schema_object(link_props, {"model"})},
+                                  {"on_loss", {{"type", "string"}, {"enum", {"zero", "hold"}}}},
+                                  {"acknowledged", {{"type", "boolean"}}}}}}}},
                              {"name", "period_ms", "state_dim", "sensors"})});
   c.push_back({ChannelId::estimate, "netkf/estimate", "netkf.wire.Estimate",
                schema_object({{"k", {{"type", "integer"}}},
@@ -117,7 +135,8 @@ std::vector<Channel> make_channels() {
                schema_object({{"k", {{"type", "integer"}}},
                               {"t", {{"type", "number"}}},
                               {"x", number_array()},
-                              {"u", number_array()}},
+                              {"u", number_array()},
+                              {"input_arrived", {{"type", "boolean"}}}},
                              {"k", "t", "x"})});
   const json status_props = link_status_schema_properties(link_props);
   c.push_back({ChannelId::link_status, "netkf/link/status", "netkf.wire.LinkStatus",
@@ -191,8 +210,24 @@ std::vector<Channel> make_recording_channels() {
 }
 
 
+// The actuation link's side of a verdict (analysis/actuation.hpp); null without one.
+json actuation_json(const std::optional<analysis::ActuationReport>& a) {
+  if (!a) return nullptr;
+  return json{{"arrival_rate", number_or_null(a->arrival_rate)},
+              {"critical_rate", optional_number(a->critical_rate)},
+              {"critical_rate_lower", optional_number(a->critical_rate_lower)},
+              {"mss_radius", optional_number(a->mss_radius)},
+              {"stable", analysis::to_string(a->stable)},
+              {"reason", a->stable_reason},
+              {"on_loss", to_string(a->on_loss)},
+              {"acknowledged", a->acknowledged}};
+}
+
 json assessment_json(const AssessmentView& a) {
   return json{{"arrival_rates", a.arrival_rates},
+              // With an actuation link `stable` is the closed loop's; the estimator's alone here.
+              {"estimator_stable", analysis::to_string(a.result.estimator_stable)},
+              {"actuation", actuation_json(a.result.actuation)},
               {"stable", analysis::to_string(a.result.stable)},
               {"lower_trace", optional_number(a.result.lower_trace)},
               {"upper_trace", optional_number(a.result.upper_trace)},
@@ -255,7 +290,13 @@ json scenario_message(const Scenario& scenario) {
               {"max_delay_periods", scenario.estimator.late_policy == LatePolicy::fuse_within
                                         ? json(scenario.estimator.fusable_delay_periods())
                                         : json(nullptr)},
-              {"sensors", std::move(sensors)}};
+              {"sensors", std::move(sensors)},
+              // plant.control.link: the link the estimator's inputs take to the plant (link "control").
+              {"actuation", scenario.actuation_link()
+                                ? json{{"link", link_json(*scenario.actuation_link())},
+                                       {"on_loss", to_string(scenario.plant.control->on_loss)},
+                                       {"acknowledged", scenario.plant.control->acknowledged}}
+                                : json(nullptr)}};
 }
 
 json estimate_message(const Estimate& e) {
@@ -283,7 +324,10 @@ json estimate_message(const Estimate& e) {
 
 json truth_message(const TruthRecord& t) {
   json j{{"k", t.k}, {"t", t.t}, {"x", t.x}};
-  if (!t.u.empty()) j["u"] = t.u;  // closed loop: the input u_{k-1} the plant applied to produce x_k
+  if (!t.u.empty()) {
+    j["u"] = t.u;  // closed loop: the input u_{k-1} the plant applied to produce x_k
+    j["input_arrived"] = t.input_arrived;  // ν_{k-1}: it reached the plant in time
+  }
   return j;
 }
 

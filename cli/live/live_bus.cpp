@@ -48,7 +48,7 @@ LinkChangeRecord to_record(const wire::LinkChange& w) {
 TruthRecord to_truth(const wire::Truth& w) {
   if (!dds::all_finite(w.x()) || !dds::all_finite(w.applied_input()))
     throw dds::ConversionError("truth with a non-finite value");
-  return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input()};
+  return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
 }
 
 Estimate to_estimate(const wire::Estimate& w) { return dds::from_wire(w); }

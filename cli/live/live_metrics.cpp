@@ -129,7 +129,7 @@ void LiveMetrics::advance(prometheus::Counter& counter, std::uint64_t total, std
 
 void LiveMetrics::update(const LiveSnapshot& s) {
   for (const auto& l : s.links) {
-    const prometheus::Labels labels{{"link", std::to_string(l.sensor_id)}};
+    const prometheus::Labels labels{{"link", link_name(l.sensor_id)}};
     auto& totals = link_totals_[l.sensor_id];
     advance(link_samples_->Add(labels), l.samples_total, totals.samples);
     advance(link_delivered_->Add(labels), l.delivered_total, totals.delivered);
@@ -156,7 +156,7 @@ void LiveMetrics::update(const LiveSnapshot& s) {
 }
 
 void LiveMetrics::set_observed_rates(const LinkView& l) {
-  const std::string link = std::to_string(l.sensor_id);
+  const std::string link = link_name(l.sensor_id);
   // A rate not known (no sample since the change) is no series rather than a made-up 0.
   const auto set = [&](prometheus::Family<prometheus::Gauge>& family, const prometheus::Labels& labels,
                        std::optional<double> value) {

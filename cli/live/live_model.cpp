@@ -13,6 +13,14 @@ LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
     view.in_time = probability_within(sensor.link.delay, scenario_.deadline_ms());
     snapshot_.links.push_back(view);
   }
+  // The actuation link (plant.control.link) last: a link like the sensors', carrying inputs.
+  if (const LinkSpec* control = scenario_.actuation_link()) {
+    LinkView view;
+    view.sensor_id = kControlLinkId;
+    view.link = *control;
+    view.in_time = probability_within(control->delay, scenario_.actuation_deadline_ms());
+    snapshot_.links.push_back(view);
+  }
 }
 
 LinkView* LiveModel::link(int sensor_id) {
@@ -40,7 +48,7 @@ void LiveModel::add_estimate(const Estimate& e) {
     // By now every sensor has published many samples (status arrives once a second).
     std::string silent;
     for (const auto& l : s.links)
-      if (l.samples_total == 0) silent += (silent.empty() ? "" : ", ") + std::to_string(l.sensor_id);
+      if (l.samples_total == 0 && l.sensor_id != kControlLinkId) silent += (silent.empty() ? "" : ", ") + link_name(l.sensor_id);
     if (!silent.empty())
       raise(LiveEvent::Level::error, "sensors " + silent + " have sent nothing to the channel in " +
                                          std::to_string(kSilentSensorCheck) + " periods: is every sensor process running?");
@@ -86,8 +94,14 @@ void LiveModel::check_late_share() {
   if (arrived == 0 || snapshot_.links.empty()) return;
   // What the links themselves make late: a sample delayed beyond the deadline (mean over links).
   double explained = 0.0;
-  for (const auto& l : snapshot_.links) explained += 1.0 - l.in_time;
-  explained /= static_cast<double>(snapshot_.links.size());
+  std::size_t sensor_links = 0;
+  for (const auto& l : snapshot_.links) {
+    if (l.sensor_id == kControlLinkId) continue;  // inputs are not fused
+    explained += 1.0 - l.in_time;
+    ++sensor_links;
+  }
+  if (sensor_links == 0) return;
+  explained /= static_cast<double>(sensor_links);
   const double share = static_cast<double>(late) / static_cast<double>(arrived);
   const bool too_many = late >= 10 && share > explained + kLateExcess;
   if (too_many && !late_warned_) {
@@ -121,7 +135,7 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
   LinkView* view = link(status.sensor_id);
   if (!view) {
     raise(LiveEvent::Level::warning,
-          "link status for sensor " + std::to_string(status.sensor_id) + ", which is not in the scenario (ignored)");
+          "link status for sensor " + link_name(status.sensor_id) + ", which is not in the scenario (ignored)");
     return;
   }
   const bool changed = view->reported && status.last_request_id != view->last_request_id;
@@ -129,10 +143,10 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
     auto own = own_requests_.find(status.last_request_id);
     const std::string source = own != own_requests_.end() ? own->second : "netkf ctl or another client";
     if (status.rejection_reason.empty())
-      raise(LiveEvent::Level::info, "link " + std::to_string(status.sensor_id) + ": " +
+      raise(LiveEvent::Level::info, "link " + link_name(status.sensor_id) + ": " +
                                         describe_link(status.link) + " (from " + source + ")");
     else
-      raise(LiveEvent::Level::error, "link " + std::to_string(status.sensor_id) + ": change refused by the channel (" +
+      raise(LiveEvent::Level::error, "link " + link_name(status.sensor_id) + ": change refused by the channel (" +
                                          status.rejection_reason + ", from " + source + ")");
   }
   ObservedRateWindow& window = windows_[status.sensor_id];
@@ -147,7 +161,7 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
 void LiveModel::add_link_change(const LinkChangeRecord& change) {
   // Requests are announced by the status that answers them; the timeline only here.
   if (change.origin != "timeline") return;
-  raise(LiveEvent::Level::info, "timeline: link " + std::to_string(change.sensor_id) + " from period " +
+  raise(LiveEvent::Level::info, "timeline: link " + link_name(change.sensor_id) + " from period " +
                                     std::to_string(change.at_period) + ": " + describe_link(change.link));
 }
 
@@ -156,17 +170,27 @@ Scenario LiveModel::configured_scenario() const {
   for (auto& sensor : s.sensors)
     for (const auto& l : snapshot_.links)
       if (l.sensor_id == sensor.id) sensor.link = l.link;
+  if (s.plant.control && s.plant.control->link)
+    for (const auto& l : snapshot_.links)
+      if (l.sensor_id == kControlLinkId) s.plant.control->link = l.link;
   return s;
 }
 
 std::optional<std::vector<double>> LiveModel::observed_rates_since_change() const {
   std::vector<double> rates;
   for (const auto& l : snapshot_.links) {
+    if (l.sensor_id == kControlLinkId) continue;  // observed_actuation_rate_since_change()
     if (!l.observed_rate_since_change) return std::nullopt;
     rates.push_back(*l.observed_rate_since_change);
   }
   if (rates.empty()) return std::nullopt;
   return rates;
+}
+
+std::optional<double> LiveModel::observed_actuation_rate_since_change() const {
+  for (const auto& l : snapshot_.links)
+    if (l.sensor_id == kControlLinkId) return l.observed_rate_since_change;
+  return std::nullopt;
 }
 
 void LiveModel::set_theory(TheoryView theory) {

@@ -45,6 +45,8 @@ class LiveModel {
   /// The theory's observed operating point: each link's observed arrival rate since change
   /// (observed_rate.hpp), scenario order, once every link has one.
   std::optional<std::vector<double>> observed_rates_since_change() const;
+  /// The actuation link's observed arrival rate since its change (nullopt: none, or not yet).
+  std::optional<double> observed_actuation_rate_since_change() const;
 
   /// A finished theory computation; raises a warning when the configured verdict crosses
   /// the critical boundary.

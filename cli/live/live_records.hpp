@@ -19,6 +19,7 @@ struct TruthRecord {
   double t = 0.0;
   std::vector<double> x;
   std::vector<double> u;  // closed loop: the input u_{k-1} the plant applied to produce x_k (else empty)
+  bool input_arrived = true;  // ν_{k-1}: u_{k-1} reached the plant in time (true at k = 0 and in an open loop)
 };
 
 /// The estimator's output for period k is the core type `netkf::Estimate` (netkf/estimate.hpp).

@@ -52,12 +52,12 @@ Measured latency_percentile(const RunSummary& s, double p) {
 }
 
 std::string never_reported(const LinkSummary& l) {
-  return "the channel never reported link " + std::to_string(l.id);
+  return "the channel never reported link " + link_name(l.id);
 }
 
 Measured observed_rate(const LinkSummary& l, const std::optional<double>& rate) {
   if (!l.reported) return missing(never_reported(l));
-  if (!rate) return missing("link " + std::to_string(l.id) + " carried no sample since its model was last set");
+  if (!rate) return missing("link " + link_name(l.id) + " carried no sample since its model was last set");
   return value(*rate);
 }
 
@@ -89,6 +89,7 @@ const RunQuantity kRunQuantities[] = {
        if (s.periods == 0) return missing(kNoEstimate);
        std::uint64_t delivered = 0;
        for (const auto& l : s.links) {
+         if (l.id == kControlLinkId) continue;  // inputs, not samples
          // A link without counts would leave its deliveries out of the denominator.
          if (!l.reported) return missing(never_reported(l));
          delivered += l.delivered;
@@ -127,7 +128,7 @@ const LinkQuantity kLinkQuantities[] = {
     {"observed_loss",
      [](const RunSummary&, const LinkSummary& l) {
        if (!l.reported) return missing(never_reported(l));
-       if (l.samples == 0) return missing("link " + std::to_string(l.id) + " carried no sample");
+       if (l.samples == 0) return missing("link " + link_name(l.id) + " carried no sample");
        return value(static_cast<double>(l.dropped) / static_cast<double>(l.samples));
      }},
     {"observed_arrival_rate_since_change",
@@ -169,7 +170,7 @@ std::string join(const std::vector<std::string>& parts) {
 
 std::string link_ids_text(const std::vector<int>& link_ids) {
   std::vector<std::string> ids;
-  for (int id : link_ids) ids.push_back(std::to_string(id));
+  for (int id : link_ids) ids.push_back(link_name(id));
   return ids.empty() ? "none" : join(ids);
 }
 
@@ -204,7 +205,7 @@ std::vector<std::string> summary_names(const std::vector<int>& link_ids) {
   std::vector<std::string> names;
   for (const auto& q : kRunQuantities) names.emplace_back(q.name);
   for (int id : link_ids)
-    for (const auto& q : kLinkQuantities) names.push_back("link." + std::to_string(id) + "." + q.name);
+    for (const auto& q : kLinkQuantities) names.push_back("link." + link_name(id) + "." + q.name);
   return names;
 }
 
@@ -212,7 +213,7 @@ Measured measure(const RunSummary& summary, const std::string& name) {
   for (const auto& q : kRunQuantities)
     if (name == q.name) return q.measure(summary);
   for (const auto& l : summary.links) {
-    const std::string prefix = "link." + std::to_string(l.id) + ".";
+    const std::string prefix = "link." + link_name(l.id) + ".";
     if (name.compare(0, prefix.size(), prefix) != 0) continue;
     if (const auto* q = link_quantity(name.substr(prefix.size()))) return q->measure(summary, l);
   }
@@ -235,6 +236,11 @@ RunSummaryBuilder::RunSummaryBuilder(const Scenario& scenario) {
   for (const auto& sensor : scenario.sensors) {
     LinkSummary l;
     l.id = sensor.id;
+    summary_.links.push_back(l);
+  }
+  if (scenario.actuation_link()) {  // link "control": the inputs' way to the plant
+    LinkSummary l;
+    l.id = kControlLinkId;
     summary_.links.push_back(l);
   }
 }
@@ -436,7 +442,7 @@ nlohmann::ordered_json summary_json(const RunSummary& summary, const std::vector
   for (const auto& q : kRunQuantities) j[q.name] = json_value(q.measure(summary));
   j["link"] = nlohmann::ordered_json::object();
   for (const auto& l : summary.links) {
-    auto& link = j["link"][std::to_string(l.id)];
+    auto& link = j["link"][link_name(l.id)];
     for (const auto& q : kLinkQuantities) link[q.name] = json_value(q.measure(summary, l));
   }
   j["checks"] = nlohmann::ordered_json::array();

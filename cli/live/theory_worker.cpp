@@ -34,7 +34,8 @@ TheoryView compute_theory(const TheoryRequest& request) {
     AssessmentView observed;
     observed.arrival_rates = *request.observed_rates;
     try {
-      observed.result = analysis::assess_operating_point(request.configured, *request.observed_rates);
+      observed.result = analysis::assess_operating_point(request.configured, *request.observed_rates,
+                                                         request.observed_actuation_rate);
     } catch (const std::exception& e) {
       observed.result.stable = analysis::Verdict::unknown;
       observed.result.reason = std::string("theory unavailable: ") + e.what();

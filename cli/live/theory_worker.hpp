@@ -20,6 +20,7 @@ namespace netkf::cli {
 struct TheoryRequest {
   Scenario configured;                        // the scenario with the links as configured now
   std::optional<std::vector<double>> observed_rates;  // per sensor: the observed arrival rate since change
+  std::optional<double> observed_actuation_rate;      // the actuation link's, since its change
   std::int64_t k = -1;
   bool with_region = false;                   // two sensors: compute the (λ1, λ2) region too
 };

@@ -23,10 +23,10 @@ std::string format_double(double value) {
   return buf;
 }
 
-PeriodCsvRecorder::PeriodCsvRecorder(int state_dim, int max_delay_periods, int input_dim)
-    : n_(state_dim), max_delay_periods_(max_delay_periods), m_(input_dim) {}
+PeriodCsvRecorder::PeriodCsvRecorder(int state_dim, int max_delay_periods, int input_dim, bool actuation_link)
+    : n_(state_dim), max_delay_periods_(max_delay_periods), m_(input_dim), actuation_link_(actuation_link) {}
 
-std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods, int input_dim) {
+std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods, int input_dim, bool actuation_link) {
   std::string h = "k,t";
   for (int i = 0; i < state_dim; ++i) h += ",x" + std::to_string(i);
   for (int i = 0; i < state_dim; ++i) h += ",xhat" + std::to_string(i);
@@ -37,6 +37,7 @@ std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods, int 
     h += ",trace_P_final,fused_final";
   }
   for (int i = 0; i < input_dim; ++i) h += ",u" + std::to_string(i);
+  if (actuation_link) h += ",nu";
   return h;
 }
 
@@ -134,6 +135,7 @@ void PeriodCsvRecorder::write_row(std::int64_t k, const TruthRecord& truth, cons
     }
   }
   for (double v : truth.u) row << ',' << format_double(v);
+  if (actuation_link_) row << ',' << (truth.input_arrived ? 1 : 0);
   row << '\n';
   ready_[k] = row.str();
 }

@@ -22,7 +22,9 @@ std::string format_double(double value);
 /// keeps the first (in-time, revision 0) estimate in those columns and appends the final one:
 /// `...,late_samples,revisions,xhat_final0..xhat_final{n-1},trace_P_final,fused_final`. A closed
 /// loop (input_dim m > 0) appends `u0..u{m-1}`: the input u_{k-1} the plant applied to produce
-/// x_k (zeros at k = 0, and where no input arrived in time).
+/// x_k (zeros at k = 0; where no input arrived in time zero, or with on_loss hold the previous
+/// one); with an actuation link (plant.control.link) then `nu`: 1 when u_{k-1} reached the plant
+/// in time (ν_{k-1}), 0 when it was lost or late (1 at k = 0: nothing was due).
 /// A row waits until the truth and the estimate of k are known (D > 0: until k is final, i.e.
 /// the in-time estimate of k + D + 1 has arrived, after which k is not revised). A period whose
 /// estimate never comes (the estimator was stopped, or the run ended first) still gets its
@@ -37,8 +39,8 @@ class PeriodCsvRecorder {
   /// than an estimator restart or stall, after which the missed periods' estimates do come.
   static constexpr std::int64_t kGiveUpPeriods = 2000;
 
-  explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0, int input_dim = 0);
-  static std::string header(int state_dim, int max_delay_periods = 0, int input_dim = 0);
+  explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0, int input_dim = 0, bool actuation_link = false);
+  static std::string header(int state_dim, int max_delay_periods = 0, int input_dim = 0, bool actuation_link = false);
 
   void add_truth(const TruthRecord& truth);
   void add_estimate(const Estimate& estimate);
@@ -59,6 +61,7 @@ class PeriodCsvRecorder {
   int n_;
   int max_delay_periods_;
   int m_;
+  bool actuation_link_;
   std::map<std::int64_t, TruthRecord> truth_;
   std::map<std::int64_t, Estimate> estimates_;  // the first (in-time) estimate of k
   std::map<std::int64_t, Estimate> finals_;     // D > 0: the newest revision of k

@@ -39,7 +39,8 @@ namespace {
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
                      const Scenario& scenario)
-    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario)),
+    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario),
+               scenario.actuation_link() != nullptr),
       samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
       periods_file_(periods_file),
       samples_file_(samples_file) {
@@ -50,7 +51,7 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
   } else if (periods_file) {
     periods_out_ = open_output_stream({"the recording", *periods_file});
     *periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
-                                               input_dim(scenario))
+                                               input_dim(scenario), scenario.actuation_link() != nullptr)
                   << "\n";
   }
   if (periods_file) {

@@ -116,6 +116,7 @@ Plan make_plan(const SweepConfig& config) {
   }
   std::vector<int> ids;
   for (const auto& s : plan.first->sensors) ids.push_back(s.id);
+  if (plan.first->actuation_link()) ids.push_back(kControlLinkId);
   plan.quantities = summary_names(ids);
   try {
     for (const auto& c : config.checks) plan.checks.push_back(parse_check(c, ids));

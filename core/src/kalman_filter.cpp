@@ -276,7 +276,9 @@ FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample>
   return result;
 }
 
-void IntermittentKalmanFilter::predict(const Vector* input) {
+void IntermittentKalmanFilter::predict(const Vector* input) { predict_with(input, nullptr); }
+
+void IntermittentKalmanFilter::predict_with(const Vector* input, const Matrix* input_covariance) {
   const bool use_input = model_.B.has_value() && input != nullptr;
   if (use_input) {
     if (input->size() != model_.B->cols())
@@ -302,6 +304,7 @@ void IntermittentKalmanFilter::predict(const Vector* input) {
   work_a_.noalias() = A * P_;
   P_.noalias() = work_a_ * A.transpose();
   P_ += model_.Q;
+  if (use_input && input_covariance != nullptr) P_ += *model_.B * *input_covariance * model_.B->transpose();
   if (!P_.allFinite()) {
     // Overflow of A P A': recompute it from a scaled P and put it at the ceiling.
     work_b_ /= work_b_.cwiseAbs().maxCoeff();
@@ -312,6 +315,14 @@ void IntermittentKalmanFilter::predict(const Vector* input) {
   symmetrise(P_);
   saturate();
   refresh_state();
+}
+
+void IntermittentKalmanFilter::predict(const Vector& input, const Matrix& input_covariance) {
+  if (model_.B && (input_covariance.rows() != model_.B->cols() || input_covariance.cols() != model_.B->cols()))
+    throw std::invalid_argument("predict: the input covariance must be " + std::to_string(model_.B->cols()) + " x " +
+                                std::to_string(model_.B->cols()));
+  if (!input_covariance.allFinite()) throw std::invalid_argument("predict: input covariance has non-finite entries");
+  predict_with(&input, &input_covariance);
 }
 
 void IntermittentKalmanFilter::restore(const Vector& x, const Matrix& P) {

@@ -269,13 +269,14 @@ class Validator {
   void events() const {
     std::map<int, LinkSpec> links;
     for (const auto& sensor : s_.sensors) links[sensor.id] = sensor.link;
+    if (const LinkSpec* control = s_.actuation_link()) links[kControlLinkId] = *control;
     for (const std::size_t i : event_application_order(s_.events)) {
       const LinkEvent& e = s_.events[i];
       const std::string at = "events[" + std::to_string(i) + "]";
       if (e.at_period < 0) fail(at + ".at_period", at + ".at_period: the event is before period 0");
       if (e.ramp_periods < 0) fail(at + ".ramp", at + ".ramp: negative duration");
       const auto link = links.find(e.link);
-      if (link == links.end()) fail(at + ".link", at + ".link: unknown link " + std::to_string(e.link));
+      if (link == links.end()) fail(at + ".link", at + ".link: unknown link " + link_name(e.link));
       const std::string keys_at = at + (e.kind == LinkEvent::Kind::set ? ".set" : ".ramp.to");
       try {
         if (e.kind == LinkEvent::Kind::ramp) {
@@ -323,7 +324,8 @@ void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
   for (const auto& e : events) {
     out << YAML::Flow << YAML::BeginMap;
     out << YAML::Key << "at_period" << YAML::Value << e.at_period;
-    out << YAML::Key << "link" << YAML::Value << e.link;
+    if (e.link == kControlLinkId) out << YAML::Key << "link" << YAML::Value << kControlLinkName;
+    else out << YAML::Key << "link" << YAML::Value << e.link;
     if (e.kind == LinkEvent::Kind::set) {
       out << YAML::Key << "set" << YAML::Value;
       emit_link_keys(out, e.keys);
@@ -408,6 +410,17 @@ void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
 }
 
 const char* to_string(OnLoss on_loss) { return on_loss == OnLoss::hold ? "hold" : "zero"; }
+
+std::string link_name(int link_id) {
+  return link_id == kControlLinkId ? std::string(kControlLinkName) : std::to_string(link_id);
+}
+
+std::optional<int> parse_link_name(const std::string& text) {
+  if (text == kControlLinkName) return kControlLinkId;
+  if (text.empty() || text.size() > 9 || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    return std::nullopt;
+  return std::stoi(text);
+}
 
 double actuation_arrival_rate(const Scenario& scenario) {
   const LinkSpec* link = scenario.actuation_link();

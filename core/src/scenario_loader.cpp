@@ -473,12 +473,15 @@ class Loader {
         e.at_period = periods_in(seconds, s, v, path + ".at_s");
       }
       const YAML::Node& link = require(m, "link");
-      e.link = read_int(link, path + ".link");
-      if (!s.find_sensor(e.link)) {
+      // A sensor id, or `control` for the actuation link (plant.control.link).
+      if (link.IsScalar() && link.Scalar() == kControlLinkName) e.link = kControlLinkId;
+      else e.link = read_int(link, path + ".link");
+      if (e.link == kControlLinkId ? !s.actuation_link() : !s.find_sensor(e.link)) {
         std::string ids;
         for (const auto& sensor : s.sensors) ids += (ids.empty() ? "" : ", ") + std::to_string(sensor.id);
+        if (s.actuation_link()) ids += std::string(", ") + kControlLinkName;
         fail(mark_of(link, path + ".link"),
-             path + ".link: unknown link " + std::to_string(e.link) + " (the scenario's links: " + ids + ")");
+             path + ".link: unknown link " + link_name(e.link) + " (the scenario's links: " + ids + ")");
       }
       if (m.has("set") == m.has("ramp"))
         fail(m.mark, path + " needs exactly one of set: { LINK KEYS } or ramp: { to: { LINK KEYS }, over_s: S }");

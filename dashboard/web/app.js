@@ -26,7 +26,10 @@
   const LINK_KEYS = ['model', 'loss', 'p', 'r', 'loss_good', 'loss_bad', 'mean_burst', 'delay_ms', 'jitter_ms',
     'delay_distribution'];
   const WORD_KEYS = ['model', 'delay_distribution'];
-  const LINK_PARAMETER = new RegExp('^link\\.(-?\\d+)\\.(' + LINK_KEYS.join('|') + ')$');
+  const LINK_PARAMETER = new RegExp('^link\\.(-?\\d+|control)\\.(' + LINK_KEYS.join('|') + ')$');
+  // The actuation link (plant.control.link) is link "control": id -1 where links are numbered.
+  const CONTROL_LINK_ID = -1;
+  const linkName = (id) => (id === CONTROL_LINK_ID ? 'control' : String(id));
   const GILBERT_CHAIN = ['p', 'r', 'loss_good', 'loss_bad'];
   // Used when the user switches a link to a model it has no values for yet.
   const DEFAULT_PARAMS = { loss: 0, p: 0.1, r: 0.5, loss_good: 0, loss_bad: 1, mean_burst: 1,
@@ -391,8 +394,8 @@
     if (!conn.capabilities.includes('parametersSubscribe') || !store.scenario) return;
     if (conn.paramUpdatesFor === store.scenarioKey) return;
     const names = [];
-    for (const id of store.sensorIds) {
-      for (const key of LINK_KEYS) names.push('link.' + id + '.' + key);
+    for (const id of store.links.keys()) {
+      for (const key of LINK_KEYS) names.push('link.' + linkName(id) + '.' + key);
     }
     if (send({ op: 'subscribeParameterUpdates', parameterNames: names })) conn.paramUpdatesFor = store.scenarioKey;
   }
@@ -420,7 +423,9 @@
       ', ' + s.state_dim + ' states, ' + sensors.length + ' sensors';
     buildTraceChart();
     buildStateCharts(store.ring.n);
-    buildLinkCards(sensors);
+    // The actuation link's card after the sensors': the same controls, for the inputs.
+    buildLinkCards(s.actuation && s.actuation.link
+      ? sensors.concat([{ id: CONTROL_LINK_ID, link: s.actuation.link, actuation: s.actuation }]) : sensors);
     $('assessment').classList.toggle('no-final', !store.fuseWithin);
     const twoSensors = sensors.length === 2;
     $('region-box').hidden = !twoSensors;
@@ -510,6 +515,8 @@
     const fin = th.final_estimate || null;
     const band = (a) => (a ? { stable: a.stable, lower: a.lower_trace, upper: a.upper_trace } : null);
     dash.theoryBands = { configured: band(conf), final: band(fin) };
+    const control = store.links.get(CONTROL_LINK_ID);
+    if (control) control.showActuationTheory(conf && conf.actuation, obs && obs.actuation);
     store.theory.push({
       k: isNum(th.k) ? th.k : (store.ring ? store.ring.maxK : 0),
       confLower: conf ? conf.lower_trace : null,
@@ -550,7 +557,7 @@
     for (const p of msg.parameters || []) {
       const match = LINK_PARAMETER.exec(String(p.name));
       if (!match) continue;
-      const id = Number(match[1]);
+      const id = match[1] === 'control' ? CONTROL_LINK_ID : Number(match[1]);
       if (!perLink.has(id)) perLink.set(id, {});
       // Words stay words; a number that is not finite (an endless mean burst) comes as null.
       perLink.get(id)[match[2]] = WORD_KEYS.includes(match[2]) ? String(p.value) : (isNum(p.value) ? p.value : null);
@@ -631,6 +638,8 @@
   class LinkView {
     constructor(sensor) {
       this.id = sensor.id;
+      this.name = linkName(sensor.id);   // in parameter names and element ids
+      this.actuation = sensor.actuation || null;
       const link = sensor.link || {};
       this.model = MODEL_LABEL[link.model] ? link.model : 'bernoulli';
       this.params = Object.assign({}, DEFAULT_PARAMS);   // every key but model
@@ -656,7 +665,7 @@
     }
 
     build() {
-      const id = this.id;
+      const id = this.name;
       const selectRow = (key, label, options) => {
         const select = el('select', { 'data-link': String(id), 'data-param': key, id: 'link-' + id + '-' + key },
           options.map(([value, text]) => el('option', { value, text })));
@@ -696,9 +705,14 @@
       this.chartBox = el('div', { class: 'chart arrival-chart' });
       this.histCanvas = el('canvas', { class: 'burst-hist', 'aria-label': 'burst-length histogram of link ' + id });
       this.histNote = el('div', { class: 'hist-note muted small' });
-      this.root = el('article', { class: 'panel link-card', 'data-link': String(id), id: 'link-' + id }, [
-        el('div', { class: 'panel-head' }, [el('h2', { text: 'link ' + id }), this.modelLabel, this.pendingLabel]),
+      const a = this.actuation;
+      const title = a ? 'link control (actuation: estimator → plant; on loss ' + a.on_loss + ', ' +
+        (a.acknowledged ? 'acknowledged' : 'unacknowledged') + ')' : 'link ' + id;
+      this.theoryLine = el('div', { class: 'link-theory', role: 'status' });
+      this.root = el('article', { class: 'panel link-card' + (a ? ' actuation-card' : ''), 'data-link': String(id), id: 'link-' + id }, [
+        el('div', { class: 'panel-head' }, [el('h2', { text: title }), this.modelLabel, this.pendingLabel]),
         el('div', { class: 'link-controls' }, rows),
+        this.theoryLine,
         this.statsLine,
         el('div', { class: 'subhead' }, [document.createTextNode('arrival rate λ: '),
           el('span', { class: 'key-configured', text: '━ configured' }), document.createTextNode(' '),
@@ -709,6 +723,20 @@
         this.histCanvas,
         this.histNote,
       ]);
+    }
+
+    // The actuation link: the loop's verdict on its side and the critical rate ν_c beside the
+    // configured and observed arrival rates (netkf analyze's `actuation`).
+    showActuationTheory(configured, observed) {
+      if (!configured) { this.theoryLine.textContent = ''; return; }
+      const f = (v) => (isNum(v) ? v.toFixed(3) : '–');
+      const parts = ['ν̄ configured ' + f(configured.arrival_rate)];
+      if (observed) parts.push('observed ' + f(observed.arrival_rate));
+      parts.push('critical ν_c ' + (isNum(configured.critical_rate) ? f(configured.critical_rate) : 'unknown'));
+      parts.push('loop on this side: ' + configured.stable + (observed ? ' (observed: ' + observed.stable + ')' : ''));
+      this.theoryLine.textContent = parts.join(' · ');
+      this.theoryLine.title = configured.reason || '';
+      this.theoryLine.dataset.stable = observed ? observed.stable : configured.stable;
     }
 
     wireParam(key, range, number) {
@@ -798,8 +826,8 @@
       if (samePending) return;
       const requestId = 'netkf-dashboard-' + Date.now().toString(36) + '-' + (conn.nextRequest++);
       const parameters = Object.entries(values).map(([key, value]) => (typeof value === 'number'
-        ? { name: 'link.' + this.id + '.' + key, value, type: 'float64' }
-        : { name: 'link.' + this.id + '.' + key, value }));
+        ? { name: 'link.' + this.name + '.' + key, value, type: 'float64' }
+        : { name: 'link.' + this.name + '.' + key, value }));
       if (!send({ op: 'setParameters', parameters, id: requestId })) {
         this.pendingLabel.textContent = 'not connected';
         this.pendingLabel.dataset.state = 'invalid';

@@ -80,12 +80,13 @@ SensorSample to_sensor_sample(const wire::Measurement& m, int expected_size) {
   return s;
 }
 
-wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input) {
+wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input, bool input_arrived) {
   wire::Truth w;
   w.k(k);
   w.t(t);
   w.x(to_wire(x));
   w.applied_input(to_wire(applied_input));
+  w.input_arrived(input_arrived);
   return w;
 }
 

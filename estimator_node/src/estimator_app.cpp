@@ -32,7 +32,9 @@ class EstimatorApp::Impl {
         liveliness_timer_(io_),
         readers_timer_(io_),
         estimate_(participant, dds::topics::estimate, dds::WriterOptions{.ownership_strength = options.ownership_strength}),
-        control_(participant, dds::topics::control_input,
+        // With an actuation link the inputs go to the channel emulator, which relays them to
+        // the plant on that link (dds/topics.hpp).
+        control_(participant, scenario.actuation_link() ? dds::topics::sent_control_input : dds::topics::control_input,
                  dds::WriterOptions{.ownership_strength = options.ownership_strength}) {
     if (options.resume) {
       resumed_ = true;
@@ -100,7 +102,7 @@ class EstimatorApp::Impl {
       spdlog::warn("no reader of {} matched within {} s; going on anyway", estimate_.topic_name(),
                    kWait.count());
     if (!control_ok)
-      spdlog::warn("the plant's control reader ({}) did not match within {} s; going on anyway",
+      spdlog::warn("the control input's reader ({}) did not match within {} s; going on anyway",
                    control_.topic_name(), kWait.count());
     const auto text = fmt::format("the readers of the estimate{} matched {:.0f} ms after the start; {} ticks were held",
                                   controls_ ? " and the control input" : "",

@@ -56,6 +56,14 @@ EstimatorCore::EstimatorCore(const Scenario& scenario)
                                   std::to_string(scenario.plant.A.rows()));
     }
     gain_ = L;
+    const ControlSpec& c = *scenario.plant.control;
+    if (c.link && !c.acknowledged) {
+      acknowledged_ = false;
+      on_loss_ = c.on_loss;
+      input_arrival_rate_ = actuation_arrival_rate(scenario);
+      applied_mean_ = Vector::Zero(input_dim_);
+      applied_second_moment_ = Matrix::Zero(input_dim_, input_dim_);
+    }
   }
 }
 
@@ -113,6 +121,28 @@ void EstimatorCore::predict_with(const Vector& applied_input) {
   }
   // A re-run predicts with the same input (the one applied: a re-run never changes the past).
   if (!history_.empty() && last_fused_ && history_.back().k == *last_fused_) history_.back().input_after = std::move(u);
+}
+
+void EstimatorCore::predict_with_expected_input() {
+  // u^a_{k-1} = ν u_{k-1} + (1 − ν) h, ν ~ Bernoulli(ν̄) independent of the past, h = 0 (zero) or
+  // u^a_{k-2} (hold): its mean and second moment follow by one step of that recursion. The
+  // filter takes the spread as extra process noise B Σ_u B' (for zero Schenato et al. 2007,
+  // Sec. VI; for hold the correlation of u^a_{k-2} with the estimation error is neglected).
+  const Vector u = last_control_.value_or(Vector::Zero(input_dim_));
+  const double nu = input_arrival_rate_;
+  const Vector held = on_loss_ == OnLoss::hold ? applied_mean_ : Vector(Vector::Zero(input_dim_));
+  const Matrix held_second = on_loss_ == OnLoss::hold ? applied_second_moment_ : Matrix(Matrix::Zero(input_dim_, input_dim_));
+  const Vector mean = nu * u + (1.0 - nu) * held;
+  const Matrix second = nu * u * u.transpose() + (1.0 - nu) * held_second;
+  Matrix covariance = second - mean * mean.transpose();
+  covariance = 0.5 * (covariance + covariance.transpose());
+  applied_mean_ = mean;
+  applied_second_moment_ = second;
+  filter_.predict(mean, covariance);
+  if (!history_.empty() && last_fused_ && history_.back().k == *last_fused_) {
+    history_.back().input_after = mean;
+    history_.back().input_covariance_after = std::move(covariance);
+  }
 }
 
 void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
@@ -269,7 +299,8 @@ std::vector<PeriodEstimate> EstimatorCore::revise(std::int64_t now_ns) {
     e.last_sample_stamp_ns = f.last_stamp_ns;
     out.push_back(std::move(e));
     // Into the next period (fused, or the open one): with the input the plant applied.
-    if (f.input_after) filter_.predict(f.input_after->size() > 0 ? &*f.input_after : nullptr);
+    if (f.input_after && f.input_covariance_after) filter_.predict(*f.input_after, *f.input_covariance_after);
+    else if (f.input_after) filter_.predict(f.input_after->size() > 0 ? &*f.input_after : nullptr);
   }
   return out;
 }
@@ -289,14 +320,17 @@ std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector
     // buffered for them, predicting with the input we sent (assumed applied).
     const std::uint64_t first_missing = *last_fused_ + 1;
     for (std::uint64_t j = first_missing; j < k; ++j) {
-      predict_with(last_control_.value_or(Vector()));
+      if (acknowledged_) predict_with(last_control_.value_or(Vector()));
+      else predict_with_expected_input();
       open(j, now_ns);
       PeriodEstimate e = fuse(now_ns);
       e.skipped_tick = true;
       e.control.reset();  // the plant has moved past period j: nothing to send
       out.push_back(std::move(e));
     }
-    predict_with(applied_input);
+    // Unacknowledged: what the tick says was applied is not used (the plant would not say).
+    if (acknowledged_) predict_with(applied_input);
+    else predict_with_expected_input();
   }
   // else: the first tick seen; the prior x0, P0 stands for this period.
   open(k, now_ns);

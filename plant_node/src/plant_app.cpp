@@ -30,6 +30,7 @@ class PlantApp::Impl {
         truth_readers_wanted_(options.truth_readers >= 0 ? options.truth_readers
                                                          : static_cast<int>(scenario.sensors.size())),
         state_bound_(scenario.plant.state_bound),
+        on_loss_(scenario.plant.control ? scenario.plant.control->on_loss : OnLoss::zero),
         sim_(scenario),
         period_(std::chrono::milliseconds(scenario.period_ms)),
         timer_(io_),
@@ -217,10 +218,11 @@ class PlantApp::Impl {
     const bool max_reached = options_.max_periods > 0 && s.k + 1 >= options_.max_periods;
     const bool final_period = s.bound_exceeded || max_reached;
     if (s.input_missing) {
-      spdlog::debug("period {}: no control input for period {} arrived in time; applied zero", s.k, s.k - 1);
+      spdlog::debug("period {}: no control input for period {} arrived in time; applied {}", s.k, s.k - 1,
+                    on_loss_ == OnLoss::hold ? "the previous one" : "zero");
     }
     const Vector applied = closed_loop ? s.applied_input : Vector();
-    if (s.x.allFinite()) truth_.write(dds::make_truth(s.k, s.t, s.x, applied));
+    if (s.x.allFinite()) truth_.write(dds::make_truth(s.k, s.t, s.x, applied, !s.input_missing));
     tick_.write(dds::make_tick(s.k, s.t, applied, final_period));
     if (s.k % 1000 == 0) {
       spdlog::info("period {} t={:.3f}s |x|_inf={:.4g}; inputs missing so far {} (late: {})", s.k, s.t,
@@ -299,6 +301,7 @@ class PlantApp::Impl {
   PlantAppOptions options_;
   int truth_readers_wanted_;
   double state_bound_;
+  OnLoss on_loss_;  // what the actuator applies when an input is missing
   mutable std::mutex mutex_;  // sim_ and finished_ (read by stats() from any thread)
   PlantSimulator sim_;
   bool finished_ = false;

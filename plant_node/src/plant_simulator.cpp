@@ -9,6 +9,8 @@ PlantSimulator::PlantSimulator(const Scenario& scenario)
       state_bound_(scenario.plant.state_bound),
       initial_(scenario.plant.P0, derive_seed(scenario.seed, "initial-state")),
       process_noise_(scenario.plant.Q, derive_seed(scenario.seed, "process-noise")) {
+  if (scenario.plant.control) on_loss_ = scenario.plant.control->on_loss;
+  if (B_) last_applied_ = Vector::Zero(B_->cols());
   const auto n = scenario.plant.A.rows();
   x_ = scenario.plant.x0.size() == n ? scenario.plant.x0 : Vector(Vector::Zero(n));
 }
@@ -51,7 +53,9 @@ PlantStep PlantSimulator::step() {
         ++missing_inputs_;
         ++missing_in_a_row_;
         s.input_missing = true;
+        if (on_loss_ == OnLoss::hold) u = last_applied_;  // the actuator keeps its last input
       }
+      last_applied_ = u;
     }
     Vector next = A_ * x_ + process_noise_.draw();
     if (B_) next += *B_ * u;

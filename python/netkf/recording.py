@@ -10,8 +10,9 @@ Period frame columns, one row per period k the plant ran, in order of k:
   fused (tuple of the fused sensor ids), late (samples counted late in this estimate, Int64),
   state ('ok' / 'diverging', or 'none': no estimate of k was recorded), late_samples (tuple of
   (period, sensor id) of each late sample); with late_policy fuse_within also revisions (Int64),
-  xhat_final0.., trace_P_final, fused_final; in a closed loop (plant.B) u0..u{m-1} last: the
-  input u_{k-1} the plant applied to produce x_k.
+  xhat_final0.., trace_P_final, fused_final; in a closed loop (plant.B) u0..u{m-1}: the
+  input u_{k-1} the plant applied to produce x_k; with an actuation link (plant.control.link)
+  nu last (bool: u_{k-1} reached the plant in time; CSV only, the MCAP reader leaves it out).
   A 'none' row holds the period's truth (and u) only: NaN in the estimate's floats, <NA> in
   late and revisions, () in fused, late_samples and fused_final. df[df.state != "none"] keeps
   the periods with an estimate.
@@ -40,11 +41,12 @@ _BASE_TAIL = ["trace_P", "fused", "late", "state", "late_samples"]
 NO_ESTIMATE = "none"
 
 
-def period_columns(n, fuse_within=False, input_dim=0):
+def period_columns(n, fuse_within=False, input_dim=0, actuation_link=False):
     """The period CSV's header for state size n and input size m = input_dim
-    (record_csv.cpp's PeriodCsvRecorder::header)."""
+    (record_csv.cpp's PeriodCsvRecorder::header); with an actuation link (plant.control.link)
+    it ends with nu (1 when u_{k-1} reached the plant in time, else 0)."""
     cols = ["k", "t"] + ["x%d" % i for i in range(n)] + _estimate_columns(n, fuse_within)
-    return cols + ["u%d" % i for i in range(input_dim)]
+    return cols + ["u%d" % i for i in range(input_dim)] + (["nu"] if actuation_link else [])
 
 
 def _estimate_columns(n, fuse_within):
@@ -97,13 +99,14 @@ def _header(path):
 
 
 def _layout(path, header):
-    """(n, fuse_within, m) of a period CSV's header, which must be exactly the writer's: the
-    inputs u0..u{m-1} in order at its end."""
+    """(n, fuse_within, m, actuation_link) of a period CSV's header, which must be exactly the
+    writer's: the inputs u0..u{m-1} in order at its end, then nu with an actuation link."""
     n = sum(1 for c in header if re.fullmatch(r"x\d+", c))
     m = sum(1 for c in header if re.fullmatch(r"u\d+", c))
+    actuation_link = bool(header) and header[-1] == "nu" and m > 0
     for fuse_within in (False, True):
-        if header == period_columns(n, fuse_within, m):
-            return n, fuse_within, m
+        if header == period_columns(n, fuse_within, m, actuation_link):
+            return n, fuse_within, m, actuation_link
     raise FormatError("%s: not a netkf period recording; its header is %s, expected %s" %
                       (path, ",".join(header), ",".join(period_columns(n, False, m))))
 
@@ -177,7 +180,7 @@ def read_periods(path):
     attrs: state_dim (n), fuse_within (whether the final-estimate columns are there),
     input_dim (m, 0 without plant.B), path."""
     header = _header(path)
-    n, fuse_within, m = _layout(path, header)
+    n, fuse_within, m, actuation_link = _layout(path, header)
     _check_cells(path, _read_text(path), n, fuse_within, m)
     converters = {"fused": _ids, "late_samples": _late_samples}
     if fuse_within:
@@ -193,6 +196,11 @@ def read_periods(path):
     for c in nullable:
         df[c] = df[c].astype("Int64")  # also when the file has no row (an empty column's dtype)
     df["state"] = df["state"].astype(str)
+    if actuation_link:
+        _check_numeric(path, df, ["nu"], integer=["nu"])
+        if not df["nu"].isin([0, 1]).all():
+            raise FormatError("%s: column nu holds values other than 0 and 1" % path)
+        df["nu"] = df["nu"].astype(bool)
     _check_periods_increase(path, df["k"].tolist(), "line %d", 2)
     df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=m, path=str(path))
     return df

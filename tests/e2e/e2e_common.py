@@ -221,7 +221,9 @@ def read_periods(path, n, m=None, truth_only=False):
     input dimension of a closed loop (its rows end with the applied input u, in "u"); None: as
     many u columns as the header ends with (u0, u1, ... in order). Rows of
     periods without an estimate (state `none`: the estimator was stopped, or the run ended first)
-    are left out unless truth_only, which keeps them with "xhat" and "trace_P" None."""
+    are left out unless truth_only, which keeps them with "xhat" and "trace_P" None. A scenario
+    with an actuation link (plant.control.link) ends the header with "nu": whether u_{k-1} reached
+    the plant in time (1/0), in "nu" (None without the column)."""
     with open(path) as f:
         reader = csv.reader(f)
         header = next(reader)
@@ -229,17 +231,22 @@ def read_periods(path, n, m=None, truth_only=False):
             m = 0
             while "u%d" % m in header:
                 m += 1
+        with_nu = bool(header) and header[-1] == "nu"
         expected = ["k", "t"] + ["x%d" % i for i in range(n)] + ["xhat%d" % i for i in range(n)] + \
-            ["trace_P", "fused", "late", "state", "late_samples"] + ["u%d" % i for i in range(m)]
+            ["trace_P", "fused", "late", "state", "late_samples"] + ["u%d" % i for i in range(m)] + \
+            (["nu"] if with_nu else [])
         check(header == expected, "record header is exactly %s" % ",".join(expected))
         rows = []
         for c in reader:
+            nu = int(c[-1]) if with_nu else None
+            if with_nu:
+                c = c[:-1]
             u = [float(v) for v in c[len(c) - m:]] if m else []
             if c[5 + 2 * n] == "none":
                 if truth_only:
                     rows.append({"k": int(c[0]), "t": float(c[1]), "x": [float(v) for v in c[2:2 + n]],
                                  "xhat": None, "trace_P": None, "fused": [], "late": 0, "state": "none",
-                                 "late_samples": [], "u": u, "raw": c})
+                                 "late_samples": [], "u": u, "nu": nu, "raw": c})
                 continue
             rows.append({
                 "k": int(c[0]), "t": float(c[1]),
@@ -252,6 +259,7 @@ def read_periods(path, n, m=None, truth_only=False):
                 # (k, sensor id) of each sample counted in `late`: each for an earlier period
                 "late_samples": [tuple(int(v) for v in s.split(":")) for s in c[6 + 2 * n].split(";") if s],
                 "u": u,
+                "nu": nu,
                 "raw": c,
             })
     return rows

@@ -12,6 +12,7 @@
 #include "netkf/analysis/loss_fit.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/nodes/release_queue.hpp"
+#include "netkf/random.hpp"
 
 namespace {
 
@@ -103,6 +104,43 @@ TEST(ChannelLogic, SeededPerLinkAndReproducible) {
   }
   EXPECT_EQ(same_link_differs, 0);
   EXPECT_GT(other_link_differs, 100);  // links 1 and 2 draw from different streams
+}
+
+TEST(ChannelLogic, TheActuationLinkHasStreamsOfItsOwn) {
+  // Adding plant.control.link changes no sensor's decisions; the control link draws from
+  // derive_seed(seed, "actuation-link", 0) (a loss process built here from that seed decides
+  // the same), and its deadline is the time to the plant's next tick.
+  netkf::Scenario with_control = links_scenario();
+  with_control.period_ms = 20;
+  with_control.estimator.deadline_ms = 15;
+  with_control.plant.B = netkf::Matrix::Identity(1, 1);
+  netkf::ControlSpec control;
+  control.gain = netkf::Matrix::Constant(1, 1, 0.5);
+  control.link = netkf::LinkSpec(netkf::BernoulliLink{0.4});
+  with_control.plant.control = control;
+  netkf::Scenario without = links_scenario();
+  without.period_ms = 20;
+  without.estimator.deadline_ms = 15;
+  ChannelLinks a(with_control), b(without);
+  netkf::LinkLossProcess reference(netkf::BernoulliLink{0.4},
+                                   netkf::derive_seed(with_control.seed, netkf::kActuationLinkStream, 0));
+  int sensor_differs = 0, control_differs = 0, delivered = 0;
+  for (std::int64_t k = 0; k < 2000; ++k) {
+    const auto fate = a.on_sample(netkf::kControlLinkId, k);
+    control_differs += (fate.verdict == SampleFate::Verdict::dropped) != reference.next_dropped();
+    delivered += fate.verdict == SampleFate::Verdict::delivered;
+    for (int id : {1, 2, 3}) sensor_differs += a.on_sample(id, k).verdict != b.on_sample(id, k).verdict;
+  }
+  EXPECT_EQ(sensor_differs, 0);
+  EXPECT_EQ(control_differs, 0);
+  EXPECT_NEAR(delivered / 2000.0, 0.6, 4.0 * std::sqrt(0.24 / 2000));
+  const auto* report = a.report(netkf::kControlLinkId);
+  ASSERT_NE(report, nullptr);
+  EXPECT_EQ(report->deadline_ms, 5.0);
+  EXPECT_EQ(b.report(netkf::kControlLinkId), nullptr);
+  // A live change reaches it by its id, as any link's.
+  EXPECT_TRUE(a.request(7, netkf::kControlLinkId, loss_keys(0.9)).applied);
+  EXPECT_EQ(a.report(netkf::kControlLinkId)->link.loss, netkf::LinkModel(netkf::BernoulliLink{0.9}));
 }
 
 TEST(ChannelLogic, ChangeAppliesFromTheNextSampleAndResetsStatistics) {

@@ -286,6 +286,50 @@ TEST(EstimatorLogic, ClosedLoopSendsMinusLxAndPredictsWithTheAcknowledgedInput) 
   EXPECT_NEAR((*out1[0].control)(0), -0.9 * p1.x, 1e-12);
 }
 
+TEST(EstimatorLogic, UnacknowledgedInputsArePredictedWithTheirExpectation) {
+  // UDP-like actuation link (plant.control.acknowledged false), inputs arriving with ν̄ = 0.7:
+  // the tick's applied input is not used. Zero on loss (Schenato et al. 2007, Sec. VI):
+  // x̂_{1|0} = a x̂_0 + ν̄ b u_0, P_{1|0} = a² P_0 + q + ν̄(1 − ν̄) b² u_0². Hold: the applied
+  // input's mean m_k = ν̄ u_k + (1 − ν̄) m_{k−1} and second moment s_k = ν̄ u_k² + (1 − ν̄) s_{k−1},
+  // the spread s_k − m_k² added as process noise.
+  for (netkf::OnLoss on_loss : {netkf::OnLoss::zero, netkf::OnLoss::hold}) {
+    netkf::Scenario sc = scalar_scenario();
+    sc.plant.B = m1(1.0);
+    netkf::ControlSpec control;
+    control.gain = m1(0.9);
+    control.link = netkf::LinkSpec(netkf::BernoulliLink{0.3});
+    control.acknowledged = false;
+    control.on_loss = on_loss;
+    sc.plant.control = control;
+    EstimatorCore core(sc);
+    const double nu = 0.7;
+    core.on_tick(0, v1(0.0), 0);
+    core.on_sample(1, 0, v1(0.8), 0, 1);
+    auto out0 = core.on_sample(2, 0, v1(1.4), 0, 2);
+    ASSERT_EQ(out0.size(), 1u);
+    const Scalar p0 = fuse({0.0, 1.0}, {{0.8, 0.5}, {1.4, 1.0}});
+    const double u0 = -0.9 * p0.x;
+    EXPECT_NEAR((*out0[0].control)(0), u0, 1e-12);
+    core.on_tick(1, v1(123.0), 10 * kMs);  // what the tick says is not used
+    auto out1 = core.on_deadline(18 * kMs);
+    ASSERT_EQ(out1.size(), 1u);
+    double m = nu * u0, second = nu * u0 * u0;  // m_{-1} = s_{-1} = 0 for both
+    EXPECT_NEAR(out1[0].x_hat(0), 1.2 * p0.x + m, 1e-12) << netkf::to_string(on_loss);
+    EXPECT_NEAR(out1[0].P(0, 0), 1.44 * p0.P + 1.0 + (second - m * m), 1e-12) << netkf::to_string(on_loss);
+    // One more period: here the two actuators differ.
+    const Scalar p1{out1[0].x_hat(0), out1[0].P(0, 0)};
+    const double u1 = -0.9 * p1.x;
+    core.on_tick(2, v1(-55.0), 20 * kMs);
+    auto out2 = core.on_deadline(28 * kMs);
+    ASSERT_EQ(out2.size(), 1u);
+    const bool hold = on_loss == netkf::OnLoss::hold;
+    m = nu * u1 + (1.0 - nu) * (hold ? m : 0.0);
+    second = nu * u1 * u1 + (1.0 - nu) * (hold ? second : 0.0);
+    EXPECT_NEAR(out2[0].x_hat(0), 1.2 * p1.x + m, 1e-12) << netkf::to_string(on_loss);
+    EXPECT_NEAR(out2[0].P(0, 0), 1.44 * p1.P + 1.0 + (second - m * m), 1e-12) << netkf::to_string(on_loss);
+  }
+}
+
 TEST(EstimatorLogic, BelowCriticalRateReportsDivergingAndStaysFinite) {
   netkf::Scenario sc = scalar_scenario(1);
   sc.plant.A = m1(2.0);

@@ -40,6 +40,38 @@ TEST(PlantLogic, NoiseFreeRunFollowsAToTheK) {
   }
 }
 
+TEST(PlantLogic, HoldOnLossAppliesThePreviousInput) {
+  // plant.control.on_loss hold: a missing u_{k-1} is replaced by the input applied at the
+  // previous step (zero before any arrived); the step still says the input was missing (ν = 0).
+  netkf::Scenario sc = plant_scenario(false);
+  sc.plant.B = Matrix{{0.0}, {1.0}};
+  netkf::ControlSpec control;
+  control.gain = Matrix{{0.1, 0.2}};
+  control.on_loss = netkf::OnLoss::hold;
+  sc.plant.control = control;
+  PlantSimulator plant(sc);
+  auto s0 = plant.step();
+  auto s1 = plant.step();  // no input for period 0 yet: the held input is zero
+  EXPECT_TRUE(s1.input_missing);
+  EXPECT_EQ(s1.applied_input, Vector::Zero(1));
+  EXPECT_LT((s1.x - sc.plant.A * s0.x).norm(), 1e-12);
+  ASSERT_TRUE(plant.set_input(1, Vector{{0.7}}));
+  auto s2 = plant.step();
+  EXPECT_FALSE(s2.input_missing);
+  EXPECT_EQ(s2.applied_input, Vector{{0.7}});
+  for (int i = 0; i < 3; ++i) {  // lost three times: 0.7 each time
+    const Vector before = plant.state();
+    auto s = plant.step();
+    EXPECT_TRUE(s.input_missing);
+    EXPECT_EQ(s.applied_input, Vector{{0.7}});
+    EXPECT_LT((s.x - (sc.plant.A * before + *sc.plant.B * 0.7)).norm(), 1e-12);
+  }
+  ASSERT_TRUE(plant.set_input(5, Vector{{-0.2}}));
+  EXPECT_EQ(plant.step().applied_input, Vector{{-0.2}});
+  EXPECT_EQ(plant.step().applied_input, Vector{{-0.2}});  // and that one is held next
+  EXPECT_EQ(plant.missing_inputs(), 5u);
+}
+
 TEST(PlantLogic, AppliesAcknowledgesAndZeroesMissingInputs) {
   netkf::Scenario sc = plant_scenario(false);
   sc.plant.B = Matrix{{0.0}, {1.0}};

@@ -79,6 +79,10 @@ class IntermittentKalmanFilter {
   /// Time update to the next period: x̂_{k+1|k} = A x̂_{k|k} + B u_k, P_{k+1|k} = A P A' + Q.
   /// `input` must have B's column count (ignored when the model has no B).
   void predict(const Vector* input = nullptr);
+  /// The same when the input applied is not known, only its mean `input` and covariance
+  /// `input_covariance` (an unacknowledged actuation link): P_{k+1|k} = A P A' + Q + B Σ_u B'
+  /// (Schenato et al. 2007, Sec. VI: Σ_u = ν̄(1 − ν̄) u u' for a zeroing actuator).
+  void predict(const Vector& input, const Matrix& input_covariance);
 
   /// Continue from a filtered x̂_{k|k}, P_{k|k} published earlier (an estimator restarted from
   /// its last estimate). Throws std::invalid_argument on a wrong size or a non-finite entry.
@@ -104,6 +108,8 @@ class IntermittentKalmanFilter {
     Matrix H;
     Matrix Lambda;
   };
+
+  void predict_with(const Vector* input, const Matrix* input_covariance);
 
   FilterModel model_;
   FilterOptions options_;

@@ -219,4 +219,13 @@ double actuation_arrival_rate(const Scenario& scenario);
 inline constexpr const char* kActuationLinkStream = "actuation-link";
 inline constexpr const char* kActuationLinkDelayStream = "actuation-link-delay";
 
+/// The actuation link's id where links are numbered by sensor id (the channel's links, link
+/// status, the journal, timelines' `link:`): sensor ids are >= 0. People call it "control".
+inline constexpr int kControlLinkId = -1;
+inline constexpr const char* kControlLinkName = "control";
+/// "control" for the actuation link, else the sensor id in decimal.
+std::string link_name(int link_id);
+/// A link as a person names it ("control" or a sensor id); nullopt when it is neither.
+std::optional<int> parse_link_name(const std::string& text);
+
 }  // namespace netkf

@@ -22,7 +22,8 @@ struct LinkReport {
   LinkSpec link;
   LinkStatistics stats;     // since the current model was set (a ramp's steps do not reset it)
   LinkStatistics lifetime;  // since the channel started (not reset by a change)
-  std::uint64_t past_deadline = 0;  // delivered with a delay above the estimator's deadline (as stats)
+  std::uint64_t past_deadline = 0;  // delivered with a delay above the link's deadline (as stats)
+  double deadline_ms = 0.0;  // the estimator's deadline; the actuation link's: until the plant's next tick
   std::uint64_t last_request_id = 0;
   bool last_request_rejected = false;
   std::string reject_reason;
@@ -61,7 +62,9 @@ class ChannelLinks {
   using Verdict = SampleFate::Verdict;
 
   /// One link per scenario sensor; link i draws its losses from derive_seed(seed, "link", i) and
-  /// its delays from derive_seed(seed, "link-delay", i). The scenario's events are the timeline.
+  /// its delays from derive_seed(seed, "link-delay", i). With plant.control.link, the actuation
+  /// link too (id kControlLinkId, its own streams kActuationLinkStream and
+  /// kActuationLinkDelayStream). The scenario's events are the timeline.
   explicit ChannelLinks(const Scenario& scenario);
 
   /// The fate of sample `k` of `sensor_id`. First what is due for this period applies: a
@@ -110,6 +113,7 @@ class ChannelLinks {
     // A trace link's period 0: the sample of period k gets the trace's row offset + (k − trace_start).
     std::int64_t trace_start = 0;
     bool trace_restart = false;  // a change made it a (new) trace link: its start is the next sample's period
+    double deadline_ms = 0.0;    // a sample delayed longer is late whatever else happens
   };
 
   void set_link(Link& link, const LinkSpec& spec, bool reset_statistics);
@@ -118,7 +122,6 @@ class ChannelLinks {
 
   std::map<int, Link> links_;
   TraceRows timeline_traces_;  // the traces the timeline switches to, read at start (never per sample)
-  double deadline_ms_ = 0.0;  // a sample delayed longer is late whatever else happens
   std::vector<AppliedLinkChange> changes_;
   std::uint64_t unknown_sensor_samples_ = 0;
 };

@@ -47,7 +47,8 @@ inline constexpr std::size_t kMaxBatchSamples = 100;
 std::vector<wire::MeasurementBatch> make_measurement_batches(std::vector<wire::Measurement> samples);
 
 // ---- plant ----
-wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input);
+wire::Truth make_truth(std::uint64_t k, double t, const Vector& x, const Vector& applied_input,
+                       bool input_arrived = true);
 wire::Tick make_tick(std::uint64_t k, double t, const Vector& applied_input, bool final_tick);
 /// The truth x_k checked against the state dimension (throws ConversionError).
 Vector truth_state(const wire::Truth& truth, int state_dim);

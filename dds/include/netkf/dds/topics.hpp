@@ -152,6 +152,11 @@ inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {.depth = 512,
 // estimator -> plant: u_k = -L x̂_{k|k}; exclusive like the estimate, so the plant applies the
 // inputs of the estimator whose estimates the readers take.
 inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {.depth = 256, .exclusive_ownership = true}};
+// estimator -> channel emulator, with a lossy actuation link (plant.control.link): the inputs
+// the estimator sent, which the channel relays to netkf/control on the actuation link (loss,
+// delay) as it relays samples. Exclusive like netkf/control, so the standby's are not relayed.
+inline constexpr Topic<wire::ControlInput> sent_control_input{"netkf/control/sent",
+                                                              {.depth = 256, .exclusive_ownership = true}};
 // netkf ctl -> channel emulator: link changes.
 inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {true, false, 64}};
 // channel emulator -> netkf ctl: the answer to each link change. Transient-local: `ctl` sends

@@ -131,6 +131,7 @@ class EstimatorCore {
     Matrix P_prior;  // P_{k|k-1}
     std::map<int, SensorSample> samples;  // every sample fused for k (in time and late)
     std::optional<Vector> input_after;     // the input predicted with from k to k+1 (once k+1 opened; empty: none)
+    std::optional<Matrix> input_covariance_after;  // unacknowledged inputs: the applied input's spread
     std::int64_t last_stamp_ns = 0;
     std::int64_t deadline_ns = 0;  // k's deadline (k - D's window closes at it, or when k is fused if later)
     std::uint32_t revision = 0;
@@ -145,6 +146,9 @@ class EstimatorCore {
   void count_fused_rejections(const FusedUpdateResult& result);
   void open(std::uint64_t k, std::int64_t now_ns);
   void predict_with(const Vector& applied_input);
+  /// Unacknowledged inputs: the input the plant applied is not known, only that u_{k-1} arrived
+  /// with probability ν̄; predict with its mean and spread.
+  void predict_with_expected_input();
   bool complete() const;
   void reject(SampleRejection r) { ++rejected_[static_cast<int>(r)]; }
   void count_late(int sensor_id, std::uint64_t k);
@@ -158,6 +162,13 @@ class EstimatorCore {
   std::optional<OpenPeriod> open_;
   std::optional<std::uint64_t> last_fused_;
   std::optional<Vector> last_control_;  // u sent for the last fused period (assumed applied if its tick is lost)
+  // The actuation link (plant.control.link): acknowledged (TCP-like) inputs are predicted with as
+  // the tick reports them; unacknowledged (UDP-like) ones with their expectation under ν̄.
+  bool acknowledged_ = true;
+  OnLoss on_loss_ = OnLoss::zero;
+  double input_arrival_rate_ = 1.0;  // ν̄
+  Vector applied_mean_;              // hold: E[u^a_{k-1}], the applied input's mean
+  Matrix applied_second_moment_;     // hold: E[u^a_{k-1} u^a_{k-1}']
   std::map<std::uint64_t, std::map<int, Buffered>> future_;
   std::uint64_t late_total_ = 0;
   std::vector<int> late_since_publish_;  // sensor id of each late sample since the previous estimate

@@ -18,7 +18,7 @@ struct PlantStep {
   double t = 0.0;          // t_k = k * period (seconds since scenario start)
   Vector x;                // x_k
   Vector applied_input;    // u_{k-1} applied to produce x_k (empty without control; zeros at k = 0)
-  bool input_missing = false;  // no input for k-1 had arrived: zero was applied
+  bool input_missing = false;  // no input for k-1 had arrived (ν_{k-1} = 0): zero or the last one was applied
   std::uint64_t inputs_missing_in_a_row = 0;  // periods up to this one stepped without their input
   bool bound_exceeded = false; // |x_k|_inf > plant.state_bound: the run must end
 };
@@ -37,8 +37,9 @@ class PlantSimulator {
   bool set_input(std::uint64_t k, const Vector& u, std::string* why = nullptr);
 
   /// The first call returns period 0 (x_0); each later call advances one period.
-  /// A missing input u_{k-1} is taken as zero (the plant holds no actuator memory), and
-  /// the step says so; the applied input is always reported (the acknowledgement).
+  /// A missing input u_{k-1} is taken as zero, or with plant.control.on_loss hold as the input
+  /// applied at the previous step (zero before any arrived), and the step says so; the applied
+  /// input is always reported (the acknowledgement).
   PlantStep step();
 
   std::uint64_t next_period() const { return next_k_; }
@@ -57,6 +58,8 @@ class PlantSimulator {
   GaussianSampler initial_;
   GaussianSampler process_noise_;
   std::map<std::uint64_t, Vector> inputs_;  // u_k by k, for k >= next_k_ - 1
+  OnLoss on_loss_ = OnLoss::zero;
+  Vector last_applied_;  // the input applied at the previous step
   std::uint64_t next_k_ = 0;
   std::uint64_t missing_inputs_ = 0;
   std::uint64_t stale_inputs_ = 0;
