@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "exit_code.hpp"
 #include "netkf/link_trace.hpp"
+#include "netkf/scenario.hpp"
 #include "output_file.hpp"
 #include "trace_extract.hpp"
 
@@ -17,7 +18,7 @@ namespace {
 
 struct ExtractArgs {
   std::string recording, output;
-  int link = 0;
+  std::string link;  // a sensor id, or "control" (the actuation link)
   std::optional<std::int64_t> first, last;
 };
 
@@ -30,11 +31,14 @@ void run_extract(const ExtractArgs& a) {
   LinkTrace trace;
   try {
     check_output_files({{"-o", a.output}}, {{"the recording", a.recording}});
-    trace = extract_link_trace(read_delivered_samples(a.recording), a.link, a.first, a.last);
+    const int id = *parse_link_name(a.link);
+    // The actuation link's arrivals are in the period recording (nu); a sensor's in the samples.
+    trace = extract_link_trace(id == kControlLinkId ? read_input_arrivals(a.recording) : read_delivered_samples(a.recording),
+                               id, a.first, a.last);
   } catch (const std::exception& e) {
     fail(2, e.what());
   }
-  const std::string comment = "netkf trace extract: link " + std::to_string(a.link) + " of " + a.recording +
+  const std::string comment = "netkf trace extract: link " + a.link + " of " + a.recording +
                               ", periods " + std::to_string(trace.first_k) + ".." +
                               std::to_string(trace.first_k + trace.size() - 1) + " (k = period)";
   std::ostringstream text;
@@ -55,9 +59,15 @@ void add_trace_command(CLI::App& app) {
   trace->require_subcommand(1);
   auto a = std::make_shared<ExtractArgs>();
   auto* cmd = trace->add_subcommand("extract", "Write the arrival trace (k,delivered) a link had in a recording");
-  cmd->add_option("recording", a->recording, "a samples CSV (--record-samples) or an MCAP recorded with samples")
+  cmd->add_option("recording", a->recording,
+                  "a samples CSV (--record-samples) or an MCAP recorded with samples; for --link control the "
+                  "period CSV (--record) or any MCAP of the run")
       ->required();
-  cmd->add_option("--link", a->link, "the link (sensor id)")->required();
+  cmd->add_option("--link", a->link, "the link: a sensor id, or control (the actuation link)")
+      ->required()
+      ->check([](const std::string& text) {
+        return parse_link_name(text) ? std::string() : "a link is a sensor id or control, got '" + text + "'";
+      });
   cmd->add_option("-o,--output", a->output, "the trace CSV to write")->required();
   cmd->add_option("--first", a->first, "first period (default: the first period any link delivered in)");
   cmd->add_option("--last", a->last, "last period (default: the last period any link delivered in)");

@@ -101,14 +101,14 @@ void render_links(std::ostringstream& out, const LiveSnapshot& s) {
     shown.resize(kStatusLinksShortlist);
   }
   // The window's header names its least span; each row gives the span it covers.
-  out << "  link     λ cfg  λ since change (in time/samples)  λ last ≥" << kWindowSamples << " samples   late  configured";
+  out << "  link   λ cfg  λ since change (in time/samples)  λ last ≥" << kWindowSamples << " samples   late  configured";
   if (shortlisted)
     out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
   out << "\n";
   for (const LinkView* l : shown) {
     char line[320];
     const std::string late = late_share_text(l->late_total, l->delivered_total);
-    std::snprintf(line, sizeof line, "  %-7s %6.3f  %-32s  %-20s %6s  %s\n", link_name(l->sensor_id).c_str(), l->arrival_rate(),
+    std::snprintf(line, sizeof line, "  %-5s %6.3f  %-32s  %-20s %6s  %s\n", link_name(l->sensor_id).c_str(), l->arrival_rate(),
                   since_change_text(*l).c_str(), window_text(*l).c_str(), late.c_str(), describe_link(l->link).c_str());
     out << line;
   }
@@ -134,7 +134,7 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
   std::ostringstream out;
   char line[320];
   // printf pads bytes, not glyphs: a header with "λ" (2 bytes) gets one more byte of width.
-  std::snprintf(line, sizeof line, "%-7s %10s %8s %17s %10s %10s %10s %10s %9s %7s %7s %6s  %s\n", "link", "P(in time)",
+  std::snprintf(line, sizeof line, "%-6s %10s %8s %17s %10s %10s %10s %10s %9s %7s %7s %6s  %s\n", "link", "P(in time)",
                 "λ cfg", "λ since change", "samples", "delivered", "in time", "dropped", "obs loss", "burst", "late",
                 "held", "link");
   out << line;
@@ -142,7 +142,7 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
     // late: the share of delivered samples the channel delayed beyond the estimator's deadline.
     const double late = l.delivered > 0 ? static_cast<double>(l.past_deadline) / static_cast<double>(l.delivered) : 0.0;
     const auto since_change = observed_rate_since_change(l);
-    std::snprintf(line, sizeof line, "%-7s %10.4f %7.4f %16s %10llu %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n",
+    std::snprintf(line, sizeof line, "%-6s %10.4f %7.4f %16s %10llu %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n",
                   link_name(l.sensor_id).c_str(), l.in_time, l.arrival_rate(), since_change ? rate4(*since_change).c_str() : "-",
                   static_cast<unsigned long long>(l.samples_in), static_cast<unsigned long long>(l.delivered),
                   static_cast<unsigned long long>(delivered_in_time(l)), static_cast<unsigned long long>(l.dropped),

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "netkf/input_file.hpp"
+#include "netkf/scenario.hpp"
 
 #include "mcap_reader.hpp"
 
@@ -58,8 +59,9 @@ void number_field(std::string_view text, const std::string& where, const std::st
     refuse(where, name + " must be a number, got " + shown(text));
 }
 
-void flag_field(std::string_view text, const std::string& where, const std::string& name) {
+bool flag_field(std::string_view text, const std::string& where, const std::string& name) {
   if (text != "0" && text != "1") refuse(where, name + " must be 0 or 1, got " + shown(text));
+  return text == "1";
 }
 
 std::vector<std::string_view> split(std::string_view line) {
@@ -147,6 +149,58 @@ DeliveredSamples read_samples_csv(std::istream& in, const std::string& path) {
   return s;
 }
 
+// The actuation link's arrivals: row k of a period CSV says in `nu` whether u_{k-1} reached the
+// plant in time, so input k-1 was delivered. Every row's period is known, delivered or not.
+void add_input(DeliveredSamples& s, std::int64_t row_k, bool arrived, const std::string& where) {
+  if (row_k < 1) return;  // row 0: no input was due
+  const std::int64_t k = row_k - 1;
+  s.periods_by_sensor[kControlLinkId];  // the link is in the recording even if nothing arrived
+  if (arrived) add(s, kControlLinkId, k, where);
+  s.first_k = s.first_k ? std::min(*s.first_k, k) : k;
+  s.last_k = s.last_k ? std::max(*s.last_k, k) : k;
+}
+
+DeliveredSamples read_inputs_csv(std::istream& in, const std::string& path) {
+  DeliveredSamples s;
+  std::string line;
+  std::size_t columns = 0, line_no = 0;
+  bool ended = false;
+  auto& buf = *in.rdbuf();
+  while (next_line(buf, line, ended, path + ":" + std::to_string(line_no + 1))) {
+    ++line_no;
+    const std::string where = path + ":" + std::to_string(line_no);
+    const auto f = split(line);
+    if (line_no == 1) {
+      if (f.empty() || f[0] != "k" || f.back() != "nu")
+        refuse(where, "not a period recording of a scenario with an actuation link (its header ends with nu; "
+                      "record the run with --record RUN.csv)");
+      columns = f.size();
+      continue;
+    }
+    if (!ended) refuse(where, "the last row is cut (no end of line): the file is truncated");
+    if (line.empty()) continue;
+    if (f.size() != columns)
+      refuse(where, "a row of " + std::to_string(f.size()) + " fields, the header has " + std::to_string(columns));
+    add_input(s, integer_field<std::int64_t>(f[0], where, "k"), flag_field(f.back(), where, "nu"), where);
+  }
+  if (line_no == 0) throw std::runtime_error(path + ": empty file (a period recording starts with 'k,t,')");
+  return s;
+}
+
+DeliveredSamples read_inputs_mcap(std::istream& in, const std::string& path) {
+  DeliveredSamples s;
+  read_mcap_messages(in, path, [&](const McapMessage& m) {
+    if (m.topic != "netkf/truth") return;
+    const auto j = nlohmann::json::parse(m.data, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("k") || !j["k"].is_number_integer())
+      throw std::runtime_error(path + ": a truth message without an integer k");
+    if (!j.contains("input_arrived")) return;  // an open loop
+    if (!j["input_arrived"].is_boolean()) throw std::runtime_error(path + ": a truth's input_arrived is not a boolean");
+    add_input(s, j["k"].get<std::int64_t>(), j["input_arrived"].get<bool>(), path);
+  });
+  return s;
+}
+
 DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path) {
   DeliveredSamples s;
   read_mcap_messages(in, path, [&](const McapMessage& m) {
@@ -173,13 +227,23 @@ DeliveredSamples read_delivered_samples(const std::string& path) {
   return s;
 }
 
+DeliveredSamples read_input_arrivals(const std::string& path) {
+  InputFile file(path, "recording", std::numeric_limits<std::uintmax_t>::max());
+  const bool mcap = path.size() >= 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
+  DeliveredSamples s = mcap ? read_inputs_mcap(file.stream(), path) : read_inputs_csv(file.stream(), path);
+  if (!s.first_k)
+    throw std::runtime_error(path + ": no control input was due in the recording (a closed loop over an actuation "
+                             "link, plant.control.link, records whether each arrived)");
+  return s;
+}
+
 LinkTrace extract_link_trace(const DeliveredSamples& samples, int sensor_id, std::optional<std::int64_t> first,
                              std::optional<std::int64_t> last) {
   const auto it = samples.periods_by_sensor.find(sensor_id);
   if (it == samples.periods_by_sensor.end()) {
     std::string ids;
     for (const auto& [id, periods] : samples.periods_by_sensor) ids += (ids.empty() ? "" : ", ") + std::to_string(id);
-    throw std::runtime_error("link " + std::to_string(sensor_id) + " delivered no sample in the recording (links with samples: " +
+    throw std::runtime_error("link " + link_name(sensor_id) + " delivered no sample in the recording (links with samples: " +
                              ids + ")");
   }
   const std::int64_t from = first.value_or(*samples.first_k);

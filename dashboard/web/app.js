@@ -719,9 +719,8 @@
           el('span', { class: 'key-observed', text: '●━ observed since change' }), document.createTextNode(' '),
           el('span', { class: 'key-observed-window', text: '┅ observed, last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples' })]),
         this.chartBox,
-        el('div', { class: 'subhead', text: 'burst length (periods not fused in a row, window)' }),
-        this.histCanvas,
-        this.histNote,
+        ...(a ? [] : [el('div', { class: 'subhead', text: 'burst length (periods not fused in a row, window)' }),
+          this.histCanvas, this.histNote]),
       ]);
     }
 
@@ -1442,7 +1441,8 @@
       }
       link.chart.setData([xs, configured, sinceChange, windowed]);
       dash.plotLengths['link' + link.id] = link.chart.data[0].length;
-      drawBurstHistogram(link, w ? burstHistogram(ring, store.sensorIndex.get(link.id), w.kLo, w.kHi) : null);
+      // The actuation link carries inputs, not samples: no fused-burst histogram.
+      if (!link.actuation) drawBurstHistogram(link, w ? burstHistogram(ring, store.sensorIndex.get(link.id), w.kLo, w.kHi) : null);
     }
   }
 

@@ -2,7 +2,7 @@
 // one JSON object with what it saw. The Python e2e test does the assertions.
 //
 //   node tests/e2e/dashboard_browser.mjs --url http://127.0.0.1:8470/ --screenshot out.png
-//        [--link 2] [--loss 1.0] [--no-set] [--delay 2=3] [--gilbert 3=0.2,4]
+//        [--link 2|control] [--loss 1.0] [--no-set] [--delay 2=3] [--gilbert 3=0.2,4]
 //        [--seconds 2] [--timeout 60] [--chromium /usr/bin/chromium]
 //
 // --link/--loss: the link whose loss is set through the page's own number field (Enter);
@@ -59,11 +59,12 @@ try {
   usage(err.message);
 }
 if (!options.url || !options.screenshot) usage('--url and --screenshot are required');
-const linkId = Number(options.link);
+// A sensor id, or "control" for the actuation link (plant.control.link).
+const linkId = options.link === 'control' ? 'control' : Number(options.link);
 const loss = Number(options.loss);
 const settleSeconds = Number(options.seconds);
 const timeoutSeconds = Number(options.timeout);
-if (!Number.isInteger(linkId) || !Number.isFinite(loss) || !(settleSeconds >= 0) || !(timeoutSeconds > 0)) {
+if (!(Number.isInteger(linkId) || linkId === 'control') || !Number.isFinite(loss) || !(settleSeconds >= 0) || !(timeoutSeconds > 0)) {
   usage('--link must be an integer, --loss a number, --seconds >= 0, --timeout > 0');
 }
 const doSet = !options['no-set'];
@@ -283,6 +284,20 @@ async function main() {
   } catch {
     // Reported below as what it is (few estimates, no points); the Python test judges.
   }
+  // The actuation link's card (plant.control.link): its theory line, before and after.
+  const actuationTheory = () => page.evaluate(() => {
+    const line = document.querySelector('article.link-card[data-link="control"] .link-theory');
+    return line ? { stable: line.dataset.stable ?? null, text: line.textContent } : null;
+  });
+  if (linkId === 'control') {
+    try {  // the first theory message reached the card
+      await page.waitForFunction(() => document.querySelector('article.link-card[data-link="control"] .link-theory')
+        ?.dataset.stable, null, { timeout: remaining(15000), polling: 100 });
+    } catch {
+      // reported as null below
+    }
+  }
+  result.actuation_theory_before = await actuationTheory();
   const before = await page.evaluate(() => ({
     dash: window.netkfDashboard ? JSON.parse(JSON.stringify(window.netkfDashboard)) : null,
     conn: document.getElementById('conn-state')?.dataset.state ?? null,
@@ -376,6 +391,7 @@ async function main() {
   result.final = { ...(after.dash || {}), conn_state: after.conn_state, period_text: after.period_text };
   result.link_stats = (await readLinkStats(page)).links;
   result.verdict = after.verdict;
+  result.actuation_theory_after = await actuationTheory();
   result.event_log_entries = await readEventLog(page);
   result.event_log = result.event_log_entries.map((e) => e.message);
   return result.error ? 1 : 0;

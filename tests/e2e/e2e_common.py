@@ -341,6 +341,8 @@ def node_pids(domain):
                 argv = [a.decode() for a in f.read().split(b"\0") if a]
         except OSError:
             continue
+        if not argv:  # it ended meanwhile (a zombie has no command line)
+            continue
         name = os.path.basename(argv[0])
         if "--spare" in argv:
             continue

@@ -17,7 +17,8 @@ import os
 import numpy as np
 import yaml
 
-from e2e_common import DATA, Launch, check, finish, netkf, read_periods, require_netns, wait_for, last_period, workdir
+from e2e_common import (DATA, Launch, check, finish, last_period, netkf, node, read_periods, require_netns, wait_for,
+                        workdir)
 
 require_netns()
 out = workdir("actuation")
@@ -26,8 +27,10 @@ a, b, ell, q, r = 1.3, 1.0, 0.6, 0.5, 0.2
 sensor_arrival = 0.9
 
 
-def variant(name, loss, on_loss="zero", acknowledged=True):
+def variant(name, loss, on_loss="zero", acknowledged=True, state_bound=None):
     s = json.loads(json.dumps(base))
+    if state_bound:
+        s["plant"]["state_bound"] = state_bound
     s["name"] = "e2e-actuation-" + name
     s["plant"]["control"]["link"] = {"model": "bernoulli", "loss": loss}
     s["plant"]["control"]["on_loss"] = on_loss
@@ -116,6 +119,22 @@ arrived = sum(1 for row in rows_a if row["k"] >= 1 and row["nu"] == 1)
 check(control.get("delivered") is not None and arrived <= control["delivered"] <= arrived + 5,
       "the channel's count of delivered inputs (%s) is what reached the plant (%d)" % (control.get("delivered"), arrived))
 
+cost_csv = float(np.mean([row["x"][0] ** 2 + row["u"][0] ** 2 for row in rows_a]))
+check(sum_a.get("cost") is not None and abs(sum_a["cost"] - cost_csv) <= 1e-9 * cost_csv,
+      "the summary's cost %s is the recording's mean x² + u² %.6f (identity weights for a given gain)"
+      % (sum_a.get("cost"), cost_csv))
+
+# `netkf trace extract --link control`: the trace of the inputs' fates, input k in row k + 1's nu
+trace_path = os.path.join(out, "control-trace.csv")
+res = netkf("trace", "extract", launch_a.record, "--link", "control", "-o", trace_path)
+check(res.returncode == 0, "netkf trace extract --link control runs (rc=%s): %s" % (res.returncode, res.stderr[-300:]))
+if res.returncode == 0:
+    trace_rows = [line.split(",") for line in open(trace_path) if line.strip() and not line.startswith(("#", "k"))]
+    trace = {int(c[0]): int(c[1]) for c in trace_rows}
+    expected = {row["k"] - 1: row["nu"] for row in rows_a if row["k"] >= 1}
+    check(trace == expected, "the control link's trace is the recording's nu shifted by one period (%d periods, %d "
+          "differ)" % (len(expected), sum(1 for k in expected if trace.get(k) != expected[k])))
+
 # ---- B: hold on loss, same seed: the same decisions, the previous input applied on a loss
 rc_b, rows_b, sum_b, _ = run("hold", variant("hold", 0.15, "hold"), 8)
 check(rc_b == 0, "hold on loss: the launch exits 0 (rc=%s)" % rc_b)
@@ -182,5 +201,35 @@ for name, acknowledged in (("tcp", True), ("udp", False)):
     print("%s: live mean cost %.4f over %d periods, Monte Carlo %.4f" % (name, live, len(steady), mc), flush=True)
     check(abs(live - mc) <= 0.35 * mc, "%s-like: live mean cost %.4f within 35%% of the Monte Carlo %.4f"
           % (name.upper(), live, mc))
+
+
+# ---- E: the page: drag the control link's loss past ν_c on its card, the card's verdict turns
+# and the loop leaves its band (the launch then fails: no --allow-divergence)
+# A bound far away: the page is read (4 s after the change) before the state reaches it, about
+# 300 periods (6 s) after the change at ν̄ = 0.25 (log |x| grows by ~0.1 a period).
+page_scenario = variant("page", 0.15, state_bound=1.0e15)
+d = os.path.join(out, "page")
+os.makedirs(d)
+with Launch(page_scenario, 40, d) as launch:
+    ready = wait_for(lambda: last_period(launch.record) >= 100, 60)
+    check(ready, "the run reached period 100 before the page was opened")
+    shot = os.path.join(d, "actuation-page.png")
+    page = node("dashboard_browser.mjs", "--url", "http://127.0.0.1:8470/", "--screenshot", shot,
+                "--link", "control", "--loss", "0.75", "--seconds", "4", "--timeout", "60", timeout=90)
+    rc_page = launch.wait(60)
+rows_page = read_periods(launch.record, 1, truth_only=True)
+check(not page.get("console_errors") and not page.get("page_errors"),
+      "no console or page errors: %s %s" % (page.get("console_errors"), page.get("page_errors")))
+before, after = page.get("actuation_theory_before") or {}, page.get("actuation_theory_after") or {}
+check(before.get("stable") == "yes" and ("%.3f" % critical) in before.get("text", ""),
+      "the control link's card shows the loop stable and ν_c = %.3f beside the rates: %s" % (critical, before))
+check(page.get("applied") is True, "the page's change of the control link was applied (event log: %s)"
+      % (page.get("event_log") or [])[:3])
+check(after.get("stable") == "no", "after the change the card says the loop is not stable: %s" % after)
+check(rc_page == 1 and "diverged" in launch.output(),
+      "the loop left its band: the launch exits 1 and says it diverged (rc=%s)" % rc_page)
+early = max((abs(row["x"][0]) for row in rows_page if row["k"] < 100), default=0.0)
+late = max((abs(row["x"][0]) for row in rows_page), default=0.0)
+check(late > 1000 * max(early, 1.0), "max |x| %.3g after the change, %.3g before period 100" % (late, early))
 
 finish()

@@ -115,7 +115,7 @@ TEST(CheckParsing, NamesAreTheSummarysPerLinkForTheScenariosIds) {
   const std::vector<std::string> expected{
       "periods", "rms_error", "rms_error_final", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction",
       "periods_diverging",
-      "pipeline_latency_p50_ms", "pipeline_latency_p99_ms",
+      "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "cost",
       "link.4.samples", "link.4.delivered", "link.4.dropped", "link.4.observed_loss",
       "link.4.observed_arrival_rate_since_change", "link.4.observed_arrival_rate_window", "link.4.observed_window_samples",
       "link.4.late", "link.4.fused",
@@ -123,6 +123,11 @@ TEST(CheckParsing, NamesAreTheSummarysPerLinkForTheScenariosIds) {
       "link.9.observed_arrival_rate_since_change", "link.9.observed_arrival_rate_window", "link.9.observed_window_samples",
       "link.9.late", "link.9.fused"};
   EXPECT_EQ(names, expected);
+  // The actuation link (plant.control.link) is named `control`.
+  const auto with_control = summary_names({4, netkf::kControlLinkId});
+  EXPECT_NE(std::find(with_control.begin(), with_control.end(), "link.control.observed_loss"), with_control.end());
+  EXPECT_EQ(parse_check("link.control.observed_loss<0.5", {4, netkf::kControlLinkId}).name, "link.control.observed_loss");
+  EXPECT_THROW(parse_check("link.control.observed_loss<0.5", {4, 9}), std::invalid_argument);
 }
 
 TEST(CheckParsing, RefusesMalformedChecksSayingWhy) {
