@@ -12,7 +12,7 @@ from .recording import FormatError
 
 # The run's quantities (docs/experiments.md), in the summary's order; null = not measured.
 QUANTITIES = ["periods", "rms_error", "rms_error_final", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction",
-              "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms"]
+              "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "cost"]
 
 
 def read_summary(path):

@@ -70,7 +70,7 @@ ids = (1, 2, 3)
 print("summary:", json.dumps(s, indent=1), flush=True)
 
 for key in ("scenario", "end", "periods", "rms_error", "mean_trace_P", "late_fraction", "fused_fraction",
-            "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "link", "checks", "passed"):
+            "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "cost", "link", "checks", "passed"):
     check(key in s, "summary has '%s'" % key)
 check(s["scenario"] == "e2e-bernoulli3" and s["end"] == "duration reached", "summary names the scenario and the end")
 check(sorted(s["link"]) == ["1", "2", "3"], "summary has links 1, 2, 3")

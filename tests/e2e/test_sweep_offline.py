@@ -39,7 +39,7 @@ for name in ("runs.csv", "points.csv", "sweep.yaml", "report.html"):
 
 # ---- runs.csv
 run_q = ["periods", "rms_error", "rms_error_final", "mean_trace_P", "mean_trace_P_pred", "late_fraction", "fused_fraction",
-         "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms"]
+         "periods_diverging", "pipeline_latency_p50_ms", "pipeline_latency_p99_ms", "cost"]
 link_q = ["samples", "delivered", "dropped", "observed_loss", "observed_arrival_rate_since_change",
           "observed_arrival_rate_window", "observed_window_samples", "late", "fused"]
 quantities = run_q + ["link.%d.%s" % (i, q) for i in (1, 2, 3) for q in link_q]
