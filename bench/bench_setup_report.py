@@ -52,9 +52,12 @@ def time_v(name):
     if not os.path.exists(path):
         return None
     text = open(path).read()
-    user = float(re.search(r"User time \(seconds\): ([\d.]+)", text).group(1))
-    sys_ = float(re.search(r"System time \(seconds\): ([\d.]+)", text).group(1))
-    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): ([\d:.]+)", text).group(1)
+    found = [re.search(pattern, text) for pattern in (r"User time \(seconds\): ([\d.]+)",
+                                                     r"System time \(seconds\): ([\d.]+)",
+                                                     r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): ([\d:.]+)")]
+    if not all(found):
+        return None  # the session was stopped before /usr/bin/time wrote its summary
+    user, sys_, wall = float(found[0].group(1)), float(found[1].group(1)), found[2].group(1)
     secs = 0.0
     for part in wall.split(":"):
         secs = secs * 60 + float(part)
