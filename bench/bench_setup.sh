@@ -38,6 +38,7 @@ sample &
 sampler=$!
 trap 'kill $sampler 2>/dev/null || true' EXIT
 
+# (BENCH_TRACE, not NETKF_*: scripts/test.sh keys its "nothing changed" check on NETKF_* variables.)
 # traced NAME SCRIPT ARGS...: run SCRIPT (prefixed by the array `wrap`) with its top-level
 # commands traced to NAME.trace (wall clock, and the user+sys ticks of the shell's finished
 # children), its output to NAME.log and /usr/bin/time -v's summary to NAME.time.
@@ -48,8 +49,8 @@ traced() {
   echo "--- $name: $* (load $(cut -d' ' -f1-3 /proc/loadavg))" >&2
   echo "$EPOCHREALTIME start" >"$work/$name.trace"
   # shellcheck disable=SC2016  # expanded by the traced shell
-  NETKF_TRACE=$work/$name.trace /usr/bin/time -v -o "$work/$name.time" "${wrap[@]}" bash -c \
-    'exec 9>>"$NETKF_TRACE"; BASH_XTRACEFD=9; PS4='"'"'+ ${EPOCHREALTIME} $(cut -d" " -f16,17 /proc/$$/stat) '"'"'; set -x; . "$0"' \
+  BENCH_TRACE=$work/$name.trace /usr/bin/time -v -o "$work/$name.time" "${wrap[@]}" bash -c \
+    'exec 9>>"$BENCH_TRACE"; BASH_XTRACEFD=9; PS4='"'"'+ ${EPOCHREALTIME} $(cut -d" " -f16,17 /proc/$$/stat) '"'"'; set -x; . "$0"' \
     "$@" >"$work/$name.log" 2>&1 || rc=$?
   echo "$EPOCHREALTIME end $rc" >>"$work/$name.trace"
   echo "--- $name: exit $rc" >&2

@@ -100,9 +100,12 @@ def session_table(names):
         if not tv:
             continue
         wall, cpu, rc = tv
-        trace = open(os.path.join(work, name + ".trace")).read().split("\n")
-        t0 = float(trace[0].split()[0])
-        mean, peak, idle = machine(t0, t0 + wall)
+        trace_path = os.path.join(work, name + ".trace")
+        if os.path.exists(trace_path):
+            t0 = float(open(trace_path).read().split("\n")[0].split()[0])
+            mean, peak, idle = machine(t0, t0 + wall)
+        else:  # timed without a trace (by hand): no load samples to match
+            mean = peak = idle = "–"
         emit("| %s | %s (%.0f s) | %.0f s | %s | %s / %s | %s |" % (name, mmss(wall), wall, cpu, rc, mean, peak, idle))
     emit()
 
