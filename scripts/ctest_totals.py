@@ -12,7 +12,8 @@ import re
 import subprocess
 import sys
 
-RESULT = re.compile(r"^\s*\d+/\d+ Test\s+#\d+: (\S+) \.*\s*(?:\*\*\*)?([A-Za-z][A-Za-z ]*?)(?::.*?)?\s+[\d.]+ sec")
+# A test's name may hold spaces (a parameterised gtest's "NAME  # GetParam() = ..."): up to the dots.
+RESULT = re.compile(r"^\s*\d+/\d+ Test\s+#\d+: (.+?) \.*\s*(?:\*\*\*)?([A-Za-z][A-Za-z ]*?)(?::.*?)?\s+[\d.]+ sec")
 
 
 def results(path):
