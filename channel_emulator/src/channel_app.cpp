@@ -177,6 +177,12 @@ class ChannelApp::Impl {
     }
   }
 
+  // When a delayed sample or input leaves: its link's delay from now.
+  static std::chrono::steady_clock::time_point release_time(const SampleFate& fate) {
+    return std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                  std::chrono::duration<double, std::milli>(fate.delay_ms));
+  }
+
   // What became of one raw sample: decided under mutex_, acted on outside it.
   struct Routed {
     SampleFate fate;
@@ -191,12 +197,8 @@ class ChannelApp::Impl {
     r.unknown_so_far = links_.unknown_sensor_samples();
     auto taken = links_.take_changes();
     changes.insert(changes.end(), std::make_move_iterator(taken.begin()), std::make_move_iterator(taken.end()));
-    if (r.fate.verdict == SampleFate::Verdict::delivered && r.fate.delay_ms > 0.0) {
-      const auto release = std::chrono::steady_clock::now() +
-                           std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                               std::chrono::duration<double, std::milli>(r.fate.delay_ms));
-      r.rearm = held_.hold(release, m.sensor_id(), m);
-    }
+    if (r.fate.verdict == SampleFate::Verdict::delivered && r.fate.delay_ms > 0.0)
+      r.rearm = held_.hold(release_time(r.fate), m.sensor_id(), m);
     return r;
   }
 
@@ -270,12 +272,8 @@ class ChannelApp::Impl {
       fate = links_.on_sample(kControlLinkId, static_cast<std::int64_t>(c.k()));
       auto taken = links_.take_changes();
       changes.insert(changes.end(), std::make_move_iterator(taken.begin()), std::make_move_iterator(taken.end()));
-      if (fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms > 0.0) {
-        const auto release = std::chrono::steady_clock::now() +
-                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                 std::chrono::duration<double, std::milli>(fate.delay_ms));
-        rearm = held_inputs_.hold(release, kControlLinkId, c);
-      }
+      if (fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms > 0.0)
+        rearm = held_inputs_.hold(release_time(fate), kControlLinkId, c);
     }
     if (!changes.empty()) publish_changes(changes);
     if (fate.verdict == SampleFate::Verdict::delivered && fate.delay_ms <= 0.0) input_out_->write(c);

@@ -267,8 +267,8 @@ void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
   score_final(truth.k);
   if (cost_state_weight_ && static_cast<Eigen::Index>(truth.x.size()) == cost_state_weight_->rows() &&
       static_cast<Eigen::Index>(truth.u.size()) == cost_input_weight_->rows()) {
-    const Vector x = Eigen::Map<const Vector>(truth.x.data(), static_cast<Eigen::Index>(truth.x.size()));
-    const Vector u = Eigen::Map<const Vector>(truth.u.data(), static_cast<Eigen::Index>(truth.u.size()));
+    const Eigen::Map<const Vector> x(truth.x.data(), static_cast<Eigen::Index>(truth.x.size()));
+    const Eigen::Map<const Vector> u(truth.u.data(), static_cast<Eigen::Index>(truth.u.size()));
     const double c = x.dot(*cost_state_weight_ * x) + u.dot(*cost_input_weight_ * u);
     if (std::isfinite(c)) {
       summary_.sum_cost += c;

@@ -12,6 +12,7 @@
 #include "netkf/scenario.hpp"
 
 #include "mcap_reader.hpp"
+#include "record_mcap.hpp"  // is_mcap_path
 
 namespace netkf::cli {
 namespace {
@@ -216,11 +217,18 @@ DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path) {
 
 }  // namespace
 
-DeliveredSamples read_delivered_samples(const std::string& path) {
-  // A regular file only; the readers bound its records, lines and samples.
+namespace {
+// A regular file only (the readers bound its records, lines and samples), read as MCAP by its
+// name's `.mcap`, else as CSV.
+template <class CsvReader, class McapReader>
+DeliveredSamples read_recording(const std::string& path, CsvReader csv, McapReader mcap) {
   InputFile file(path, "recording", std::numeric_limits<std::uintmax_t>::max());
-  const bool mcap = path.size() >= 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
-  DeliveredSamples s = mcap ? read_samples_mcap(file.stream(), path) : read_samples_csv(file.stream(), path);
+  return is_mcap_path(path) ? mcap(file.stream(), path) : csv(file.stream(), path);
+}
+}  // namespace
+
+DeliveredSamples read_delivered_samples(const std::string& path) {
+  DeliveredSamples s = read_recording(path, read_samples_csv, read_samples_mcap);
   if (!s.first_k)
     throw std::runtime_error(path + ": no delivered samples (record them with --record-samples; an MCAP has them "
                              "on netkf/measurement/delivered only then)");
@@ -228,9 +236,7 @@ DeliveredSamples read_delivered_samples(const std::string& path) {
 }
 
 DeliveredSamples read_input_arrivals(const std::string& path) {
-  InputFile file(path, "recording", std::numeric_limits<std::uintmax_t>::max());
-  const bool mcap = path.size() >= 5 && path.compare(path.size() - 5, 5, ".mcap") == 0;
-  DeliveredSamples s = mcap ? read_inputs_mcap(file.stream(), path) : read_inputs_csv(file.stream(), path);
+  DeliveredSamples s = read_recording(path, read_inputs_csv, read_inputs_mcap);
   if (!s.first_k)
     throw std::runtime_error(path + ": no control input was due in the recording (a closed loop over an actuation "
                              "link, plant.control.link, records whether each arrived)");
