@@ -53,12 +53,42 @@ class ChannelApp::Impl {
       input_in_.emplace(participant, dds::topics::sent_control_input, [this](wire::ControlInput&& c) { on_input(c); });
     control_.emplace(participant, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
-    presence_.emplace(participant, dds::presence_role::channel, std::vector<int>{}, dds::scenario_hash(scenario));
+    announce_when_readers_match(participant, dds::scenario_hash(scenario), options.delivered_readers);
     // The first status as soon as run() serves, then one per status period.
     boost::asio::post(io_, [this] {
       status_next_ = std::chrono::steady_clock::now();
       status_loop();
     });
+  }
+
+  // Present (what the plant waits for before period 0) once `readers` readers (the estimator, the
+  // launch's recorder) matched both delivered writers and, with an actuation link, the plant's
+  // input reader matched: a sample relayed before is lost to that reader.
+  void announce_when_readers_match(dds::Participant& participant, std::uint64_t hash, int readers) {
+    auto announce = [this, &participant, hash] {
+      presence_.emplace(participant, dds::presence_role::channel, std::vector<int>{}, hash);
+    };
+    if (readers <= 0) {
+      announce();
+      return;
+    }
+    readers_matched_.emplace(
+        io_,
+        [this, readers] {
+          return delivered_.matched() >= readers && delivered_batch_.matched() >= readers &&
+                 (!input_out_ || input_out_->matched() >= 1);
+        },
+        std::chrono::seconds(5),
+        [this, readers, announce](bool matched) {
+          if (matched)
+            spdlog::debug("{} readers of the delivered samples matched after {} ms", readers,
+                          readers_matched_->waited().count());
+          else
+            spdlog::warn("after {} ms the delivered samples have {} readers (want {}){}; present anyway",
+                         readers_matched_->waited().count(), std::min(delivered_.matched(), delivered_batch_.matched()),
+                         readers, input_out_ && input_out_->matched() < 1 ? " and the plant's input reader has not matched" : "");
+          announce();
+        });
   }
 
   ~Impl() {
@@ -356,6 +386,7 @@ class ChannelApp::Impl {
   std::optional<dds::Writer<wire::ControlInput>> input_out_;  // with an actuation link: to the plant
   std::optional<dds::Reader<wire::ControlInput>> input_in_;   // the inputs the estimator sent
   std::optional<dds::PresenceAnnouncer> presence_;
+  std::optional<dds::WhenMatched> readers_matched_;  // destroyed first: its callback creates presence_
 };
 
 ChannelApp::ChannelApp(const Scenario& scenario, dds::Participant& participant, ChannelAppOptions options)

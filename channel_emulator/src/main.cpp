@@ -18,6 +18,11 @@ int main(int argc, char** argv) {
   app.add_option("--status-period-ms", options.status_period_ms, "Publish link status this often")
       ->check(CLI::Range(10, 3600000))
       ->capture_default_str();
+  app.add_option("--delivered-readers", options.delivered_readers,
+                 "Before saying it is present (the plant starts period 0 when every process is), wait at most 5 s "
+                 "for this many readers of the delivered samples (the estimator, the launch's recorder)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   netkf::dds::SpareGate spare(common.spare);  // before any thread
 

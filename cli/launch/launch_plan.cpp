@@ -147,7 +147,12 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
   LaunchPlan plan;
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
   if (in.roles.channel) {
-    ChildSpec channel{"channel_emulator", executable_of("channel_emulator"), common_args(in)};
+    // Present once the readers of what it relays matched (so period 0 is recorded): this launch's
+    // recorder and this host's estimators (another host's readers are not counted).
+    auto args = common_args(in);
+    const int delivered_readers = 1 + (in.roles.estimator ? (in.estimator_standby ? 2 : 1) : 0);
+    args.insert(args.end(), {"--delivered-readers", std::to_string(delivered_readers)});
+    ChildSpec channel{"channel_emulator", executable_of("channel_emulator"), args};
     channel.warm_spare = in.warm_spares;
     plan.children.push_back({channel, false});
   }
@@ -168,6 +173,7 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
   for (const auto& group : plan.sensor_groups) {
     auto args = common_args(in);
     for (int id : group) args.insert(args.end(), {"--sensor-id", std::to_string(id)});
+    args.insert(args.end(), {"--raw-readers", "1"});  // present once the channel can hear it
     plan.children.push_back(
         {{sensor_process_name(group), executable_of("sensor_node"), args, false, in.sensor_nice}, false});
   }

@@ -105,4 +105,38 @@ StopOnSignal::StopOnSignal(boost::asio::io_context& io, std::function<void(int)>
   });
 }
 
+WhenMatched::WhenMatched(boost::asio::io_context& io, std::function<bool()> matched, std::chrono::milliseconds limit,
+                         std::function<void(bool)> then)
+    : timer_(io),
+      matched_(std::move(matched)),
+      then_(std::move(then)),
+      started_(std::chrono::steady_clock::now()),
+      deadline_(started_ + limit) {
+  schedule(std::chrono::milliseconds(0));
+}
+
+std::chrono::milliseconds WhenMatched::waited() const {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(ended_.value_or(std::chrono::steady_clock::now()) -
+                                                               started_);
+}
+
+// The timer, not a post: destroying it cancels the next poll.
+void WhenMatched::schedule(std::chrono::milliseconds after) {
+  timer_.expires_after(after);
+  timer_.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec) poll();
+  });
+}
+
+void WhenMatched::poll() {
+  if (ended_) return;
+  const bool matched = matched_();
+  if (!matched && std::chrono::steady_clock::now() < deadline_) {
+    schedule(std::chrono::milliseconds(2));
+    return;
+  }
+  ended_ = std::chrono::steady_clock::now();
+  then_(matched);
+}
+
 }  // namespace netkf::dds

@@ -25,6 +25,11 @@ int main(int argc, char** argv) {
   app.add_option("--sensor-id", options.sensor_ids,
                  "Id of a sensor of the scenario; repeat it to host several sensors in this process")
       ->required();
+  app.add_option("--raw-readers", options.raw_readers,
+                 "Before saying it is present (the plant starts period 0 when every process is), wait at most 5 s "
+                 "for this many readers of its samples (the channel)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   const std::string ids = netkf::nodes::describe_sensor_ids(options.sensor_ids);

@@ -56,9 +56,26 @@ class SensorApp::Impl {
     }
     // The reader last: its callback uses everything above.
     truth_.emplace(participant, dds::topics::truth, [this](wire::Truth&& truth) { on_truth(truth); });
-    // Present once it can measure: the plant waits for every sensor's presence.
-    presence_.emplace(participant, dds::presence_role::sensors, options.sensor_ids, dds::scenario_hash(scenario));
+    // Present once it can measure and the channel's reader matched its writer (a sample written
+    // before is lost): the plant waits for every sensor's presence before period 0.
+    auto announce = [this, &participant, ids = options.sensor_ids, hash = dds::scenario_hash(scenario)] {
+      presence_.emplace(participant, dds::presence_role::sensors, ids, hash);
+    };
+    if (options.raw_readers <= 0) {
+      announce();
+      return;
+    }
+    readers_matched_.emplace(
+        io_, [this, wanted = options.raw_readers] { return raw_readers() >= wanted; }, std::chrono::seconds(5),
+        [this, wanted = options.raw_readers, announce](bool matched) {
+          if (!matched)
+            spdlog::warn("after {} ms the raw samples have {} readers (want {}: the channel); present anyway",
+                         readers_matched_->waited().count(), raw_readers(), wanted);
+          announce();
+        });
   }
+
+  int raw_readers() const { return raw_ ? raw_->matched() : raw_batch_->matched(); }
 
   ~Impl() {
     // The reader first: nothing measures any more, and no callback runs into a half-destroyed object.
@@ -85,7 +102,7 @@ class SensorApp::Impl {
       const std::lock_guard lock(mutex_);
       for (const auto& sensor : sensors_) s.sensors.push_back({sensor.id(), sensor.measured(), sensor.skipped()});
     }
-    s.raw_readers = raw_ ? raw_->matched() : raw_batch_->matched();
+    s.raw_readers = raw_readers();
     return s;
   }
 
@@ -131,6 +148,7 @@ class SensorApp::Impl {
   std::optional<dds::Writer<wire::MeasurementBatch>> raw_batch_;  // several
   std::optional<dds::Reader<wire::Truth>> truth_;
   std::optional<dds::PresenceAnnouncer> presence_;
+  std::optional<dds::WhenMatched> readers_matched_;  // destroyed first: its callback creates presence_
 };
 
 SensorApp::SensorApp(const Scenario& scenario, dds::Participant& participant, SensorAppOptions options)

@@ -28,6 +28,9 @@ namespace netkf::nodes {
 struct ChannelAppOptions {
   /// Publish link status this often.
   int status_period_ms = 1000;
+  /// Readers of the delivered samples (estimators, the launch's recorder) to wait for, bounded,
+  /// before saying it is present; 0: present at once.
+  int delivered_readers = 0;
 };
 
 /// What the channel did so far (for its summary lines and for tests).

@@ -6,6 +6,8 @@
 
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -78,6 +80,29 @@ class StopOnSignal {
 
  private:
   boost::asio::signal_set signals_;
+};
+
+/// Before a node says it is present (the plant starts period 0 when every process is), the
+/// readers of its volatile topics must have matched its writers: a sample written before is lost
+/// (e2e bernoulli once recorded no delivered sample of periods 0-4: the launch's reader matched
+/// the channel's writer 200 ms after the run began). Polls `matched()` every 2 ms on the io
+/// thread (a signal still stops the node) until it holds or `limit` passed, then calls
+/// `then(matched)` once on the io thread. Destroying it cancels a wait in progress.
+class WhenMatched {
+ public:
+  WhenMatched(boost::asio::io_context& io, std::function<bool()> matched, std::chrono::milliseconds limit,
+              std::function<void(bool matched)> then);
+  /// Waited so far (or in all, once `then` ran).
+  std::chrono::milliseconds waited() const;
+
+ private:
+  void schedule(std::chrono::milliseconds after);
+  void poll();
+  boost::asio::steady_timer timer_;
+  std::function<bool()> matched_;
+  std::function<void(bool)> then_;
+  std::chrono::steady_clock::time_point started_, deadline_;
+  std::optional<std::chrono::steady_clock::time_point> ended_;
 };
 
 }  // namespace netkf::dds

@@ -28,6 +28,9 @@ namespace netkf::nodes {
 struct SensorAppOptions {
   /// Ids of the scenario's sensors this process hosts (at least one, none twice).
   std::vector<int> sensor_ids;
+  /// Readers of the raw samples (the channel) to wait for, bounded, before saying it is present;
+  /// 0: present at once.
+  int raw_readers = 0;
 };
 
 /// What the sensors did so far (for the summary lines and for tests).
