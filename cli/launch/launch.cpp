@@ -313,6 +313,7 @@ void Launch::start_children() {
   in.ready_timeout_s = o_.ready_timeout;
   in.estimator_standby = o_.standby;
   in.warm_spares = o_.warm_spares;
+  in.records_samples = recording_->wants_samples();
   if (o_.standby) estimator_generation_ = 1;
   plan_ = plan_launch(in);
   for (const auto& child : plan_.children) {

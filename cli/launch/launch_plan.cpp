@@ -148,10 +148,10 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
   // Consumers first, the plant (the clock) last, so period 0 finds its readers.
   if (in.roles.channel) {
     // Present once the readers of what it relays matched (so period 0 is recorded): this launch's
-    // recorder and this host's estimators (another host's readers are not counted).
+    // sample recorder and this host's estimators (another host's readers are not counted).
     auto args = common_args(in);
-    const int delivered_readers = 1 + (in.roles.estimator ? (in.estimator_standby ? 2 : 1) : 0);
-    args.insert(args.end(), {"--delivered-readers", std::to_string(delivered_readers)});
+    const int delivered_readers = (in.records_samples ? 1 : 0) + (in.roles.estimator ? (in.estimator_standby ? 2 : 1) : 0);
+    if (delivered_readers > 0) args.insert(args.end(), {"--delivered-readers", std::to_string(delivered_readers)});
     ChildSpec channel{"channel_emulator", executable_of("channel_emulator"), args};
     channel.warm_spare = in.warm_spares;
     plan.children.push_back({channel, false});

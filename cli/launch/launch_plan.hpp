@@ -64,6 +64,7 @@ struct LaunchPlanInputs {
   double ready_timeout_s = 30.0;  // the plant's wait for the whole network
   bool estimator_standby = false;  // a second, hot-standby estimator (--standby)
   bool warm_spares = true;         // the channel and the estimator (without a standby) keep a warm spare
+  bool records_samples = false;    // this launch reads the delivered samples (--record-samples)
 };
 
 struct PlannedChild {

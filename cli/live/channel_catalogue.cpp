@@ -54,7 +54,9 @@ json assessment_schema() {
                     {"stable", {{"type", "string"}, {"enum", {"yes", "no", "unknown"}}}},
                     {"reason", {{"type", "string"}}},
                     {"on_loss", {{"type", "string"}, {"enum", {"zero", "hold"}}}},
-                    {"acknowledged", {{"type", "boolean"}}}}}}}}}};
+                    {"acknowledged", {{"type", "boolean"}}},
+                    {"cost_lower", nullable_number()},
+                    {"cost_upper", nullable_number()}}}}}}}};
 }
 
 // The link status message's properties: the link's keys and what the link did.
@@ -165,6 +167,8 @@ std::vector<Channel> make_channels() {
                               {"invalid_samples", {{"type", "integer"}}},
                               {"estimator_restarts", {{"type", "integer"}}},
                               {"restart_gap_periods", {{"type", "integer"}}},
+                              {"mean_cost", nullable_number()},
+                              {"periods_costed", {{"type", "integer"}}},
                               {"processes",
                                {{"type", "array"},
                                 {"items", schema_object({{"name", {{"type", "string"}}},
@@ -220,7 +224,10 @@ json actuation_json(const std::optional<analysis::ActuationReport>& a) {
               {"stable", analysis::to_string(a->stable)},
               {"reason", a->stable_reason},
               {"on_loss", to_string(a->on_loss)},
-              {"acknowledged", a->acknowledged}};
+              {"acknowledged", a->acknowledged},
+              // Bounds on the long-run mean cost J (LQR weights, acknowledged): the running cost's theory.
+              {"cost_lower", optional_number(a->cost_lower)},
+              {"cost_upper", optional_number(a->cost_upper)}};
 }
 
 json assessment_json(const AssessmentView& a) {
@@ -445,6 +452,8 @@ json network_message(const LiveSnapshot& s) {
               {"invalid_samples", s.invalid_samples},
               {"estimator_restarts", s.estimator_restarts},
               {"restart_gap_periods", s.restart_gap_periods},
+              {"mean_cost", optional_number(s.mean_cost)},
+              {"periods_costed", s.periods_costed},
               {"processes", std::move(processes)}};
 }
 

@@ -5,7 +5,7 @@
 
 namespace netkf::cli {
 
-LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)) {
+LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)), cost_(scenario_) {
   for (const auto& sensor : scenario_.sensors) {
     LinkView view;
     view.sensor_id = sensor.id;
@@ -33,6 +33,9 @@ void LiveModel::add_truth(const TruthRecord& truth) {
   if (snapshot_.period && static_cast<std::int64_t>(snapshot_.period->estimate.k) == truth.k)
     snapshot_.period->truth = truth.x;
   score(join_.add_truth(truth.k, truth.x));
+  cost_.add(truth);
+  snapshot_.mean_cost = cost_.mean();
+  snapshot_.periods_costed = cost_.periods();
 }
 
 void LiveModel::add_estimate(const Estimate& e) {

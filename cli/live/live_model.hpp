@@ -13,6 +13,7 @@
 #include "live_snapshot.hpp"
 #include "observed_rate.hpp"
 #include "period_join.hpp"
+#include "stage_cost.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -69,6 +70,7 @@ class LiveModel {
   Scenario scenario_;
   LiveSnapshot snapshot_;
   PeriodJoin join_;
+  RunningCost cost_;  // the snapshot's mean_cost (the summary's `cost` over the periods seen so far)
   double sum_trace_ = 0.0;
   double sum_trace_pred_ = 0.0;
   double sum_sq_error_ = 0.0;

@@ -71,6 +71,8 @@ struct LiveSnapshot {
   std::uint64_t invalid_samples = 0;  // failed validation at the bus (never used)
   std::uint32_t estimator_restarts = 0;  // restarts the estimates report (resumed from a checkpoint)
   std::uint64_t restart_gap_periods = 0;  // periods fused with nothing after the restarts, in all
+  std::optional<double> mean_cost;   // closed loop: mean x'Qx x + u'Ru u so far (stage_cost.hpp)
+  std::uint64_t periods_costed = 0;  // the periods in that mean
   std::vector<LinkView> links;        // scenario order
   TheoryView theory;
   std::vector<ProcessView> processes;

@@ -173,6 +173,7 @@ std::string render_status(const LiveSnapshot& s, bool theory_pending) {
       if (p.fused.empty()) out << "-";
     }
     out << "  late=" << s.late_total << " rejected=" << s.rejected_total;
+    if (s.mean_cost) out << "  cost=" << fmt(*s.mean_cost);
     if (s.estimator_restarts)
       out << "  estimator restarts=" << s.estimator_restarts << " (" << s.restart_gap_periods << " periods open-loop)";
     out << "\n";

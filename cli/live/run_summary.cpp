@@ -112,8 +112,9 @@ const RunQuantity kRunQuantities[] = {
     {"pipeline_latency_p99_ms", [](const RunSummary& s) { return latency_percentile(s, 99.0); }},
     {"cost",
      [](const RunSummary& s) {
-       if (s.periods_costed == 0) return missing("an open loop, or no truth: no cost");
-       return value(s.sum_cost / static_cast<double>(s.periods_costed));
+       const auto mean = s.cost.mean();
+       if (!mean) return missing("an open loop, or no truth: no cost");
+       return value(*mean);
      }},
 };
 
@@ -243,12 +244,7 @@ RunSummaryBuilder::RunSummaryBuilder(const Scenario& scenario) {
     l.id = sensor.id;
     summary_.links.push_back(l);
   }
-  if (const auto& control = scenario.plant.control) {
-    const auto n = scenario.plant.A.rows();
-    const auto m = scenario.plant.B ? scenario.plant.B->cols() : 0;
-    cost_state_weight_ = control->lqr_Qx.value_or(Matrix(Matrix::Identity(n, n)));
-    cost_input_weight_ = control->lqr_Ru.value_or(Matrix(Matrix::Identity(m, m)));
-  }
+  summary_.cost = RunningCost(scenario);
   if (scenario.actuation_link()) {  // link "control": the inputs' way to the plant
     LinkSummary l;
     l.id = kControlLinkId;
@@ -265,16 +261,7 @@ LinkSummary* RunSummaryBuilder::link(int sensor_id) {
 void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
   score(join_.add_truth(truth.k, truth.x));
   score_final(truth.k);
-  if (cost_state_weight_ && static_cast<Eigen::Index>(truth.x.size()) == cost_state_weight_->rows() &&
-      static_cast<Eigen::Index>(truth.u.size()) == cost_input_weight_->rows()) {
-    const Eigen::Map<const Vector> x(truth.x.data(), static_cast<Eigen::Index>(truth.x.size()));
-    const Eigen::Map<const Vector> u(truth.u.data(), static_cast<Eigen::Index>(truth.u.size()));
-    const double c = x.dot(*cost_state_weight_ * x) + u.dot(*cost_input_weight_ * u);
-    if (std::isfinite(c)) {
-      summary_.sum_cost += c;
-      ++summary_.periods_costed;
-    }
-  }
+  summary_.cost.add(truth);
 }
 
 void RunSummaryBuilder::score_final(std::int64_t k) {

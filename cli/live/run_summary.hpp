@@ -46,6 +46,7 @@
 #include "netkf/types.hpp"
 #include "observed_rate.hpp"
 #include "period_join.hpp"
+#include "stage_cost.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -77,10 +78,7 @@ struct RunSummary {
   std::uint64_t late = 0;             // Σ over estimates of `late`
   std::uint64_t periods_diverging = 0;
   std::vector<double> latencies_ms;   // one per period with a fused sample
-  // Closed loop: Σ x_k'Qx x_k + u_{k-1}'Ru u_{k-1} (u as applied; Qx, Ru the LQR weights, or
-  // identities for a given gain) over the periods with a truth.
-  double sum_cost = 0.0;
-  std::uint64_t periods_costed = 0;
+  RunningCost cost;                   // closed loop: the mean stage cost over the periods with a truth
   int sensors = 0;
   std::vector<LinkSummary> links;     // scenario order
 };
@@ -128,8 +126,6 @@ class RunSummaryBuilder {
   std::map<int, ObservedRateWindow> windows_;
   RunSummary summary_;
   PeriodJoin join_;
-  std::optional<Matrix> cost_state_weight_;  // Qx (closed loop only)
-  std::optional<Matrix> cost_input_weight_;  // Ru
   void score(std::optional<double> squared_error);
   /// rms_error_final: the newest estimate of each recent period, and its term in the sum.
   struct Final {

@@ -1667,6 +1667,19 @@
     state.dataset.state = e ? String(e.state) : '';
     const nw = store.latestNetwork;
     $('rms-error').textContent = nw ? fmt(nw.rms_error, 3) : '—';
+    // Closed loop: the running mean cost, beside the theory's bounds on J when it has them
+    // (acknowledged inputs, LQR weights); the summary's `cost` at the end of the run.
+    const cost = nw && isNum(nw.mean_cost) ? nw.mean_cost : null;
+    $('running-cost-stat').hidden = cost === null;
+    const costCell = $('running-cost');
+    if (cost !== null) {
+      const act = store.latestTheory && store.latestTheory.configured && store.latestTheory.configured.actuation;
+      const bounds = act && isNum(act.cost_lower) && isNum(act.cost_upper)
+        ? ' (J ∈ [' + fmt(act.cost_lower, 3) + ', ' + fmt(act.cost_upper, 3) + '])' : '';
+      costCell.textContent = fmt(cost, 4) + bounds;
+      costCell.dataset.value = String(cost);
+      costCell.dataset.periods = String(nw.periods_costed);
+    }
     if (nw && Array.isArray(nw.processes)) {
       const running = nw.processes.filter((p) => p.running).length;
       const restarts = nw.processes.reduce((sum, p) => sum + (p.restarts | 0), 0);

@@ -298,6 +298,13 @@ async function main() {
     }
   }
   result.actuation_theory_before = await actuationTheory();
+  // The header's running cost (closed loop): the value and how many periods it averages.
+  result.running_cost = await page.evaluate(() => {
+    const stat = document.getElementById('running-cost-stat');
+    const cell = document.getElementById('running-cost');
+    if (!stat || !cell || stat.hidden) return null;
+    return { value: Number(cell.dataset.value), periods: Number(cell.dataset.periods), text: cell.textContent };
+  });
   const before = await page.evaluate(() => ({
     dash: window.netkfDashboard ? JSON.parse(JSON.stringify(window.netkfDashboard)) : null,
     conn: document.getElementById('conn-state')?.dataset.state ?? null,

@@ -226,6 +226,15 @@ check(before.get("stable") == "yes" and ("%.3f" % critical) in before.get("text"
 check(page.get("applied") is True, "the page's change of the control link was applied (event log: %s)"
       % (page.get("event_log") or [])[:3])
 check(after.get("stable") == "no", "after the change the card says the loop is not stable: %s" % after)
+# The header's running cost against the recording: the mean of x² + u² (identity weights for a
+# given gain) over the same first periods, computed here from the CSV.
+shown = page.get("running_cost") or {}
+costed = [row["x"][0] ** 2 + row["u"][0] ** 2 for row in rows_page if row["k"] < int(shown.get("periods") or 0)]
+expected_cost = float(np.mean(costed)) if costed else float("nan")
+check(len(costed) == int(shown.get("periods") or -1) and len(costed) >= 100 and
+      abs(shown.get("value", float("nan")) - expected_cost) <= 1e-9 * expected_cost,
+      "the page's running cost %s over %s periods is the recording's mean x² + u² %.6f over them"
+      % (shown.get("value"), shown.get("periods"), expected_cost))
 check(rc_page == 1 and "diverged" in launch.output(),
       "the loop left its band: the launch exits 1 and says it diverged (rc=%s)" % rc_page)
 early = max((abs(row["x"][0]) for row in rows_page if row["k"] < 100), default=0.0)

@@ -132,6 +132,28 @@ TEST(LaunchPlan, ThePlantWaitsForPresenceAndCountsThisHostsTruthReaders) {
   EXPECT_EQ(ids, (std::vector<std::string>{"1", "2"}));
 }
 
+// Period 0 must reach every reader: the channel says it is present once the readers of the
+// delivered samples on this host matched (the estimators, the launch's recorder when it records
+// samples), a sensor process once the channel's reader matched.
+TEST(LaunchPlan, TheChannelAndTheSensorsWaitForTheirReadersOnThisHost) {
+  auto in = inputs({1, 2});
+  EXPECT_EQ(value_of(plan_launch(in, identity).children.front().spec.args, "--delivered-readers"), "1");
+  in.records_samples = true;
+  EXPECT_EQ(value_of(plan_launch(in, identity).children.front().spec.args, "--delivered-readers"), "2");
+  in.estimator_standby = true;
+  const auto plan = plan_launch(in, identity);
+  EXPECT_EQ(value_of(plan.children.front().spec.args, "--delivered-readers"), "3");
+  for (const auto& c : plan.children)
+    EXPECT_EQ(value_of(c.spec.args, "--raw-readers"), c.spec.name.rfind("sensor_node", 0) == 0 ? "1" : "") << c.spec.name;
+  // The estimator on another host, no recorder here: present at once (nothing here to wait for).
+  in.records_samples = false;
+  in.roles = parse_launch_roles("sensors=1,channel", {1, 2});
+  const auto partial = plan_launch(in, identity);
+  const auto& channel = partial.children.front().spec;
+  ASSERT_EQ(channel.name, "channel_emulator");
+  EXPECT_FALSE(has(channel.args, "--delivered-readers"));
+}
+
 TEST(LaunchPlan, APartialLaunchStartsOnlyItsRoles) {
   auto in = inputs({});
   in.roles = parse_launch_roles("sensors=1,3,channel", {1, 2, 3});
