@@ -12,6 +12,7 @@
 
 #include "netkf/analysis/actuation.hpp"
 #include "netkf/lqr.hpp"
+#include "netkf/scenario.hpp"
 
 namespace {
 
@@ -182,6 +183,41 @@ TEST(ActuationTheory, LongRunCostMatchesMonteCarloOfTheLoopWithItsState) {
     }
     EXPECT_NEAR(sum / steps / model->constant, 1.0, 0.03)
         << netkf::to_string(on_loss) << ": theory " << model->constant << ", Monte Carlo " << sum / steps;
+  }
+}
+
+TEST(ActuationTheory, RegionOfTheScalarLoopIsTheProductOfTheClosedForms) {
+  // `analyze --region` for the scalar loop x' = a x + b u + w, y = x + v, u = −ℓ x̂ zeroed on a
+  // loss, acknowledged: the estimator is stable iff γ̄ > 1 − 1/a² (Sinopoli 2004, C invertible),
+  // the control side iff ν̄ > ν_c = (a² − 1)/(a² − (a − bℓ)²) (the zeroing closed form above), and
+  // by separation the region is their product.
+  const double a = 1.25, b = 1.0, l = 0.9;
+  const std::string text =
+      "period_ms: 10\n"
+      "plant:\n"
+      "  A: [[1.25]]\n  Q: [[1.0]]\n  B: [[1.0]]\n"
+      "  control: { gain: [[0.9]], link: { model: bernoulli, loss: 0.2 }, on_loss: zero, acknowledged: true }\n"
+      "sensors: [ { id: 4, C: [[1.0]], R: [[2.5]], link: { model: bernoulli, loss: 0.3 } } ]\n";
+  const netkf::Scenario scenario = netkf::parse_scenario(text, "region.yaml");
+  const double gamma_c = 1.0 - 1.0 / (a * a);
+  const double nu_c = (a * a - 1.0) / (a * a - (a - b * l) * (a - b * l));
+  const auto region = analysis::actuation_region(scenario, 4, 11);
+  EXPECT_EQ(region.sensor_id, 4);
+  ASSERT_TRUE(region.gamma_lower && region.gamma_upper);
+  EXPECT_NEAR(*region.gamma_lower, gamma_c, 1e-5);
+  EXPECT_NEAR(*region.gamma_upper, gamma_c, 1e-5);
+  ASSERT_EQ(region.points.size(), 11u);
+  for (const auto& p : region.points) {
+    if (p.gamma < gamma_c - 1e-9) {
+      EXPECT_EQ(p.estimator, analysis::Verdict::no) << p.gamma;
+      EXPECT_EQ(p.nu_lower, 1.0) << p.gamma;  // no ν̄ makes the loop stable
+      EXPECT_FALSE(p.nu_upper) << p.gamma;
+    } else if (p.gamma > gamma_c + 1e-9) {
+      EXPECT_EQ(p.estimator, analysis::Verdict::yes) << p.gamma;
+      EXPECT_NEAR(p.nu_lower, nu_c, 1e-8) << p.gamma;
+      ASSERT_TRUE(p.nu_upper) << p.gamma;
+      EXPECT_NEAR(*p.nu_upper, nu_c, 1e-8) << p.gamma;
+    }
   }
 }
 
