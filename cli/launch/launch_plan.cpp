@@ -173,7 +173,9 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
   for (const auto& group : plan.sensor_groups) {
     auto args = common_args(in);
     for (int id : group) args.insert(args.end(), {"--sensor-id", std::to_string(id)});
-    args.insert(args.end(), {"--raw-readers", "1"});  // present once the channel can hear it
+    // Present once this host's channel can hear it (a channel on another host is not waited
+    // for: the plant names it missing, not the sensors that are here).
+    if (in.roles.channel) args.insert(args.end(), {"--raw-readers", "1"});
     plan.children.push_back(
         {{sensor_process_name(group), executable_of("sensor_node"), args, false, in.sensor_nice}, false});
   }

@@ -152,6 +152,11 @@ TEST(LaunchPlan, TheChannelAndTheSensorsWaitForTheirReadersOnThisHost) {
   const auto& channel = partial.children.front().spec;
   ASSERT_EQ(channel.name, "channel_emulator");
   EXPECT_FALSE(has(channel.args, "--delivered-readers"));
+  // The channel on another host: the sensors say they are present at once.
+  in.roles = parse_launch_roles("sensors=1", {1, 2});
+  const auto sensors_only = plan_launch(in, identity);
+  ASSERT_EQ(names(sensors_only), (std::vector<std::string>{"sensor_node[1]"}));
+  EXPECT_FALSE(has(sensors_only.children.front().spec.args, "--raw-readers"));
 }
 
 TEST(LaunchPlan, APartialLaunchStartsOnlyItsRoles) {
