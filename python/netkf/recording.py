@@ -412,7 +412,8 @@ def read_mcap_periods(path, fuse_within=None, actuation_link=None):
         row += _vector(m.path, "truth's input u", k, tr["u"], inputs)
         if actuation_link:
             if tr["input_arrived"] is None:
-                raise FormatError("%s: an actuation link, but the truth of period %d has no input_arrived" % (m.path, k))
+                raise FormatError("%s: an actuation link, but the truth of period %d has no input_arrived" %
+                                  (m.path, k))
             row.append(tr["input_arrived"])
         rows.append(row)
     df = pd.DataFrame(rows, columns=period_columns(n, fuse_within, inputs, actuation_link))

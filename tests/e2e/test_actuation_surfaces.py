@@ -30,7 +30,6 @@ import os
 import re
 import subprocess
 import sys
-import time
 
 import yaml
 
@@ -198,7 +197,8 @@ with Launch(scenario_path, 90, replay_dir, record=False,
             extra=["--record", b_mcap, "--events", journal, "--dashboard", "off", "--log-level", "debug"]) as replay:
     check(wait_for(lambda: re.search(r"^period \d+ ", replay.output(), re.M) is not None, 60), "the replay runs")
     rec_b = attach(b_csv)
-    check(wait_for(lambda: last_period(b_csv) >= last_a, 90), "the replay reaches the live run's last period %d" % last_a)
+    check(wait_for(lambda: last_period(b_csv) >= last_a, 90),
+          "the replay reaches the live run's last period %d" % last_a)
     rc = replay.interrupt()
     detach(rec_b, "b.csv")
     log_b = replay.output()
