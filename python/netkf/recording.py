@@ -12,7 +12,7 @@ Period frame columns, one row per period k the plant ran, in order of k:
   (period, sensor id) of each late sample); with late_policy fuse_within also revisions (Int64),
   xhat_final0.., trace_P_final, fused_final; in a closed loop (plant.B) u0..u{m-1}: the
   input u_{k-1} the plant applied to produce x_k; with an actuation link (plant.control.link)
-  nu last (bool: u_{k-1} reached the plant in time; CSV only, the MCAP reader leaves it out).
+  nu last (bool: u_{k-1} reached the plant in time; in an MCAP the truth's input_arrived).
   A 'none' row holds the period's truth (and u) only: NaN in the estimate's floats, <NA> in
   late and revisions, () in fused, late_samples and fused_final. df[df.state != "none"] keeps
   the periods with an estimate.
@@ -178,7 +178,7 @@ def read_periods(path):
     row per period the plant ran, those without an estimate (state `none`) included.
 
     attrs: state_dim (n), fuse_within (whether the final-estimate columns are there),
-    input_dim (m, 0 without plant.B), path."""
+    input_dim (m, 0 without plant.B), actuation_link (whether `nu` is there), path."""
     header = _header(path)
     n, fuse_within, m, actuation_link = _layout(path, header)
     _check_cells(path, _read_text(path), n, fuse_within, m)
@@ -202,7 +202,7 @@ def read_periods(path):
             raise FormatError("%s: column nu holds values other than 0 and 1" % path)
         df["nu"] = df["nu"].astype(bool)
     _check_periods_increase(path, df["k"].tolist(), "line %d", 2)
-    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=m, path=str(path))
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=m, actuation_link=actuation_link, path=str(path))
     return df
 
 
@@ -248,6 +248,9 @@ def read_samples(path):
 TRUTH = "netkf/truth"
 ESTIMATE = "netkf/estimate"
 DELIVERED = "netkf/measurement/delivered"
+LINK_STATUS = "netkf/link/status"
+LINK_CHANGE = "netkf/link/change"
+CONTROL_LINK_ID = -1  # the actuation link (link `control`) where links are numbered (core/scenario.hpp)
 
 
 def read_mcap(path):
@@ -294,10 +297,18 @@ def _str(v):
     return v
 
 
+def _bool(v):
+    if not isinstance(v, bool):
+        raise ValueError("%r is not a boolean" % (v,))
+    return v
+
+
 def _truth(msg):
-    """u (closed loop: the input u_{k-1} the plant applied to produce x_k) is optional."""
+    """u (closed loop: the input u_{k-1} the plant applied to produce x_k) and input_arrived
+    (closed loop: whether it reached the plant in time) are optional."""
     return {"k": _int(msg["k"]), "t": _num(msg["t"]), "x": [_num(v) for v in _list(msg["x"])],
-            "u": [_num(v) for v in _list(msg["u"])] if "u" in msg else []}
+            "u": [_num(v) for v in _list(msg["u"])] if "u" in msg else [],
+            "input_arrived": _bool(msg["input_arrived"]) if "input_arrived" in msg else None}
 
 
 def _estimate(msg):
@@ -348,20 +359,40 @@ def _vector(path, what, k, values, n):
     return values
 
 
-def read_mcap_periods(path, fuse_within=None):
+def _reports_actuation_link(m):
+    """Whether the recording's channel emulator reported the actuation link (sensor id -1): its
+    link status, which the channel publishes from its start (so every recording of a run has
+    one), or a change of it. The truth's input_arrived alone does not say so: every closed loop
+    writes it, while the CSV has `nu` only with an actuation link."""
+    for topic in (LINK_STATUS, LINK_CHANGE):
+        if topic in m.topics() and any(isinstance(msg, dict) and msg.get("sensor_id") == CONTROL_LINK_ID
+                                       for _, msg in m.decoded(topic)):
+            return True
+    return False
+
+
+def read_mcap_periods(path, fuse_within=None, actuation_link=None):
     """The period frame of an MCAP recording: one row per netkf/truth message (in order of k),
     joined with the period's in-time estimate as the CSV recorder joins them; a period without
     one is a `none` row, an estimate without truth is left out. fuse_within: add the final
     columns (True), not (False), or only when an estimate was revised (None). The truth's `u`
-    gives u0..u{m-1} (m from the first truth; every truth must carry the same size)."""
+    gives u0..u{m-1} (m from the first truth; every truth must carry the same size).
+    actuation_link: add `nu` (the truth's input_arrived) last, as the CSV has it with an
+    actuation link (True), not (False), or when the file's link messages name the actuation
+    link (None)."""
     m = path if isinstance(path, McapFile) else McapFile(path)
     truth_list = _parsed(m, TRUTH, _truth)
     _check_periods_increase(m.path, [tr["k"] for tr in truth_list], TRUTH + " message %d", 0)
     in_time, final = _estimates(m)
     if fuse_within is None:
         fuse_within = any(e["revision"] > 0 for e in final.values())
+    if actuation_link is None:
+        actuation_link = _reports_actuation_link(m)
     n = len(truth_list[0]["x"]) if truth_list else 0
     inputs = len(truth_list[0]["u"]) if truth_list else 0
+    if actuation_link and truth_list and inputs == 0:
+        raise FormatError("%s: an actuation link, but the truth of period %d has no input u (an open loop)" %
+                          (m.path, truth_list[0]["k"]))
     no_final = [pd.NA] + [math.nan] * n + [math.nan, ()]
     no_estimate = [math.nan] * n + [math.nan, (), pd.NA, NO_ESTIMATE, ()] + (no_final if fuse_within else [])
     rows = []
@@ -378,15 +409,24 @@ def read_mcap_periods(path, fuse_within=None):
                 f = final[k]
                 row += [f["revision"]] + _vector(m.path, "final estimate", k, f["x_hat"], n)
                 row += [f["trace_P"], f["fused"]]
-        rows.append(row + _vector(m.path, "truth's input u", k, tr["u"], inputs))
-    df = pd.DataFrame(rows, columns=period_columns(n, fuse_within, inputs))
+        row += _vector(m.path, "truth's input u", k, tr["u"], inputs)
+        if actuation_link:
+            if tr["input_arrived"] is None:
+                raise FormatError("%s: an actuation link, but the truth of period %d has no input_arrived" %
+                                  (m.path, k))
+            row.append(tr["input_arrived"])
+        rows.append(row)
+    df = pd.DataFrame(rows, columns=period_columns(n, fuse_within, inputs, actuation_link))
     df["k"] = df["k"].astype(np.int64)
     for c in _integer_columns(fuse_within):
         df[c] = df[c].astype("Int64")
     for c in _float_columns(df.columns):
         df[c] = df[c].astype(np.float64)
     df["state"] = df["state"].astype(str)
-    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=inputs, path=str(m.path))
+    if actuation_link:
+        df["nu"] = df["nu"].astype(bool)  # also when the file has no truth (an empty column's dtype)
+    df.attrs.update(state_dim=n, fuse_within=fuse_within, input_dim=inputs, actuation_link=bool(actuation_link),
+                    path=str(m.path))
     return df
 
 

@@ -499,6 +499,85 @@ def test_mcap_truth_without_estimate_and_with_input(tmp_path):
     assert plain.attrs["input_dim"] == 0 and "u0" not in plain.columns and plain["state"].tolist() == ["ok", "none"]
 
 
+def netkf_mcap_with_links(tmp_path, truths, estimates, link_messages, name="links.mcap"):
+    """netkf_mcap's records and the channel's link messages: (topic, message) pairs on
+    netkf/link/status or netkf/link/change."""
+    body = HEADER + schema(1, "S") + channel(0, 1, "netkf/truth") + channel(1, 1, "netkf/estimate")
+    body += channel(2, 1, "netkf/link/status") + channel(3, 1, "netkf/link/change")
+    body += b"".join(message(0, i, t["k"], t) for i, t in enumerate(truths))
+    body += b"".join(message(1, i, i, e) for i, e in enumerate(estimates))
+    cid = {"netkf/link/status": 2, "netkf/link/change": 3}
+    body += b"".join(message(cid[topic], i, 0, msg) for i, (topic, msg) in enumerate(link_messages))
+    return write(tmp_path, body + FOOTER, name)
+
+
+ARRIVAL_TRUTHS = [{"k": 0, "t": 0.0, "x": [1.0], "u": [0.0], "input_arrived": True},
+                  {"k": 1, "t": 0.01, "x": [2.0], "u": [-0.5], "input_arrived": True},
+                  {"k": 2, "t": 0.02, "x": [3.0], "u": [0.0], "input_arrived": False}]
+CONTROL_STATUS = ("netkf/link/status", {"sensor_id": -1, "model": "bernoulli", "loss": 0.15})
+SENSOR_STATUS = ("netkf/link/status", {"sensor_id": 1, "model": "bernoulli", "loss": 0.1})
+
+
+def test_mcap_input_arrived_is_the_csvs_nu(tmp_path):
+    """With an actuation link (the channel reports link control, sensor id -1) the truth's
+    input_arrived is the frame's nu, last, as the CSV the writer makes of the same records
+    (record_csv.cpp: nu 1/0 after u0) reads: equal frames, attrs included."""
+    es = [estimate(0), dict(estimate(1), x_hat=[1.5])]
+    df = netkf.read_mcap_periods(netkf_mcap_with_links(tmp_path, ARRIVAL_TRUTHS, es, [SENSOR_STATUS, CONTROL_STATUS]))
+    assert list(df.columns[-2:]) == ["u0", "nu"] and df["nu"].tolist() == [True, True, False]
+    assert df["nu"].dtype == bool and df.attrs["actuation_link"] is True
+    csv = tmp_path / "same.csv"
+    csv.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0,nu\n0,0,1,0.5,1,1,0,ok,,0,1\n"
+                   "1,0.01,2,1.5,1,1,0,ok,,-0.5,1\n2,0.02,3,,,,,none,,0,0\n")
+    from_csv = netkf.read_periods(csv)
+    assert from_csv.attrs["actuation_link"] is True
+    for frame in (df, from_csv):
+        frame.attrs.pop("path")
+    pd.testing.assert_frame_equal(df, from_csv, check_exact=True)
+    assert df.attrs == from_csv.attrs
+    # A change of the control link names it too (a recording that joined late may lack its first status).
+    change = ("netkf/link/change", {"sensor_id": -1, "at_period": 1, "origin": "request", "model": "bernoulli",
+                                    "loss": 0.5})
+    by_change = netkf.read_mcap_periods(netkf_mcap_with_links(tmp_path, ARRIVAL_TRUTHS, es, [change], "c.mcap"))
+    assert by_change["nu"].tolist() == [True, True, False]
+
+
+def test_mcap_input_arrived_without_actuation_link(tmp_path):
+    """Every closed loop's truth carries input_arrived, but the CSV has nu only with an
+    actuation link: without the channel reporting link control the frame has no nu (unless
+    asked for), and the frame equals the CSV's without the column."""
+    plain_file = netkf_mcap_with_links(tmp_path, ARRIVAL_TRUTHS, [estimate(0)], [SENSOR_STATUS])
+    plain = netkf.read_mcap_periods(plain_file)
+    assert plain.columns[-1] == "u0" and plain.attrs["actuation_link"] is False
+    csv = tmp_path / "plain.csv"
+    csv.write_text("k,t,x0,xhat0,trace_P,fused,late,state,late_samples,u0\n0,0,1,0.5,1,1,0,ok,,0\n"
+                   "1,0.01,2,,,,,none,,-0.5\n2,0.02,3,,,,,none,,0\n")
+    from_csv = netkf.read_periods(csv)
+    plain.attrs = from_csv.attrs = {}
+    pd.testing.assert_frame_equal(plain, from_csv, check_exact=True)
+    forced = netkf.read_mcap_periods(plain_file, actuation_link=True)
+    assert forced["nu"].tolist() == [True, True, False]
+    assert "nu" not in netkf.read_mcap_periods(
+        netkf_mcap_with_links(tmp_path, ARRIVAL_TRUTHS, [], [CONTROL_STATUS], "c.mcap"), actuation_link=False).columns
+
+
+@pytest.mark.parametrize("second,why", [
+    ({"k": 1, "t": 0.01, "x": [2.0], "u": [0.5]}, "an actuation link, but the truth of period 1 has no input_arrived"),
+    ({"k": 1, "t": 0.01, "x": [2.0], "u": [0.5], "input_arrived": 1}, "1 is not a boolean"),
+    ({"k": 1, "t": 0.01, "x": [2.0], "u": [0.5], "input_arrived": "yes"}, "'yes' is not a boolean"),
+])
+def test_mcap_truth_without_its_input_arrived_is_refused(tmp_path, second, why):
+    truths = [ARRIVAL_TRUTHS[0], second]
+    with pytest.raises(netkf.FormatError, match=re.escape(why)):
+        netkf.read_mcap_periods(netkf_mcap_with_links(tmp_path, truths, [], [CONTROL_STATUS]))
+
+
+def test_mcap_actuation_link_of_an_open_loop_is_refused(tmp_path):
+    with pytest.raises(netkf.FormatError, match="an actuation link, but the truth of period 0 has no input u"):
+        netkf.read_mcap_periods(netkf_mcap_with_links(tmp_path, [{"k": 0, "t": 0.0, "x": [1.0]}], [],
+                                                      [CONTROL_STATUS]))
+
+
 @pytest.mark.parametrize("u1,why", [(None, "truth's input u of period 1 has 0 components, not 1"),
                                     ([1.0, 2.0], "truth's input u of period 1 has 2 components, not 1"),
                                     ("x", "message 1 on netkf/truth is not what netkf writes")])

@@ -2,6 +2,7 @@
 // library Foxglove uses) and prints one JSON object on stdout:
 //   { complete, header, channels: [{id, topic, schemaName, schemaEncoding, messageEncoding,
 //     schemaIsJson}], counts: {topic: n}, estimates: [{k, t, x_hat, trace_P, log_time}],
+//     truths: [{k, u, input_arrived}] (u and input_arrived as the message has them, else null),
 //     link_status: [first few messages], link_change: [...], events: [{level, message,
 //     timestamp, log_time}], problems: [...] }
 // `complete` is true when the file ends with a valid Footer and magic (a stopped recording);
@@ -27,6 +28,7 @@ const out = {
   channels: [],
   counts: {},
   estimates: [],
+  truths: [],
   link_status: [],
   link_change: [],
   events: [],
@@ -84,6 +86,8 @@ try {
         if (record.logTime !== record.publishTime) out.problems.push(`${c.topic}: log_time != publish_time`);
         if (c.topic === "netkf/estimate")
           out.estimates.push({ k: m.k, t: m.t, x_hat: m.x_hat, trace_P: m.trace_P, log_time: record.logTime.toString() });
+        else if (c.topic === "netkf/truth")
+          out.truths.push({ k: m.k, u: m.u ?? null, input_arrived: m.input_arrived ?? null });
         else if (c.topic === "netkf/link/status" && out.link_status.length < 20) out.link_status.push(m);
         else if (c.topic === "netkf/link/change") out.link_change.push(m);
         else if (c.topic === "netkf/events") out.events.push({ ...m, log_time: record.logTime.toString() });
