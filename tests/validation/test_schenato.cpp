@@ -222,7 +222,7 @@ TEST(ActuationSchenato, LqgCostOfTheWholeLoopLiesBetweenTheBounds) {
     ASSERT_TRUE(lib.has_value());
     const Eigen::RowVector2d L = lib->gain;
     const Eigen::Matrix2d weight = lib->model.weight;
-    const LoopEstimate mc = simulate_tcp_loop(A, B, C, Q, R, W, U, L, weight, p.gamma, p.nu, 200, 20000, p.seed);
+    const LoopEstimate mc = simulate_tcp_loop(A, B, C, Q, R, W, U, L, weight, p.gamma, p.nu, 200, 5000, p.seed);
     const std::string at = "γ̄ " + std::to_string(p.gamma) + ", ν̄ " + std::to_string(p.nu) + ": J_min " +
                            std::to_string(lib->lower) + ", J_max " + std::to_string(lib->upper) + ", Monte Carlo " +
                            std::to_string(mc.cost) + " ± " + std::to_string(mc.cost_se);
