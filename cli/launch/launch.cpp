@@ -256,6 +256,7 @@ void Launch::open_bus() {
   const auto role = console_options_.dashboard ? dds::Role::ctl : dds::Role::observer;
   BusOptions bus_options = o_.network.bus("netkf-launch", role);
   bus_options.run = run_id_;
+  bus_options.estimate_history = true;  // a restarted estimator's first estimates (topics.hpp)
   if (discovery_) bus_options.discovery_server = discovery_->text();
   bus_options.presence = BusOptions::Presence{dds::presence_role::launch, scenario_hash_, describe_launch_roles(roles_)};
   bus_ = or_bad_usage(

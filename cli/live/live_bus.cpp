@@ -160,7 +160,8 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   };
   auto& p = impl_->participant;
   impl_->truth = open_reader(p, dds::topics::truth, ex, to_truth, h.truth, invalid, "");
-  impl_->estimate = open_reader(p, dds::topics::estimate, ex, to_estimate, h.estimate, invalid, "estimate rejected: ");
+  impl_->estimate = open_reader(p, options.estimate_history ? dds::topics::estimate : dds::topics::estimate_from_now, ex,
+                                to_estimate, h.estimate, invalid, "estimate rejected: ");
   impl_->delivered = open_reader(p, dds::topics::delivered_measurement, ex, to_delivered, h.delivered, invalid, "");
   impl_->delivered_batch = open_batch_reader(p, ex, h.delivered, invalid);
   impl_->link_status = open_reader(p, dds::topics::link_status, ex, to_link_status, h.link_status, invalid,

@@ -37,6 +37,9 @@ struct BusOptions {
     std::string detail;  // a launch: the roles it runs
   };
   std::optional<Presence> presence;
+  /// Also receive the estimates a writer published before this reader matched it (the launch:
+  /// a restarted estimator's first estimates; dds::topics::estimate). Off: from the next one on.
+  bool estimate_history = false;
 };
 
 /// The DDS settings every live command shares (--domain, --dds-profile, --secure,

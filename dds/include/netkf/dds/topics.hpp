@@ -148,7 +148,15 @@ inline constexpr Topic<wire::MeasurementBatch> delivered_measurement_batch{"netk
 // estimator -> everyone: x̂_{k|k}, P_{k|k} each period.
 // Exclusive ownership: with a hot standby (`netkf launch --standby`) two estimators publish, and
 // every reader takes the primary's estimates until its liveliness lease expires.
-inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate", {.depth = 512, .exclusive_ownership = true}};
+// Transient-local: a restarted estimator publishes the periods it missed as soon as its writer
+// matched the launch's reader, but the launch's reader may match the new writer a moment later,
+// and a volatile reader drops what a writer it does not know yet sent (the recording then lost
+// those periods: e2e fault_estimator, `none` rows right after the restart). The launch reads it
+// transient-local, so it gets them on matching; a reader that should start at the next period
+// (a recorder attaching mid-run) reads estimate_from_now.
+inline constexpr Topic<wire::Estimate> estimate{"netkf/estimate",
+                                                {.transient_local = true, .depth = 512, .exclusive_ownership = true}};
+inline constexpr Topic<wire::Estimate> estimate_from_now{"netkf/estimate", {.depth = 512, .exclusive_ownership = true}};
 // estimator -> plant: u_k = -L x̂_{k|k}; exclusive like the estimate, so the plant applies the
 // inputs of the estimator whose estimates the readers take.
 inline constexpr Topic<wire::ControlInput> control_input{"netkf/control", {.depth = 256, .exclusive_ownership = true}};
