@@ -244,7 +244,7 @@ int main(int argc, char **argv) {
     return 1;
   }
 
-  /* QoS compatible with netkf's writers (topics.hpp): reliable; netkf/estimate volatile,
+  /* QoS compatible with netkf's writers (topics.hpp): reliable; netkf/estimate read volatile (offered transient-local),
    * netkf/link/status transient-local (a late joiner gets the current status); keep-last
    * deep enough for a few seconds of estimates (the loop takes them at once anyway). */
   dds_qos_t *estimate_qos = dds_create_qos();
