@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <sstream>
+#include <stdexcept>
 #include <variant>
 
 #include "netkf/analysis/arrival_groups.hpp"
@@ -257,40 +258,11 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
 
   if (shared) {
-    CriticalRates cr;
-    cr.lower = critical_rate_lower_bound(alpha, static_cast<int>(d));
-    const RateFamily family = shared_rate(d);
-    cr.upper_iteration = upper_rate_iteration(A, Q, sensors, family, cr.lower);
-    if (!cr.upper_iteration)
-      report.notes.push_back("critical_rate.upper_iteration: null (too many arrival patterns to sum exactly; a "
-                             "bisection on a sampled map would be noise)");
-    // The LMI enumerates the 2^d patterns: only for few sensors (1 << d must not overflow).
-    const long long block = d <= 16 ? static_cast<long long>(A.rows()) * (1 + (1LL << d)) : -1;
-    const bool lmi = options.use_lmi && block > 0 && (options.lmi_max_block <= 0 || block <= options.lmi_max_block);
-    if (lmi) {
-      cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
-    } else {
-      cr.upper = cr.upper_iteration;
-      report.notes.push_back(!options.use_lmi ? "critical_rate.upper from the g-iteration bisection (LMI disabled)"
-                             : block < 0 ? "critical_rate.upper from the g-iteration bisection: the LMI needs the 2^d "
-                                           "patterns, too many for " + std::to_string(d) + " sensors"
-                                         : "critical_rate.upper from the g-iteration bisection: the LMI (" +
-                                                   std::to_string(block) + " rows) exceeds the size limit for CSDP "
-                                                   "(analyze --lmi-always forces it)"
-                         );
-    }
-    if (markov.applies && markov.exact) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
-    if (d > 1)
-      report.notes.push_back("critical_rate.lower = 1 - alpha^(-2/d) for d links sharing the rate (Sinopoli Thm 3 "
-                             "with Liu-Goldsmith's all-lost probability)");
-    if (lmi && cr.upper && cr.upper_iteration) {
-      const bool agree = std::abs(*cr.upper - *cr.upper_iteration) <= 1e-3;
-      report.notes.push_back(agree ? "critical_rate.upper: LMI (CSDP) and g-iteration bisection agree (" +
-                                         verdict_number(*cr.upper_iteration) + ")"
-                                   : "critical_rate.upper: LMI (CSDP) " + verdict_number(*cr.upper) +
-                                         " and g-iteration bisection " + verdict_number(*cr.upper_iteration) + " disagree");
-    }
-    report.critical_rate = cr;
+    CriticalRateOptions cro;
+    cro.use_lmi = options.use_lmi;
+    cro.lmi_max_block = options.lmi_max_block;
+    cro.exact = markov.applies && markov.exact;
+    report.critical_rate = shared_critical_rates(A, Q, sensors, cro, &report.notes);
   } else if (d > 0) {
     report.notes.push_back("critical_rate: null (needs every link Bernoulli with one shared arrival rate)");
   }
@@ -298,17 +270,13 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   if (options.sweep && d > 0) {
     if (!all_bernoulli) report.notes.push_back("sweep: every link treated as Bernoulli with the swept arrival rate");
     const int points = std::max(2, options.sweep_points);
-    UpperBoundOptions ub;
-    ub.max_iterations = stability_upper_bound_iterations;  // the verdict's cap: a point at its rates agrees
     for (int k = 0; k < points; ++k) {
       SweepPoint p;
       p.lambda = static_cast<double>(k) / (points - 1);
       const std::vector<double> r(d, p.lambda);
-      if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(r))) p.lower_trace = S->trace();
-      SamplingOptions sampling;
-      sampling.seed = scenario.seed;
-      const auto V = expected_covariance_upper_bound(A, Q, grouped_arrival_patterns(sensors, r, sampling), ub);
-      if (V.bound.status == BoundStatus::bounded) p.upper_trace = V.bound.V.trace();
+      const TraceBounds b = iid_trace_bounds(A, Q, sensors, r, scenario.seed);
+      p.lower_trace = b.lower_trace;
+      p.upper_trace = b.upper_trace;
       report.sweep.push_back(p);
     }
   }
@@ -338,6 +306,64 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     }
   }
   return report;
+}
+
+CriticalRates shared_critical_rates(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                                    const CriticalRateOptions& options, std::vector<std::string>* notes) {
+  std::vector<std::string> discarded;
+  std::vector<std::string>& said = notes ? *notes : discarded;
+  const std::size_t d = sensors.size();
+  CriticalRates cr;
+  cr.lower = critical_rate_lower_bound(spectral_radius(A), static_cast<int>(d));
+  const RateFamily family = shared_rate(d);
+  cr.upper_iteration = upper_rate_iteration(A, Q, sensors, family, cr.lower);
+  if (!cr.upper_iteration)
+    said.push_back("critical_rate.upper_iteration: null (too many arrival patterns to sum exactly; a bisection on "
+                   "a sampled map would be noise)");
+  // The LMI enumerates the 2^d patterns: only for few sensors (1 << d must not overflow).
+  const long long block = d <= 16 ? static_cast<long long>(A.rows()) * (1 + (1LL << d)) : -1;
+  const bool lmi = options.use_lmi && block > 0 && (options.lmi_max_block <= 0 || block <= options.lmi_max_block);
+  if (lmi) {
+    cr.upper = upper_rate_lmi(A, sensors, family, cr.lower);
+  } else {
+    cr.upper = cr.upper_iteration;
+    said.push_back(!options.use_lmi ? "critical_rate.upper from the g-iteration bisection (LMI disabled)"
+                   : block < 0      ? "critical_rate.upper from the g-iteration bisection: the LMI needs the 2^d "
+                                      "patterns, too many for " + std::to_string(d) + " sensors"
+                                    : "critical_rate.upper from the g-iteration bisection: the LMI (" +
+                                     std::to_string(block) + " rows) exceeds the size limit for CSDP "
+                                     "(analyze --lmi-always forces it)");
+  }
+  if (options.exact) cr.exact = exact_rate_markov(A, sensors, family, cr.lower);
+  if (d > 1)
+    said.push_back("critical_rate.lower = 1 - alpha^(-2/d) for d links sharing the rate (Sinopoli Thm 3 with "
+                   "Liu-Goldsmith's all-lost probability)");
+  if (lmi && cr.upper && cr.upper_iteration) {
+    const bool agree = std::abs(*cr.upper - *cr.upper_iteration) <= 1e-3;
+    said.push_back(agree ? "critical_rate.upper: LMI (CSDP) and g-iteration bisection agree (" +
+                               verdict_number(*cr.upper_iteration) + ")"
+                         : "critical_rate.upper: LMI (CSDP) " + verdict_number(*cr.upper) +
+                               " and g-iteration bisection " + verdict_number(*cr.upper_iteration) + " disagree");
+  }
+  return cr;
+}
+
+TraceBounds iid_trace_bounds(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                             std::span<const double> arrival_rates, std::uint64_t seed) {
+  if (arrival_rates.size() != sensors.size())
+    throw std::invalid_argument("bounds: " + std::to_string(arrival_rates.size()) + " arrival rates for " +
+                                std::to_string(sensors.size()) + " sensors");
+  for (double r : arrival_rates)
+    if (!(r >= 0.0 && r <= 1.0)) throw std::invalid_argument("bounds: an arrival rate must be in [0, 1]");
+  TraceBounds b;
+  if (auto S = lyapunov_lower_bound(A, Q, all_lost_probability(arrival_rates))) b.lower_trace = S->trace();
+  UpperBoundOptions ub;
+  ub.max_iterations = stability_upper_bound_iterations;  // the verdict's cap: a point at its rates agrees
+  SamplingOptions sampling;
+  sampling.seed = seed;
+  const auto V = expected_covariance_upper_bound(A, Q, grouped_arrival_patterns(sensors, arrival_rates, sampling), ub);
+  if (V.bound.status == BoundStatus::bounded) b.upper_trace = V.bound.V.trace();
+  return b;
 }
 
 }  // namespace netkf::analysis

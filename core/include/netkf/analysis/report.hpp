@@ -1,7 +1,9 @@
 #pragma once
 // `netkf analyze`: everything the papers say about a scenario, in one report
 // (docs/architecture.md, "netkf analyze FILE --json" lists the keys).
+#include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,31 @@ struct CriticalRates {
   std::optional<double> upper_iteration;    // cross-check: bisection on the g_λ iteration
   std::optional<double> exact;              // Markov criterion where it applies
 };
+
+struct CriticalRateOptions {
+  bool use_lmi = true;
+  int lmi_max_block = 48;   // AnalyzeOptions::lmi_max_block
+  /// Bisect on the Markov criterion for `exact` (analyze() does when the criterion at the
+  /// configured links applied and was computed exactly).
+  bool exact = true;
+};
+
+/// The critical arrival rates of `sensors` when every link is Bernoulli with one shared arrival
+/// rate λ (the links' configured models are not read). What analyze() reports as
+/// `critical_rate`; `notes` (optional) gets what it says about how they were found.
+CriticalRates shared_critical_rates(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                                    const CriticalRateOptions& options, std::vector<std::string>* notes = nullptr);
+
+/// Tr S̄ and Tr V̄ (Sinopoli Thm 4; Liu-Goldsmith Thm 4) with each sensor's link i.i.d. at the
+/// given arrival rate; nullopt: unbounded (or, for V̄, undecided).
+struct TraceBounds {
+  std::optional<double> lower_trace;
+  std::optional<double> upper_trace;
+};
+/// `seed` seeds the patterns sampled when there are too many to sum (analysis/arrival_groups.hpp).
+/// Throws std::invalid_argument unless there is one rate in [0, 1] per sensor.
+TraceBounds iid_trace_bounds(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
+                             std::span<const double> arrival_rates, std::uint64_t seed);
 
 struct SweepPoint {
   double lambda = 0.0;
