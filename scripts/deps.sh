@@ -11,7 +11,7 @@ packages=(
   libyaml-cpp-dev libcli11-dev nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libsdp-dev gnuplot-nox python3-numpy python3-yaml python3-pandas python3-pytest
-  python3-zstandard python3-lz4
+  python3-zstandard python3-lz4 python3-dev pybind11-dev python3-statsmodels
   iproute2 util-linux tcpdump procps openssl
   prometheus-cpp-dev prometheus chromium
   cyclonedds-dev cyclonedds-tools systemd

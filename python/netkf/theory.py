@@ -105,6 +105,8 @@ def fit(trace, model="auto", seed=1):
     0 (lost); model: auto (by AIC), bernoulli, simple_gilbert, gilbert, gilbert_elliott."""
     if isinstance(trace, os.PathLike):
         trace = os.fspath(trace)
+    if isinstance(trace, str) and not os.path.isfile(trace):
+        raise FileNotFoundError("no trace file %s" % trace)
     return _require_core().fit(trace, model, seed)
 
 
