@@ -22,6 +22,8 @@ from conftest import DATA, REPO, netkf_binary
 import netkf
 from netkf import theory
 
+if os.environ.get("NETKF_CORE_DIR"):  # for the example's subprocess, which runs elsewhere
+    os.environ["NETKF_CORE_DIR"] = os.path.abspath(os.environ["NETKF_CORE_DIR"])
 if theory._core is None:
     if os.environ.get("NETKF_CORE_DIR"):
         raise ImportError("NETKF_CORE_DIR is set but netkf._core does not import: %s" % theory._CORE_ERROR)
