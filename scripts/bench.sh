@@ -9,12 +9,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-names=(fused-update late-fusion monte-carlo analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
+names=(fused-update late-fusion monte-carlo python-filter analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
        security recovery blind-window multi-host shutdown-aborts setup)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
   [monte-carlo]="Monte Carlo filter steps per second against NumPy (bench_monte_carlo, bench/numpy_monte_carlo.py)"
+  [python-filter]="a filter step from Python (netkf.Filter) against statsmodels' Kalman filter (bench/python_filter.py)"
   [analyze]="wall time of netkf analyze --json per scenario (bench/bench_analyze.sh)"
   [analyze-many]="wall and CPU time of netkf analyze --json for 512-sensor scenarios (bench/bench_many_sensors.sh)"
   [latency]="pipeline latency against one bare DDS hop, 8 sensors at 100 Hz, auto grouping and one process per sensor (bench_latency)"
@@ -272,6 +273,10 @@ bench_monte_carlo() {
   "$bin/bench_monte_carlo" --benchmark_min_time=1 --benchmark_out="$out/monte-carlo.json" --benchmark_out_format=json
   /usr/bin/python3 bench/numpy_monte_carlo.py 100000 300 2000 | tee "$out/monte-carlo-numpy.txt"
   report monte-carlo "$out/monte-carlo.json" "$out/monte-carlo-numpy.txt"
+}
+
+bench_python_filter() {
+  /usr/bin/python3 bench/python_filter.py | tee "$out/python-filter.md"
 }
 
 bench_analyze() {

@@ -31,7 +31,33 @@
 #include <stdexcept>
 #include <string>
 
+#include "netkf/scenario.hpp"
+
 namespace netkf {
+
+FilterModel filter_model(const Scenario& s) {
+  FilterModel m;
+  m.A = s.plant.A;
+  m.Q = s.plant.Q;
+  m.B = s.plant.B;
+  for (const auto& sensor : s.sensors) m.sensors.push_back(SensorModel{sensor.id, sensor.C, sensor.R});
+  return m;
+}
+
+Vector prior_mean(const Scenario& s) {
+  return s.plant.x0.size() == s.plant.A.rows() ? s.plant.x0 : Vector(Vector::Zero(s.plant.A.rows()));
+}
+
+Matrix prior_covariance(const Scenario& s) {
+  const auto n = s.plant.A.rows();
+  return s.plant.P0.rows() == n ? s.plant.P0 : Matrix(Matrix::Identity(n, n));
+}
+
+FilterOptions filter_options(const Scenario& s) {
+  FilterOptions o;
+  o.divergence_trace_bound = s.estimator.divergence_trace_bound;
+  return o;
+}
 namespace {
 
 std::string shape(const Matrix& M) { return std::to_string(M.rows()) + "x" + std::to_string(M.cols()); }

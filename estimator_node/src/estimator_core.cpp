@@ -19,27 +19,6 @@ const char* to_string(SampleRejection r) {
   return "?";
 }
 
-namespace {
-FilterModel filter_model(const Scenario& s) {
-  FilterModel m;
-  m.A = s.plant.A;
-  m.Q = s.plant.Q;
-  m.B = s.plant.B;
-  for (const auto& sensor : s.sensors) m.sensors.push_back(SensorModel{sensor.id, sensor.C, sensor.R});
-  return m;
-}
-Vector prior_mean(const Scenario& s) {
-  return s.plant.x0.size() == s.plant.A.rows() ? s.plant.x0 : Vector(Vector::Zero(s.plant.A.rows()));
-}
-Matrix prior_covariance(const Scenario& s) {
-  return s.plant.P0.rows() == s.plant.A.rows() ? s.plant.P0 : Matrix(Matrix::Identity(s.plant.A.rows(), s.plant.A.rows()));
-}
-FilterOptions filter_options(const Scenario& s) {
-  FilterOptions o;
-  o.divergence_trace_bound = s.estimator.divergence_trace_bound;
-  return o;
-}
-}  // namespace
 
 EstimatorCore::EstimatorCore(const Scenario& scenario)
     : filter_(filter_model(scenario), prior_mean(scenario), prior_covariance(scenario), filter_options(scenario)),

@@ -15,19 +15,10 @@
 namespace netkf::python {
 namespace {
 
-FilterModel filter_model(const Scenario& s) {
-  FilterModel m;
-  m.A = s.plant.A;
-  m.Q = s.plant.Q;
-  m.B = s.plant.B;
-  for (const auto& sensor : s.sensors) m.sensors.push_back(SensorModel{sensor.id, sensor.C, sensor.R});
-  return m;
-}
-
 class Filter {
  public:
   Filter(const Scenario& s, const py::object& x0, const py::object& P0)
-      : filter_(filter_model(s), prior_mean(s, x0), prior_covariance(s, P0), options(s)) {
+      : filter_(filter_model(s), given_or_prior_mean(s, x0), given_or_prior_covariance(s, P0), filter_options(s)) {
     for (const auto& sensor : s.sensors) sensor_sizes_[sensor.id] = static_cast<int>(sensor.C.rows());
   }
 
@@ -100,26 +91,21 @@ class Filter {
   }
 
  private:
-  // The estimator's prior (estimator_core.cpp): the scenario's x0/P0, zeros/identity by default.
-  static Vector prior_mean(const Scenario& s, const py::object& x0) {
-    const auto n = s.plant.A.rows();
-    Vector x = x0.is_none() ? (s.plant.x0.size() == n ? s.plant.x0 : Vector(Vector::Zero(n)))
-                            : vector_argument(x0, "x0");
-    if (x.size() != n) throw py::value_error("x0: " + std::to_string(x.size()) + " entries, the state has " +
-                                             std::to_string(n));
+  // The estimator's prior (netkf::prior_mean, prior_covariance) unless given.
+  static Vector given_or_prior_mean(const Scenario& s, const py::object& x0) {
+    if (x0.is_none()) return prior_mean(s);
+    Vector x = vector_argument(x0, "x0");
+    if (x.size() != s.plant.A.rows())
+      throw py::value_error("x0: " + std::to_string(x.size()) + " entries, the state has " +
+                            std::to_string(s.plant.A.rows()));
     return x;
   }
-  static Matrix prior_covariance(const Scenario& s, const py::object& P0) {
+  static Matrix given_or_prior_covariance(const Scenario& s, const py::object& P0) {
+    if (P0.is_none()) return prior_covariance(s);
     const auto n = s.plant.A.rows();
-    Matrix P = P0.is_none() ? (s.plant.P0.rows() == n ? s.plant.P0 : Matrix(Matrix::Identity(n, n)))
-                            : matrix_argument(P0, "P0");
+    Matrix P = matrix_argument(P0, "P0");
     if (P.rows() != n || P.cols() != n) throw py::value_error("P0 must be " + std::to_string(n) + " x " + std::to_string(n));
     return P;
-  }
-  static FilterOptions options(const Scenario& s) {
-    FilterOptions o;
-    o.divergence_trace_bound = s.estimator.divergence_trace_bound;
-    return o;
   }
 
   IntermittentKalmanFilter filter_;

@@ -66,6 +66,16 @@ struct FilterModel {
   std::vector<SensorModel> sensors;
 };
 
+struct Scenario;
+/// The filter of a scenario as the estimator runs it: the plant's A, Q, B and each sensor's C, R.
+FilterModel filter_model(const Scenario& scenario);
+/// The scenario's prior x̂_{0|-1}: plant.x0, zeros when not given.
+Vector prior_mean(const Scenario& scenario);
+/// The scenario's prior P_{0|-1}: plant.P0, the identity when not given.
+Matrix prior_covariance(const Scenario& scenario);
+/// The estimator's options: the scenario's divergence bound.
+FilterOptions filter_options(const Scenario& scenario);
+
 class IntermittentKalmanFilter {
  public:
   /// x0 / P0: the prior for the first period, x̂_{0|-1}, P_{0|-1}.
