@@ -58,6 +58,7 @@ FilterOptions filter_options(const Scenario& s) {
   o.divergence_trace_bound = s.estimator.divergence_trace_bound;
   return o;
 }
+
 namespace {
 
 std::string shape(const Matrix& M) { return std::to_string(M.rows()) + "x" + std::to_string(M.cols()); }
