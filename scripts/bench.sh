@@ -22,7 +22,7 @@ declare -A about=(
   [hop-clock]="the same with the bare hop on the truth's clock and on its own (bench_latency --hop-clock)"
   [capacity]="sensors at 100 Hz without unintended loss, 64 and 128 sensors (bench_latency --capacity)"
   [sensors-100hz]="256 sensors at 100 Hz for 10 minutes: late share, pipeline latency, RSS and fds (bench/bench_sensor_rate.sh)"
-  [sensor-limit]="the largest live network at 10 Hz, 512 to 2048 sensors for 30 s each (bench/bench_sensor_rate.sh)"
+  [sensor-limit]="the largest live network: 512 to 4096 sensors at 10 Hz and 1024 at 100 Hz, 40 s each (bench/bench_sensor_rate.sh)"
   [dashboard]="the dashboard's cost: pipeline latency and the launch's CPU with a browser or a protocol client (bench/bench_dashboard.sh)"
   [security]="pipeline latency without and with DDS Security (bench_latency --secure-compare)"
   [recovery]="periods lost to a killed or stopped process (e2e fault_estimator, fault_channel; integration DdsRestart)"
@@ -334,7 +334,8 @@ bench_sensors_100hz() {
 bench_sensor_limit() {
   local n
   rate_header
-  for n in 512 1024 1536 2048; do bench/bench_sensor_rate.sh "$n" 100 40 62 "$netkf"; done
+  for n in 512 1024 1536 2048 4096; do bench/bench_sensor_rate.sh "$n" 100 40 62 "$netkf"; done
+  bench/bench_sensor_rate.sh 1024 10 40 62 "$netkf"
 }
 
 bench_dashboard() {

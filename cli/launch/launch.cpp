@@ -137,8 +137,7 @@ void Launch::read_inputs() {
   scenario_ = load_or_default(o_.scenario);
   if (o_.events) or_bad_usage([&] { add_replayed_events(scenario_, load_events_file(*o_.events, scenario_)); });
   policy_ = parse_restart_policy(o_.restart_policy);
-  // The largest live network measured to run (BENCHMARKS.md, "Sensor count limit"); at 1536 the
-  // link statuses outran their history and the launch took running links for silent.
+  // The largest live network measured to run (BENCHMARKS.md, "Sensor count limit").
   if (scenario_.sensors.size() > kMaxLiveSensors)
     fail(ExitCode::bad_usage, "the scenario has " + std::to_string(scenario_.sensors.size()) +
                                   " sensors; a live network runs at most " + std::to_string(kMaxLiveSensors) +

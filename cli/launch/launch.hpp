@@ -34,7 +34,9 @@
 namespace netkf::cli {
 
 /// Sensors a live network runs at most (the largest measured to run: BENCHMARKS.md).
-inline constexpr std::size_t kMaxLiveSensors = 1024;
+/// The channel's link status topic holds one instance per link: dds::topics::kMaxLinks, this and
+/// the actuation link.
+inline constexpr std::size_t kMaxLiveSensors = 4096;
 
 struct LaunchOptions {
   std::optional<std::string> scenario;

@@ -120,7 +120,9 @@ try:
           "both Cyclone readers are up")
     with Launch(scenario, 10, out, extra=("--domain", str(DOMAIN), "--dashboard", "off", "--summary",
                                          os.path.join(out, "summary.json"))) as run:
-        check(wait_for(lambda: last_period(run.record) >= 100, 30), "the launch is past period 100")
+        # 4 s in: the link status is keyed, keep-last 1 per link, so the reader gets only the
+        # statuses written after it matched (about one a second), at least 3 before the change
+        check(wait_for(lambda: last_period(run.record) >= 200, 30), "the launch is past period 200")
         changed = netkf("ctl", "set-link", "1", "--bernoulli", "0.5", "--domain", DOMAIN)
         rc = run.wait(60)
     time.sleep(1.5)

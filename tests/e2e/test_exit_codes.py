@@ -68,16 +68,16 @@ for command in (("analyze", good, "--json"), ("simulate", good, "--runs", "20", 
               "netkf %s --plot %s: exit 2, stdout empty, the reason on stderr (rc=%d, %d bytes on stdout)"
               % (command[0], plot, r.returncode, len(r.stdout)))
 
-# More sensors than a live network runs (1025 > 1024): refused at load, before anything starts
-# (1536 ran with their link statuses lost: BENCHMARKS.md, "Sensor count limit").
-big = "/tmp/netkf-exit-codes-1025.yaml"
+# More sensors than a live network runs (4097 > 4096): refused at load, before anything starts
+# (BENCHMARKS.md, "Sensor count limit").
+big = "/tmp/netkf-exit-codes-4097.yaml"
 with open(big, "w") as f:
     f.write("name: big\nperiod_ms: 100\nseed: 1\nplant:\n  A: [[0.9]]\n  Q: [[1.0]]\nsensors:\n")
-    for i in range(1, 1026):
+    for i in range(1, 4098):
         f.write("  - { id: %d, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.1 } }\n" % i)
 r = netkf("launch", big, "--duration", "5", "--dashboard", "off", timeout=60)
-check(r.returncode == 2 and "1025 sensors" in r.stderr and "at most 1024" in r.stderr and "started" not in r.stderr,
-      "launch refuses 1025 sensors with exit 2 naming the limit (rc=%d)" % r.returncode)
+check(r.returncode == 2 and "4097 sensors" in r.stderr and "at most 4096" in r.stderr and "started" not in r.stderr,
+      "launch refuses 4097 sensors with exit 2 naming the limit (rc=%d)" % r.returncode)
 
 for args, expected in cases:
     r = netkf(*args, timeout=60)

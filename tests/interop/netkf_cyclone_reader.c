@@ -245,7 +245,7 @@ int main(int argc, char **argv) {
   }
 
   /* QoS compatible with netkf's writers (topics.hpp): reliable; netkf/estimate read volatile (offered transient-local),
-   * netkf/link/status transient-local (a late joiner gets the current status); keep-last
+   * netkf/link/status transient-local (keyed by sensor_id: a late joiner gets each link's current status); keep-last
    * deep enough for a few seconds of estimates (the loop takes them at once anyway). */
   dds_qos_t *estimate_qos = dds_create_qos();
   dds_qset_reliability(estimate_qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));

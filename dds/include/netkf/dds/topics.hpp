@@ -173,8 +173,18 @@ inline constexpr Topic<wire::LinkControl> link_control{"netkf/link/control", {tr
 // was lost and ctl timed out although the change was applied. Kept, it reaches ctl on matching
 // (ctl picks its own request id out of the last 64 replies).
 inline constexpr Topic<wire::LinkControlReply> link_control_reply{"netkf/link/reply", {true, true, 64}};
-// channel emulator -> everyone, transient-local so `netkf ctl status` sees it on joining.
-inline constexpr Topic<wire::LinkStatus> link_status{"netkf/link/status", {true, true, 256}};
+// The links a channel reports at most: a live network's sensors (the launch's kMaxLiveSensors)
+// and the actuation link.
+inline constexpr std::int32_t kMaxLinks = 4096 + 1;
+// channel emulator -> everyone. Keyed by the link, keep-last 1 of each, transient-local: a late
+// joiner (`netkf ctl status`, a dashboard opened later, `netkf record`) gets every link's last
+// status, and a slow reader the newest of each. (Unkeyed with a history of 256 it got the last
+// 256 statuses, so with more than 256 links some links were missing: at 1536 sensors the launch
+// took links for silent, BENCHMARKS.md "Sensor count limit".) Payloads sized per sample: the
+// history holds one per link.
+inline constexpr Topic<wire::LinkStatus> link_status{
+    "netkf/link/status",
+    {.transient_local = true, .depth = 1, .instances = kMaxLinks, .size_payloads_by_sample = true}};
 // channel emulator -> everyone: each link change with the period it applied from (the
 // journal `--record` turns into an events file); transient-local so a late recorder has it.
 inline constexpr Topic<wire::LinkChange> link_change{"netkf/link/change", {true, true, 1024}};
