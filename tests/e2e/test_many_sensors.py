@@ -5,8 +5,7 @@ others never discovered it, so the plant waited for sensors 129-256 in vain and 
 failed. Asserted: the run ends normally (exit 0: a sensor that never sent a sample would make it
 exit 1), every one of the 512 sensors is fused in some period, and the status and summary are
 not errors; a `netkf ctl status` started mid-run lists all 512 links (the link status is keyed by
-link: unkeyed with a history of 256 a late reader got the last 256 statuses, so about half the
-links were missing). The share fused per period against the links' 0.9 is printed for
+link: unkeyed with a history of 256, a late reader could get at most 256 statuses). The share fused per period against the links' 0.9 is printed for
 BENCHMARKS.md."""
 import json
 import os
