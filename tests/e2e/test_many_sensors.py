@@ -1,12 +1,12 @@
-"""Many sensors: 512 sensors (the stated limit of a live network) in the launch's automatic
+"""Many sensors: 512 sensors (a quarter of the limit of a live network, 4096) in the launch's automatic
 grouping, four sensor_node processes of 128. Before the fix, a grouped process was named after
 all its sensors one by one; above 255 characters Fast DDS cut the participant's name and the
 others never discovered it, so the plant waited for sensors 129-256 in vain and the run
 failed. Asserted: the run ends normally (exit 0: a sensor that never sent a sample would make it
 exit 1), every one of the 512 sensors is fused in some period, and the status and summary are
 not errors; a `netkf ctl status` started mid-run lists all 512 links (the link status is keyed by
-link: unkeyed with a history of 256, a late reader could get at most 256 statuses). The share fused per period against the links' 0.9 is printed for
-BENCHMARKS.md."""
+link: unkeyed with a history of 256, a late reader could get at most 256 statuses). The share
+fused per period against the links' 0.9 is printed for BENCHMARKS.md."""
 import json
 import os
 
