@@ -1,5 +1,5 @@
-"""Many sensors: 512 sensors (a quarter of the limit of a live network, 4096) in the launch's automatic
-grouping, four sensor_node processes of 128. Before the fix, a grouped process was named after
+"""Many sensors: 512 sensors (an eighth of the limit of a live network, 4096) in the launch's
+automatic grouping, four sensor_node processes of 128. Before the fix, a grouped process was named after
 all its sensors one by one; above 255 characters Fast DDS cut the participant's name and the
 others never discovered it, so the plant waited for sensors 129-256 in vain and the run
 failed. Asserted: the run ends normally (exit 0: a sensor that never sent a sample would make it
