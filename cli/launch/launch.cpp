@@ -323,9 +323,18 @@ void Launch::start_children() {
     if (child.estimator)
       before_restart = [this](ChildSpec& spec) {
         write_checkpoint_for_restart();
-        // The new life is weaker than every estimator started before it: with a standby, the one
-        // that took over keeps the plant (launch_plan.hpp).
-        set_ownership_strength(spec.args, estimator_ownership_strength(++estimator_generation_));
+        ++estimator_generation_;
+        if (o_.standby) {
+          // The new life is weaker than every estimator started before it: the standby that took
+          // over keeps the plant (launch_plan.hpp).
+          set_ownership_strength(spec.args, estimator_ownership_strength(estimator_generation_));
+        } else {
+          // No other estimator runs: the new life, and the spare started during it, outrank the
+          // dead one at once (launch_plan.hpp).
+          set_ownership_strength(spec.args, replacing_estimator_strength(estimator_generation_));
+          if (!spec.spare_args.empty())
+            set_ownership_strength(spec.spare_args, replacing_estimator_spare_strength(estimator_generation_));
+        }
       };
     started_.push_back(supervisor_->start(child.spec, before_restart));
   }

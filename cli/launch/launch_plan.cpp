@@ -118,6 +118,12 @@ std::uint32_t estimator_ownership_strength(int generation) {
   return kPrimary - static_cast<std::uint32_t>(generation);
 }
 
+std::uint32_t replacing_estimator_strength(int generation) {
+  return estimator_ownership_strength(0) + 2 * static_cast<std::uint32_t>(generation);
+}
+
+std::uint32_t replacing_estimator_spare_strength(int generation) { return replacing_estimator_strength(generation) + 1; }
+
 void set_ownership_strength(std::vector<std::string>& args, std::uint32_t strength) {
   for (std::size_t i = 0; i + 1 < args.size(); ++i)
     if (args[i] == "--ownership-strength") args[i + 1] = std::to_string(strength);
@@ -163,6 +169,10 @@ LaunchPlan plan_launch(const LaunchPlanInputs& in,
     ChildSpec estimator{"estimator_node", executable_of("estimator_node"), args};
     // A hot standby covers a death of the primary better than a spare (no blind window at all).
     estimator.warm_spare = in.warm_spares && !in.estimator_standby;
+    if (estimator.warm_spare) {
+      estimator.spare_args = args;
+      set_ownership_strength(estimator.spare_args, replacing_estimator_spare_strength(0));
+    }
     plan.children.push_back({estimator, true});
     if (in.estimator_standby) {
       set_ownership_strength(args, estimator_ownership_strength(1));

@@ -76,6 +76,15 @@ struct PlannedChild {
 /// then each restart): every later one is weaker, so a restarted estimator comes back as the
 /// standby of the one that took over, never taking the plant back from it.
 std::uint32_t estimator_ownership_strength(int generation);
+/// Without a standby no other estimator runs, and the one that replaces a dead one must be
+/// *stronger* than it: a reader keeps the dead writer as the owner until its liveliness lease
+/// expires (dds::kOwnershipLease, later under load) and drops the samples of a weaker or equally
+/// strong newcomer (the GUIDs decide a tie) — the missed periods a warm spare publishes at once
+/// were lost so (e2e fault_estimator: `none` rows before the restart). Life `generation` (0: the
+/// first estimator) runs with the first strength when started afresh; a warm spare started
+/// during it runs with the second, so that every life outranks the one before it.
+std::uint32_t replacing_estimator_strength(int generation);        // primary + 2 generation
+std::uint32_t replacing_estimator_spare_strength(int generation);  // one more
 /// Set the value of `--ownership-strength` in an estimator's argv.
 void set_ownership_strength(std::vector<std::string>& args, std::uint32_t strength);
 

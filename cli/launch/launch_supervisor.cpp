@@ -167,7 +167,7 @@ SupervisorEvent Supervisor::spawn(Child& child) {
 SupervisorEvent Supervisor::spawn_spare(Child& child, Clock::time_point now) {
   child.spare_at.reset();
   SupervisorEvent event{SupervisorEvent::Kind::spare_started, child.spec.name, -1, {}, {}, {}};
-  auto args = child.spec.args;
+  auto args = child.spec.spare_args.empty() ? child.spec.args : child.spec.spare_args;
   args.emplace_back("--spare");
   child.spare_pid = spawn_process(child.spec, args, event.reason, event.exit.exit_code);
   event.pid = child.spare_pid;

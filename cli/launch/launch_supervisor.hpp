@@ -31,6 +31,9 @@ struct ChildSpec {
   // discover first, and a new spare is started. Under load a new participant was discovered only
   // after ~1 s (BENCHMARKS.md, "Blind window of a restart").
   bool warm_spare = false;
+  // The warm spare's argv (the supervisor adds `--spare`); empty: `args`. The launch gives an
+  // estimator's spare a stronger DDS ownership than the child it replaces (launch_plan.hpp).
+  std::vector<std::string> spare_args{};
 };
 
 /// How a child ended, as waitpid reported it.

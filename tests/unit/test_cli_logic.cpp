@@ -186,6 +186,28 @@ TEST(Supervisor, AWarmSpareTakesOverAtOnceAndIsReplaced) {
   EXPECT_FALSE(spare_of());
 }
 
+TEST(Supervisor, AWarmSpareRunsItsOwnArgs) {
+  Supervisor s;
+  auto spec = shell("estimator", "exec sleep 30");
+  spec.warm_spare = true;
+  spec.spare_args = {"-c", "if [ \"$0\" = --spare ]; then exec sleep 33; fi; exit 7"};
+  s.start(spec);
+  auto ev = poll_until(s, [&] { return s.pid_of("estimator (spare)").has_value(); });
+  const auto spare = s.pid_of("estimator (spare)");
+  ASSERT_TRUE(spare);
+  std::string cmdline;
+  for (int i = 0; i < 200 && cmdline.find(std::string("sleep\0" "33", 8)) == std::string::npos; ++i) {
+    std::this_thread::sleep_for(10ms);
+    std::ifstream in("/proc/" + std::to_string(*spare) + "/cmdline");
+    cmdline.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  EXPECT_NE(cmdline.find(std::string("sleep\0" "33", 8)), std::string::npos);  // spare_args, then --spare
+  std::ifstream in("/proc/" + std::to_string(*s.pid_of("estimator")) + "/cmdline");
+  const std::string child_cmdline(std::istreambuf_iterator<char>(in), {});
+  EXPECT_NE(child_cmdline.find(std::string("sleep\0" "30", 8)), std::string::npos);  // the child: args
+  s.stop_all();
+}
+
 TEST(Supervisor, ReportsTheKillingSignal) {
   SupervisorOptions o;
   o.policy = RestartPolicy::fail;

@@ -107,6 +107,37 @@ TEST(LaunchPlan, AStandbyEstimatorIsWeakerAndThePlantWaitsForBoth) {
   EXPECT_EQ(value_of(args, "--ownership-strength"), "17");
 }
 
+TEST(LaunchPlan, WithoutAStandbyEachNewEstimatorOutranksTheDeadOne) {
+  // A reader drops a newcomer's samples until the dead owner's lease expires unless the newcomer
+  // is stronger (a tie goes by GUID): the warm spare must outrank the estimator it replaces.
+  auto in = inputs({1, 2});
+  in.warm_spares = true;
+  const auto plan = plan_launch(in, identity);
+  const auto& estimator = plan.children[1].spec;
+  ASSERT_EQ(estimator.name, "estimator_node");
+  ASSERT_TRUE(estimator.warm_spare);
+  EXPECT_EQ(value_of(estimator.args, "--ownership-strength"), std::to_string(replacing_estimator_strength(0)));
+  EXPECT_EQ(value_of(estimator.spare_args, "--ownership-strength"),
+            std::to_string(replacing_estimator_spare_strength(0)));
+  // the spare's argv is the child's but for the strength
+  auto same = estimator.spare_args;
+  set_ownership_strength(same, replacing_estimator_strength(0));
+  EXPECT_EQ(same, estimator.args);
+  EXPECT_EQ(replacing_estimator_strength(0), estimator_ownership_strength(0));
+  // Life g is a fresh process (replacing_estimator_strength(g)) or the spare started during life
+  // g - 1 (replacing_estimator_spare_strength(g - 1)); either outranks either kind of life g - 1.
+  for (int g = 1; g < 10; ++g) {
+    const std::uint32_t fresh = replacing_estimator_strength(g), spare = replacing_estimator_spare_strength(g - 1);
+    const std::uint32_t before_fresh = replacing_estimator_strength(g - 1);
+    const std::uint32_t before_spare = g >= 2 ? replacing_estimator_spare_strength(g - 2) : before_fresh;
+    for (std::uint32_t now : {fresh, spare})
+      for (std::uint32_t before : {before_fresh, before_spare}) EXPECT_GT(now, before) << "life " << g;
+  }
+  // With a standby there is no spare of the estimator: the standby covers a death.
+  in.estimator_standby = true;
+  EXPECT_FALSE(plan_launch(in, identity).children[1].spec.warm_spare);
+}
+
 TEST(LaunchPlan, OnlyTheEstimatorResumesFromTheCheckpoint) {
   for (const auto& c : plan_launch(inputs({1, 2}), identity).children)
     EXPECT_EQ(value_of(c.spec.args, "--resume-from"),
