@@ -72,9 +72,9 @@ struct PlannedChild {
   bool estimator = false;  // resumes from the checkpoint file when restarted
 };
 
-/// Ownership strength of the estimator started `generation`-th (0: the primary, 1: a standby,
-/// then each restart): every later one is weaker, so a restarted estimator comes back as the
-/// standby of the one that took over, never taking the plant back from it.
+/// With a standby: ownership strength of the estimator started `generation`-th (0: the primary,
+/// 1: the standby, then each restart): every later one is weaker, so a restarted estimator comes
+/// back as the standby of the one that took over, never taking the plant back from it.
 std::uint32_t estimator_ownership_strength(int generation);
 /// Without a standby no other estimator runs, and the one that replaces a dead one must be
 /// *stronger* than it: a reader keeps the dead writer as the owner until its liveliness lease
