@@ -51,14 +51,13 @@ py::dict analyze_binding(const Scenario& scenario, bool region, bool sweep, std:
 
 py::dict critical_rate_binding(const Scenario& scenario, bool lmi) {
   if (scenario.sensors.empty()) throw py::value_error("critical_rate: the scenario has no sensors");
-  const Scenario effective = with_effective_links(scenario);
-  analysis::CriticalRateOptions o;
+  analysis::CriticalRateOptions o;  // the links' models are not read: every link Bernoulli at λ
   o.use_lmi = lmi;
   std::vector<std::string> notes;
   analysis::CriticalRates cr;
   {
     py::gil_scoped_release release;
-    cr = analysis::shared_critical_rates(effective.plant.A, effective.plant.Q, effective.sensors, o, &notes);
+    cr = analysis::shared_critical_rates(scenario.plant.A, scenario.plant.Q, scenario.sensors, o, &notes);
   }
   py::dict out;
   out["lower"] = cr.lower;  // the keys of analyze()'s "critical_rate"
