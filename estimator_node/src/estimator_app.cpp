@@ -271,8 +271,14 @@ class EstimatorApp::Impl {
         spdlog::error("estimate for period {} not published: {}", e.k, ex.what());
       }
       if (e.skipped_tick) spdlog::warn("tick {} never arrived: period fused open-loop from a later tick", e.k);
+      if (!e.fused.empty()) fused_since_start_ = true;
       if (e.revision == 0 && e.state != last_state_) {  // the state of the newest in-time estimate
-        if (e.state == FilterState::diverging) {
+        if (e.state == FilterState::diverging && !fused_since_start_) {
+          // A new life (a restart, a standby) whose sensors are not discovered yet: the cause is
+          // discovery, not the links.
+          spdlog::warn("period {}: filter diverging (Tr P = {:.4g}): no sample fused since this estimator started",
+                       e.k, e.P.trace());
+        } else if (e.state == FilterState::diverging) {
           spdlog::warn("period {}: filter diverging (Tr P = {:.4g}): arrival rates below critical?", e.k, e.P.trace());
         } else {
           spdlog::info("period {}: filter ok again (Tr P = {:.4g})", e.k, e.P.trace());
@@ -330,6 +336,7 @@ class EstimatorApp::Impl {
   std::uint64_t revisions_ = 0;  // of published_
   bool revise_posted_ = false;   // a revise() is queued on the io thread
   FilterState last_state_ = FilterState::ok;
+  bool fused_since_start_ = false;  // some period of this process fused a sample
   bool resumed_ = false;  // restarted from a checkpoint
   dds::Writer<wire::Estimate> estimate_;
   dds::Writer<wire::ControlInput> control_;

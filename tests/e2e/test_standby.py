@@ -6,8 +6,8 @@ liveliness lease (5 periods) expires; the launch restarts the dead one as the ne
 moment, at random moments, on the unstable closed loop (A = 1.2: open loop it grows 1.2x a period).
 Asserted against the recording: at each kill, at most twice the lease's periods go without an
 applied input (the plant applied zero); |x| stays within a few times the undisturbed range; every
-applied input is -L x̂ of the recorded estimate of the period before (the plant and the recording
-follow the same estimator); every period has an estimate; the run exits 0."""
+applied input is -L x̂ of the recorded estimate of the period before, where the recording has one
+(the plant and the recording follow the same estimator); every period has an estimate; the run exits 0."""
 import os
 import random
 import signal
@@ -54,10 +54,15 @@ check(not unexplained, "every period has an estimate but a few at each takeover 
       % (len(unexplained), unexplained[:10]))
 by_k = {r["k"]: r for r in rows}
 missing = set(inputs_missing(rows))
-mismatched = [r["k"] for r in rows[1:] if r["k"] not in missing and (by_k[r["k"] - 1]["xhat"] is None or abs(
-    r["u"][0] + GAIN * by_k[r["k"] - 1]["xhat"][0]) > 1e-12 * max(1.0, abs(GAIN * by_k[r["k"] - 1]["xhat"][0])))]
-check(not mismatched, "every applied input is -L x̂ of the recorded estimate (%d differ: %s)"
-      % (len(mismatched), mismatched[:5]))
+# The plant's input reader and the recording's estimate reader each decide on their own when the
+# dead primary's lease ran out, so at a takeover the plant may apply the new primary's input of a
+# period whose estimate the recording still dropped (a `none` row, allowed above only at a kill):
+# such an input has nothing recorded to be checked against, and is only counted.
+unrecorded = [r["k"] for r in rows[1:] if r["k"] not in missing and by_k[r["k"] - 1]["xhat"] is None]
+mismatched = [r["k"] for r in rows[1:] if r["k"] not in missing and r["k"] not in unrecorded and abs(
+    r["u"][0] + GAIN * by_k[r["k"] - 1]["xhat"][0]) > 1e-12 * max(1.0, abs(GAIN * by_k[r["k"] - 1]["xhat"][0]))]
+check(not mismatched, "every applied input is -L x̂ of the recorded estimate (%d differ: %s; %d inputs of a "
+      "period the recording has no estimate of: %s)" % (len(mismatched), mismatched[:5], len(unrecorded), unrecorded))
 undisturbed = max(abs(r["x"][0]) for r in rows if 50 <= r["k"] < kills[0][0]) if kills else 1.0
 for i, (k_kill, strength) in enumerate(kills):
     window = [r for r in rows if k_kill - 10 <= r["k"] <= k_kill + 60]
