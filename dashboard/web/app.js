@@ -15,6 +15,11 @@
   const MIN_REDRAW_MS = 100;        // time charts redraw at most 10 times a second
   const MAX_REDRAW_MS = 500;        // and at least twice a second, however slow
   const LINK_REDRAW_MS = 500;       // link panels (fed ~1/s) at most twice a second
+  // Above this many links the page shows a table of them and the card of the one selected:
+  // thousands of cards, each a chart and a dozen controls, would not draw.
+  const CARD_LINK_LIMIT = 16;
+  const TABLE_ROWS = 100;           // rows the link table shows ("show more" adds as many)
+  const LINK_SAMPLES_TABLE = 120;   // arrival-rate history per link in table mode: 2 min at ~1/s
   const TEXT_REDRAW_MS = 100;       // header and stability texts at most 10 times a second
   const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
   const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/observed_rate.hpp)
@@ -218,6 +223,8 @@
     latestTheory: null,
     latestNetwork: null,
     links: new Map(),                         // sensor id -> link view (below)
+    tableMode: false,                         // more than CARD_LINK_LIMIT links: a table and one card
+    selectedLink: null,                       // table mode: the id whose card is shown
     regionTrail: new RecordRing(REGION_TRAIL),
   };
 
@@ -239,7 +246,7 @@
     subscriptions: new Map(),   // subscription id -> topic
     subscribedChannels: new Set(),
     capabilities: [],
-    paramUpdatesFor: '',        // scenario key the parameter subscription was made for
+    paramUpdates: new Set(),    // parameter names whose updates this connection subscribed
     serverName: '',
     nextRequest: 1,
   };
@@ -272,7 +279,7 @@
     conn.subscriptions.clear();
     conn.subscribedChannels.clear();
     conn.channels.clear();
-    conn.paramUpdatesFor = '';
+    conn.paramUpdates = new Set();
     ws.onopen = () => {
       conn.attempt = 0;
       setConnState('connected', 'connected');
@@ -388,16 +395,23 @@
     for (const id of gone) { conn.channels.delete(id); conn.subscribedChannels.delete(id); }
   }
 
-  // Every parameter a link can have, whatever its current model, so a model switch made
-  // elsewhere still reaches this page.
+  // Every parameter a shown card's link can have, whatever its current model, so a model
+  // switch made elsewhere still reaches it. Only the cards shown: the names of thousands of
+  // links would exceed what the server takes in one message (docs/dashboard.md).
   function subscribeParameterUpdates() {
     if (!conn.capabilities.includes('parametersSubscribe') || !store.scenario) return;
-    if (conn.paramUpdatesFor === store.scenarioKey) return;
-    const names = [];
-    for (const id of store.links.keys()) {
-      for (const key of LINK_KEYS) names.push('link.' + linkName(id) + '.' + key);
+    const wanted = new Set();
+    for (const link of store.links.values()) {
+      if (link.root) for (const name of link.parameterNames()) wanted.add(name);
     }
-    if (send({ op: 'subscribeParameterUpdates', parameterNames: names })) conn.paramUpdatesFor = store.scenarioKey;
+    const add = [...wanted].filter((name) => !conn.paramUpdates.has(name));
+    const drop = [...conn.paramUpdates].filter((name) => !wanted.has(name));
+    if (drop.length && send({ op: 'unsubscribeParameterUpdates', parameterNames: drop })) {
+      for (const name of drop) conn.paramUpdates.delete(name);
+    }
+    if (add.length && send({ op: 'subscribeParameterUpdates', parameterNames: add })) {
+      for (const name of add) conn.paramUpdates.add(name);
+    }
   }
 
   // --------------------------------------------------------------- messages
@@ -424,7 +438,7 @@
     buildTraceChart();
     buildStateCharts(store.ring.n);
     // The actuation link's card after the sensors': the same controls, for the inputs.
-    buildLinkCards(s.actuation && s.actuation.link
+    buildLinks(s.actuation && s.actuation.link
       ? sensors.concat([{ id: CONTROL_LINK_ID, link: s.actuation.link, actuation: s.actuation }]) : sensors);
     $('assessment').classList.toggle('no-final', !store.fuseWithin);
     const twoSensors = sensors.length === 2;
@@ -432,7 +446,10 @@
     $('region-none').hidden = twoSensors;
     document.querySelector('main.grid').classList.toggle('no-region', !twoSensors);
     // New link cards: read their parameters (an earlier answer may have come before them).
-    if (conn.capabilities.includes('parameters')) send({ op: 'getParameters', parameterNames: [], id: 'netkf-dashboard-scenario' });
+    // A table reads them for the card selected.
+    if (conn.capabilities.includes('parameters') && !store.tableMode) {
+      send({ op: 'getParameters', parameterNames: [], id: 'netkf-dashboard-scenario' });
+    }
     subscribeParameterUpdates();
     markAllDirty();
   }
@@ -636,7 +653,9 @@
   }
 
   class LinkView {
-    constructor(sensor) {
+    // The card's elements and chart exist only while it is shown (mount): a table of thousands
+    // of links shows one card, and keeps the others' status and arrival-rate history only.
+    constructor(sensor, historySamples) {
       this.id = sensor.id;
       this.name = linkName(sensor.id);   // in parameter names and element ids
       this.actuation = sensor.actuation || null;
@@ -646,11 +665,37 @@
       this.takeValues(link);
       this.fromParameters = false;   // true once parameterValues told the current values
       this.status = null;
-      this.rates = new RecordRing(LINK_SAMPLES);   // {t, configured, sinceChange, window}
+      this.rates = new RecordRing(historySamples);   // {t, configured, sinceChange, window}
       this.pending = null;
       this.dragging = new Set();      // parameter names whose slider is held
+      this.root = null;               // the card, while shown
+      this.chart = null;
+      this.actuationTheory = null;    // [configured, observed] of the latest theory (actuation link)
+    }
+
+    parameterNames() { return LINK_KEYS.map((key) => 'link.' + this.name + '.' + key); }
+
+    mount(box) {
+      if (this.root) return;
       this.build();
+      box.appendChild(this.root);
+      this.chart = timeChart(this.chartBox, 84, [
+        { label: 'configured', stroke: COLOR.configured, width: 2, paths: uPlot.paths.stepped({ align: 1 }), points: { show: false } },
+        { label: 'observed since change', stroke: COLOR.observed, width: 1.5, points: { show: true, size: 4 } },
+        { label: 'observed, last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples', stroke: COLOR.observedWindow, width: 1.25, dash: [3, 3], points: { show: false } },
+      ], { y: { range: [0, 1.05] } }, null, { legend: false, yValues: (u, splits) => splits.map((v) => v.toFixed(1)) });
       this.syncControls();
+      if (this.actuationTheory) this.showActuationTheory(...this.actuationTheory);
+      this.renderStats();
+    }
+
+    unmount() {
+      this.clearPending();
+      if (!this.root) return;
+      if (this.chart) this.chart.destroy();
+      this.root.remove();
+      this.root = null;
+      this.chart = null;
     }
 
     // Keys of a scenario link, a link status or a parameterValues answer; a Gilbert-Elliott
@@ -727,6 +772,8 @@
     // The actuation link: the loop's verdict on its side and the critical rate ν_c beside the
     // configured and observed arrival rates (netkf analyze's `actuation`).
     showActuationTheory(configured, observed) {
+      this.actuationTheory = [configured, observed];
+      if (!this.root) return;
       if (!configured) { this.theoryLine.textContent = ''; return; }
       const f = (v) => (isNum(v) ? v.toFixed(3) : '–');
       const parts = ['ν̄ configured ' + f(configured.arrival_rate)];
@@ -851,6 +898,7 @@
     clearPending() {
       if (this.pending) clearTimeout(this.pending.timer);
       this.pending = null;
+      if (!this.root) return;
       this.pendingLabel.textContent = '';
       delete this.pendingLabel.dataset.state;
     }
@@ -864,7 +912,7 @@
         const current = Object.assign({ model: this.model }, this.params);
         answered = Object.keys(this.pending.values);
         const applied = answered.every((k) => sameValue(current[k], this.pending.values[k]));
-        this.clearPending();
+        this.clearPending();   // a pending request exists only on a shown card
         this.pendingLabel.textContent = applied ? 'applied' : 'refused (see events)';
         this.pendingLabel.dataset.state = applied ? 'applied' : 'invalid';
       }
@@ -902,6 +950,7 @@
     // Controls follow the current values, except a slider being held or a field being typed
     // in; the controls of an answered request (`answered`: its keys) show the answer anyway.
     syncControls(answered) {
+      if (!this.root) return;
       const force = new Set(answered || []);
       if (!this.pending) {
         if (document.activeElement !== this.select || force.has('model')) this.select.value = this.model;
@@ -924,6 +973,7 @@
     }
 
     renderStats() {
+      if (!this.root) return;
       const st = this.status;
       if (!st) { this.statsLine.textContent = 'no link status yet'; return; }
       const items = [
@@ -952,25 +1002,165 @@
     }
   }
 
-  function buildLinkCards(sensors) {
-    for (const link of store.links.values()) {
-      link.clearPending();
-      if (link.chart) link.chart.destroy();
-    }
+  // A card per link, or, above CARD_LINK_LIMIT links, the link table and no card until one is
+  // selected in it.
+  function buildLinks(sensors) {
+    for (const link of store.links.values()) link.unmount();
     store.links.clear();
+    store.tableMode = sensors.length > CARD_LINK_LIMIT;
+    store.selectedLink = null;
     const box = $('links');
     box.replaceChildren();
     for (const sensor of sensors) {
-      const link = new LinkView(sensor);
+      const link = new LinkView(sensor, store.tableMode ? LINK_SAMPLES_TABLE : LINK_SAMPLES);
       store.links.set(sensor.id, link);
-      box.appendChild(link.root);
-      link.chart = timeChart(link.chartBox, 84, [
-        { label: 'configured', stroke: COLOR.configured, width: 2, paths: uPlot.paths.stepped({ align: 1 }), points: { show: false } },
-        { label: 'observed since change', stroke: COLOR.observed, width: 1.5, points: { show: true, size: 4 } },
-        { label: 'observed, last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples', stroke: COLOR.observedWindow, width: 1.25, dash: [3, 3], points: { show: false } },
-      ], { y: { range: [0, 1.05] } }, null, { legend: false, yValues: (u, splits) => splits.map((v) => v.toFixed(1)) });
-      link.renderStats();
+      if (!store.tableMode) link.mount(box);
     }
+    linkTable.shown = TABLE_ROWS;
+    $('link-table-panel').hidden = !store.tableMode;
+    $('link-table-hint').hidden = false;
+  }
+
+  // ------------------------------------------------------------ link table
+  // The columns of the table mode: what each shows of a link's status and how it sorts
+  // (null sorts first: a link that has not reported is the one to look at).
+  const LINK_COLUMNS = [
+    { key: 'link', label: 'link', value: (l) => l.id, text: (l) => l.name },
+    { key: 'model', label: 'model', value: (l) => modelText(l), text: (l) => modelText(l) },
+    { key: 'configured', label: 'λ configured', title: '(1 − loss) · P(in time)', rate: 'configured_arrival_rate' },
+    { key: 'since', label: 'λ since change', title: 'observed arrival rate since the link\'s model was set: in time / samples',
+      rate: 'observed_arrival_rate_since_change' },
+    { key: 'window', label: WINDOW_KEY, title: 'observed arrival rate over the latest reports holding at least ' +
+      OBSERVED_WINDOW_SAMPLES + ' samples', rate: 'observed_arrival_rate_window' },
+    { key: 'shortfall', label: 'λ configured − since change', title: 'how far the link runs below its model',
+      value: (l) => shortfall(l), text: (l) => fmt(shortfall(l), 3) },
+    { key: 'late', label: 'late share', title: 'late samples / samples the estimator received from the link',
+      rate: 'late_fraction' },
+    { key: 'samples', label: 'samples', title: 'samples that entered the link since its model was set',
+      value: (l) => statusNumber(l, 'samples_in'), text: (l) => fmt(statusNumber(l, 'samples_in'), 0) },
+    { key: 'fit', label: 'fitted', title: 'the loss model the link\'s last samples show (bernoulli or simple Gilbert, by AIC)',
+      value: (l) => (l.status && l.status.recent_fit ? l.status.recent_fit.loss : null),
+      text: (l) => (l.status ? recentFitText(l.status.recent_fit) : '—') },
+  ];
+  for (const column of LINK_COLUMNS) {
+    if (!column.rate) continue;
+    column.value = (l) => statusNumber(l, column.rate);
+    column.text = (l) => (l.status ? rateText(statusNumber(l, column.rate)) : '—');
+  }
+  const linkTable = { sort: 'since', descending: false, query: '', shown: TABLE_ROWS, rowsShown: [] };
+
+  function statusNumber(link, field) { return link.status && isNum(link.status[field]) ? link.status[field] : null; }
+  function shortfall(link) {
+    const configured = statusNumber(link, 'configured_arrival_rate');
+    const observed = statusNumber(link, 'observed_arrival_rate_since_change');
+    return configured !== null && observed !== null ? configured - observed : null;
+  }
+  function modelText(link) {
+    const st = link.status || {};
+    const model = MODEL_LABEL[st.model] ? st.model : link.model;
+    const loss = isNum(st.stationary_loss) ? st.stationary_loss : (model === 'bernoulli' ? link.params.loss : null);
+    return MODEL_LABEL[model] + (isNum(loss) ? ' ' + fmt(loss, 3) : '');
+  }
+
+  // The search: terms separated by spaces or commas, a link shown when any term matches: an
+  // id's beginning ("30": 30, 300-309, 3000-3099), a range of ids ("100-163"), or a word in its
+  // model or fitted model ("gilbert", "control").
+  function linkMatcher(query) {
+    const terms = query.toLowerCase().split(/[\s,]+/).filter(Boolean);
+    if (!terms.length) return () => true;
+    const tests = terms.map((term) => {
+      const range = /^(-?\d+)-(-?\d+)$/.exec(term);
+      if (range) {
+        const lo = Math.min(Number(range[1]), Number(range[2]));
+        const hi = Math.max(Number(range[1]), Number(range[2]));
+        return (l) => l.id >= lo && l.id <= hi;
+      }
+      if (/^-?\d+$/.test(term)) return (l) => l.name.startsWith(term);
+      return (l) => (l.name + ' ' + modelText(l) + ' ' + (l.status ? recentFitText(l.status.recent_fit) : ''))
+        .toLowerCase().includes(term);
+    });
+    return (l) => tests.some((test) => test(l));
+  }
+
+  function compareLinks(column, descending) {
+    return (a, b) => {
+      const x = column.value(a);
+      const y = column.value(b);
+      if (x === null || y === null) return x === null && y === null ? a.id - b.id : (x === null ? -1 : 1);
+      const order = typeof x === 'string' ? x.localeCompare(y) : x - y;
+      return (descending ? -order : order) || a.id - b.id;
+    };
+  }
+
+  function setupLinkTable() {
+    const head = $('link-table').tHead.rows[0];
+    head.replaceChildren(...LINK_COLUMNS.map((column) => {
+      const button = el('button', { type: 'button', 'data-sort': column.key, text: column.label });
+      if (column.title) button.title = column.title + ' — sort by it';
+      button.addEventListener('click', () => {
+        linkTable.descending = linkTable.sort === column.key ? !linkTable.descending : false;
+        linkTable.sort = column.key;
+        view.dirty.links = true;
+        requestRender();
+      });
+      return el('th', { scope: 'col', 'data-sort': column.key }, [button]);
+    }));
+    $('link-search').addEventListener('input', (event) => {
+      linkTable.query = event.target.value;
+      linkTable.shown = TABLE_ROWS;
+      view.dirty.links = true;
+      requestRender();
+    });
+    $('link-table-more').addEventListener('click', () => {
+      linkTable.shown += TABLE_ROWS;
+      view.dirty.links = true;
+      requestRender();
+    });
+    const body = $('link-table').tBodies[0];
+    const pick = (event) => {
+      const row = event.target.closest('tr[data-link]');
+      if (row) selectLink(row.dataset.link === 'control' ? CONTROL_LINK_ID : Number(row.dataset.link));
+    };
+    body.addEventListener('click', pick);
+    body.addEventListener('keydown', (event) => { if (event.key === 'Enter' || event.key === ' ') { event.preventDefault(); pick(event); } });
+  }
+
+  // Table mode: show the card of one link (its parameters read and followed while shown).
+  function selectLink(id) {
+    const link = store.links.get(id);
+    if (!link || store.selectedLink === id) return;
+    const previous = store.links.get(store.selectedLink);
+    if (previous) previous.unmount();
+    store.selectedLink = id;
+    $('link-table-hint').hidden = true;
+    link.mount($('links'));
+    if (conn.capabilities.includes('parameters')) {
+      send({ op: 'getParameters', parameterNames: link.parameterNames(), id: 'netkf-dashboard-select-' + link.name });
+    }
+    subscribeParameterUpdates();
+    view.dirty.links = true;
+    requestRender();
+  }
+
+  function renderLinkTable() {
+    const column = LINK_COLUMNS.find((c) => c.key === linkTable.sort) || LINK_COLUMNS[0];
+    const matches = linkMatcher(linkTable.query);
+    const rows = [...store.links.values()].filter(matches).sort(compareLinks(column, linkTable.descending));
+    const shown = rows.slice(0, linkTable.shown);
+    linkTable.rowsShown = shown.map((l) => l.name);
+    $('link-table').tBodies[0].replaceChildren(...shown.map((l) => {
+      const selected = l.id === store.selectedLink;
+      return el('tr', { 'data-link': l.name, tabindex: '0', class: selected ? 'selected' : '', 'aria-selected': String(selected) },
+        LINK_COLUMNS.map((c) => el('td', { 'data-col': c.key, text: c.text(l) })));
+    }));
+    for (const th of $('link-table').tHead.rows[0].cells) {
+      const sorted = th.dataset.sort === column.key;
+      th.setAttribute('aria-sort', sorted ? (linkTable.descending ? 'descending' : 'ascending') : 'none');
+    }
+    $('link-table-count').textContent = store.links.size + ' links' +
+      (linkTable.query.trim() ? ', ' + rows.length + ' match' : '') + ', showing ' + shown.length +
+      ', by ' + column.label + (linkTable.descending ? ' (highest first)' : ' (lowest first)');
+    $('link-table-more').hidden = rows.length <= shown.length;
   }
 
   // --------------------------------------------------------------- charts
@@ -1424,7 +1614,9 @@
     const w = windowPeriods();
     const ring = store.ring;
     const tLo = view.tLo;
+    if (store.tableMode) renderLinkTable();
     for (const link of store.links.values()) {
+      if (!link.root) continue;
       link.renderStats();
       // Arrival rates over the same time window as the other charts.
       const xs = [];
@@ -1729,8 +1921,8 @@
         isNum(markov) ? (markov < 1 ? 'stable-yes' : 'stable-no') : 'muted');
       set(prefix + '-lower', fmtTrace(a.lower_trace, '∞ (unbounded)'), isNum(a.lower_trace) ? '' : 'stable-no');
       set(prefix + '-upper', fmtTrace(a.upper_trace, a.stable === 'no' ? '∞ (unbounded)' : '∞ / undecided'), isNum(a.upper_trace) ? '' : 'muted');
-      // Three decimals, as the link cards show the same rates.
-      set(prefix + '-rates', Array.isArray(a.arrival_rates) ? a.arrival_rates.map(rateText).join(', ') : '—');
+      // Three decimals, as the link cards show the same rates; many links: their range.
+      set(prefix + '-rates', Array.isArray(a.arrival_rates) ? ratesText(a.arrival_rates) : '—');
     };
     fill('conf', conf);
     fill('obs', obs);
@@ -1742,12 +1934,40 @@
     $('assessment-reason').textContent = reasons.join(' · ');
   }
 
+  // The assessment's arrival rates (scenario order): each, or, for more links than cards, the
+  // lowest with its link, the mean and the highest (the link table has each).
+  function ratesText(rates) {
+    if (rates.length <= CARD_LINK_LIMIT || !rates.every(isNum)) return rates.map(rateText).join(', ');
+    let lowest = 0;
+    let highest = 0;
+    rates.forEach((r, i) => { if (r < rates[lowest]) lowest = i; if (r > rates[highest]) highest = i; });
+    const mean = rates.reduce((a, b) => a + b, 0) / rates.length;
+    const id = (i) => (i < store.sensorIds.length ? ' (link ' + store.sensorIds[i] + ')' : '');
+    return rates.length + ' links: lowest ' + rateText(rates[lowest]) + id(lowest) + ', mean ' + rateText(mean) +
+      ', highest ' + rateText(rates[highest]);
+  }
+
+  // "sensor_node[1,2,3,5]" shown as "sensor_node[1–3,5]": a process of 128 sensors in a line.
+  function processLabel(name) {
+    const m = /^(.*)\[(\d+(?:,\d+)+)\]$/.exec(name);
+    if (!m) return name;
+    const ids = m[2].split(',').map(Number);
+    const parts = [];
+    for (let i = 0; i < ids.length; i++) {
+      let j = i;
+      while (j + 1 < ids.length && ids[j + 1] === ids[j] + 1) j++;
+      parts.push(j > i + 1 ? ids[i] + '–' + ids[j] : (j === i + 1 ? ids[i] + ',' + ids[j] : String(ids[i])));
+      i = j;
+    }
+    return m[1] + '[' + parts.join(',') + ']';
+  }
+
   function renderNetwork() {
     const nw = store.latestNetwork;
     if (!nw) return;
     const body = document.querySelector('#process-table tbody');
     body.replaceChildren(...(nw.processes || []).map((p) => el('tr', { class: p.running ? '' : 'down' }, [
-      el('td', { text: String(p.name) }), el('td', { text: String(p.host || '') }), el('td', { text: String(p.pid) }),
+      el('td', { text: processLabel(String(p.name)), title: String(p.name) }), el('td', { text: String(p.host || '') }), el('td', { text: String(p.pid) }),
       el('td', { text: p.running ? 'yes' : 'no' }), el('td', { text: String(p.restarts) })])));
     $('network-counters').textContent = 'estimates ' + nw.estimates + ' · mean Tr P ' + fmt(nw.mean_trace_P, 3) +
       ' · mean Tr P k|k−1 ' + fmt(nw.mean_trace_P_pred, 3) + ' · late ' + nw.late_total + ' · rejected ' + nw.rejected_total +
@@ -1783,6 +2003,7 @@
 
   function start() {
     setupViewControls();
+    setupLinkTable();
     buildTraceChart();
     renderTimeCharts();
     connect();

@@ -3,8 +3,11 @@
 //
 //   node tests/e2e/dashboard_browser.mjs --url http://127.0.0.1:8470/ --screenshot out.png
 //        [--link 2|control] [--loss 1.0] [--no-set] [--delay 2=3] [--gilbert 3=0.2,4]
-//        [--seconds 2] [--timeout 60] [--chromium /usr/bin/chromium]
+//        [--select ID] [--seconds 2] [--timeout 60] [--chromium /usr/bin/chromium]
 //
+// --select ID: a scenario of more links than cards (the page's table mode): first read the link
+//   table as it opened ("table_before"), then search for ID in it, click its row and wait for
+//   its card ("selected"); the --link/--delay/--gilbert steps then use that card.
 // --link/--loss: the link whose loss is set through the page's own number field (Enter);
 //   default link 2, loss 1.0. --no-set: only watch.
 // --delay ID=MS: then that link's delay (ms) is set through its delay field (Enter).
@@ -33,7 +36,7 @@ const CHROMIUM_ARGS = [
 
 function usage(message) {
   process.stderr.write(`${message}\nusage: node dashboard_browser.mjs --url URL --screenshot PNG ` +
-    '[--link ID] [--loss VALUE] [--no-set] [--delay ID=MS] [--gilbert ID=LOSS,BURST] [--seconds N] [--timeout S] ' +
+    '[--link ID] [--loss VALUE] [--no-set] [--delay ID=MS] [--gilbert ID=LOSS,BURST] [--select ID] [--seconds N] [--timeout S] ' +
     '[--chromium PATH] [--compare-ctl NETKF]\n');
   process.exit(2);
 }
@@ -53,6 +56,7 @@ try {
       timeout: { type: 'string', default: '60' },
       chromium: { type: 'string', default: '/usr/bin/chromium' },
       'compare-ctl': { type: 'string' },
+      select: { type: 'string' },
     },
   }));
 } catch (err) {
@@ -98,6 +102,9 @@ const result = {
   control_value_after: null,      // the number field after the answer
   steps: [],                      // --delay, --gilbert: {link, param, value, sent, applied, applied_entry, ...}
   link_stats: {},                 // per link id: the card's stats line at the screenshot {key: text}
+  table_before: null,             // --select: the link table before the search (readLinkTable)
+  selected: null,                 // --select: {search_rows, card, error}
+  table: null,                    // the link table at the screenshot (null: the page shows cards)
   readings: [],                   // --compare-ctl: {ms, links: {id: {key: text}}, theory: {header, rates}}
   ctl: null,                      // --compare-ctl: {start_ms, end_ms, status (parsed), error}
   final: null,                    // counters and header at the screenshot
@@ -234,6 +241,50 @@ async function compareWithCtl(page, netkf) {
   if (ctlRun) await ctlRun;
 }
 
+// The link table (table mode), or null when the page shows cards: its count line and the rows
+// shown, each {link, selected, cells: {column: text}}, in the page's order.
+async function readLinkTable(page) {
+  return page.evaluate(() => {
+    const panel = document.getElementById('link-table-panel');
+    if (!panel || panel.hidden) return null;
+    const rows = Array.from(document.querySelectorAll('#link-table tbody tr')).map((tr) => ({
+      link: tr.dataset.link,
+      selected: tr.classList.contains('selected'),
+      cells: Object.fromEntries(Array.from(tr.cells).map((td) => [td.dataset.col, td.textContent])),
+    }));
+    const sorted = document.querySelector('#link-table th[aria-sort="ascending"], #link-table th[aria-sort="descending"]');
+    return { count: document.getElementById('link-table-count')?.textContent ?? '', rows,
+      sort: sorted ? { column: sorted.dataset.sort, order: sorted.getAttribute('aria-sort') } : null,
+      cards: document.querySelectorAll('article.link-card').length };
+  });
+}
+
+// --select: search the table for a link, click its row, wait for its card.
+async function selectInTable(page, id) {
+  const out = { search_rows: null, card: false, error: null };
+  try {
+    await page.waitForFunction(() => document.querySelectorAll('#link-table tbody tr').length > 0, null,
+      { timeout: remaining(15000), polling: 100 });
+    result.table_before = await readLinkTable(page);
+    await page.fill('#link-search', String(id), { timeout: remaining(5000) });
+    // The table redraws at most twice a second: wait for the search to show.
+    await page.waitForFunction((want) => {
+      const rows = document.querySelectorAll('#link-table tbody tr');
+      return rows.length > 0 && Array.from(rows).every((tr) => tr.dataset.link.startsWith(want));
+    }, String(id), { timeout: remaining(5000), polling: 50 });
+    out.search_rows = (await readLinkTable(page)).rows.map((r) => r.link);
+    await page.click(`#link-table tbody tr[data-link="${id}"]`, { timeout: remaining(5000) });
+    await page.waitForSelector(`article.link-card[data-link="${id}"] input[data-param="loss"]`, { timeout: remaining(5000) });
+    // Its stats come from the link status the page kept for it.
+    await page.waitForFunction((sel) => (document.querySelector(sel)?.textContent || '').includes('λ since change'),
+      `article.link-card[data-link="${id}"] .link-stats`, { timeout: remaining(5000), polling: 50 });
+    out.card = true;
+  } catch (err) {
+    out.error = err.message.split('\n')[0];
+  }
+  return out;
+}
+
 async function readEventLog(page) {
   return page.evaluate(() => Array.from(document.querySelectorAll('#event-log > *')).reverse().map((li) => ({
     time: li.querySelector('.event-time')?.textContent ?? '',
@@ -318,6 +369,8 @@ async function main() {
   result.conn_state = before.conn;
   result.period_text = before.period;
 
+  if (options.select !== undefined) result.selected = await selectInTable(page, options.select);
+
   if (doSet) {
     const number = page.locator(`input[type="number"][data-link="${linkId}"][data-param="loss"]`);
     const model = page.locator(`select[data-link="${linkId}"][data-param="model"]`);
@@ -397,6 +450,7 @@ async function main() {
   });
   result.final = { ...(after.dash || {}), conn_state: after.conn_state, period_text: after.period_text };
   result.link_stats = (await readLinkStats(page)).links;
+  result.table = await readLinkTable(page);
   result.verdict = after.verdict;
   result.actuation_theory_after = await actuationTheory();
   result.event_log_entries = await readEventLog(page);
