@@ -30,6 +30,7 @@ namespace {
 struct Frame {
   std::string data;
   bool binary = false;
+  bool keep = false;  // a latched state frame sent on subscribe: never dropped for a slow client
 };
 
 std::string_view view(beast::string_view s) { return {s.data(), s.size()}; }
@@ -162,13 +163,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
 
   /// Control messages go out at once.
   void send_json(const nlohmann::json& j) {
-    queue_.push_back({j.dump(), false});
+    queue_.push_back({j.dump(), false, true});
     bound_queue();
     pump();
   }
-  /// Data frames wait for the next batch (flush()).
-  void queue_data(std::string frame) {
-    queue_.push_back({std::move(frame), true});
+  /// Data frames wait for the next batch (flush()); `keep`: a latched state frame.
+  void queue_data(std::string frame, bool keep = false) {
+    queue_.push_back({std::move(frame), true, keep});
     bound_queue();
   }
   void pump() {
@@ -196,11 +197,13 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
  private:
   void bound_queue() {
     // A slow client must not grow the launch's memory: drop its oldest data frames (not
-    // the one being written, and never control messages).
+    // the one being written, never control messages, never the latched state a subscription
+    // began with: the scenario, every link's last status — their number is bounded by the
+    // channels and links).
     while (queue_.size() > max_queued_) {
       auto it = queue_.begin();
       if (writing_) ++it;
-      while (it != queue_.end() && !it->binary) ++it;
+      while (it != queue_.end() && it->keep) ++it;
       if (it == queue_.end()) break;
       queue_.erase(it);
       if (auto srv = server_.lock()) ++srv->dropped;
@@ -497,7 +500,7 @@ void DashboardServer::Impl::apply(WsSession& session, dashboard::SessionActions 
   }
   for (auto& out : actions.send) {
     if (out.binary) {
-      session.queue_data(std::move(out.frame));
+      session.queue_data(std::move(out.frame), out.keep);
     } else {
       session.send_json(out.message);
     }

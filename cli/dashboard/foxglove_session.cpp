@@ -47,7 +47,7 @@ void FoxgloveSession::subscribe(const Subscribe& request, const LatchedMessages&
     subscriptions_[subscription] = channel;
     for (const auto& [key, value] : latched)
       if (key.first == channel)
-        actions.send.push_back({true, {}, message_data_frame(subscription, value.timestamp_ns, value.payload)});
+        actions.send.push_back({true, {}, message_data_frame(subscription, value.timestamp_ns, value.payload), true});
   }
   actions.send_data_now = true;
 }

@@ -30,6 +30,7 @@ struct Outgoing {
   bool binary = false;
   nlohmann::json message;  // text
   std::string frame;       // binary
+  bool keep = false;       // binary: a latched state frame, never dropped for a slow client
 };
 
 /// What a client message asks of the connection, in the order to do it.

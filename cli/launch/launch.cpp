@@ -1,5 +1,6 @@
 #include "launch.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -220,6 +221,9 @@ void Launch::open_console() {
       d.token = random_token();  // listening beyond 127.0.0.1: every request needs it
     }
     d.allowed_origins = o_.dashboard_allow_origins;
+    // Every link reports once a second, all within a few milliseconds: a client's queue holds
+    // a few rounds of them before it drops (a subscription's latched state is never dropped).
+    d.max_queued_frames = std::max(d.max_queued_frames, 3 * (scenario_.sensors.size() + 1));
     d.max_connections = connection_cap(o_.dashboard_max_connections, open_files);
     if (d.max_connections < o_.dashboard_max_connections)
       std::cerr << "netkf launch: the dashboard takes at most " << d.max_connections

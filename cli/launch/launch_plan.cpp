@@ -131,7 +131,17 @@ void set_ownership_strength(std::vector<std::string>& args, std::uint32_t streng
 
 std::string sensor_process_name(const std::vector<int>& sensor_ids) {
   std::string name = "sensor_node[";
-  for (std::size_t i = 0; i < sensor_ids.size(); ++i) name += (i ? "," : "") + std::to_string(sensor_ids[i]);
+  for (std::size_t i = 0; i < sensor_ids.size();) {
+    std::size_t j = i;  // the run of consecutive ids from i
+    while (j + 1 < sensor_ids.size() && sensor_ids[j + 1] == sensor_ids[j] + 1) ++j;
+    name += (i ? "," : "") + std::to_string(sensor_ids[i]);
+    if (j >= i + 2) {
+      name += "-" + std::to_string(sensor_ids[j]);
+      i = j + 1;
+    } else {
+      ++i;
+    }
+  }
   return name + "]";
 }
 

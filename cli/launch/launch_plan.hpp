@@ -26,7 +26,8 @@ std::vector<std::vector<int>> sensor_process_groups(const std::vector<int>& sens
 int auto_sensors_per_process(std::size_t sensors, unsigned cpus);
 /// CPUs this process may run on (its affinity mask; at least 1).
 unsigned usable_cpus();
-/// The supervisor's name of a sensor process: "sensor_node[3]", "sensor_node[1,2,3]".
+/// The supervisor's name of a sensor process: "sensor_node[3]", "sensor_node[1,2]", runs of three
+/// or more ids as ranges: "sensor_node[1-1024]" (not a line of 5000 characters in every log).
 std::string sensor_process_name(const std::vector<int>& sensor_ids);
 
 /// The roles one `netkf launch` runs (`--only`): on several hosts, each runs its part.

@@ -21,12 +21,17 @@ LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)), cost_(
     view.in_time = probability_within(control->delay, scenario_.actuation_deadline_ms());
     snapshot_.links.push_back(view);
   }
+  for (std::size_t i = 0; i < snapshot_.links.size(); ++i) link_index_[snapshot_.links[i].sensor_id] = i;
 }
 
 LinkView* LiveModel::link(int sensor_id) {
-  for (auto& l : snapshot_.links)
-    if (l.sensor_id == sensor_id) return &l;
-  return nullptr;
+  const auto it = link_index_.find(sensor_id);
+  return it == link_index_.end() ? nullptr : &snapshot_.links[it->second];
+}
+
+const LinkView* LiveModel::find_link(int sensor_id) const {
+  const auto it = link_index_.find(sensor_id);
+  return it == link_index_.end() ? nullptr : &snapshot_.links[it->second];
 }
 
 void LiveModel::add_truth(const TruthRecord& truth) {
@@ -171,11 +176,9 @@ void LiveModel::add_link_change(const LinkChangeRecord& change) {
 Scenario LiveModel::configured_scenario() const {
   Scenario s = scenario_;
   for (auto& sensor : s.sensors)
-    for (const auto& l : snapshot_.links)
-      if (l.sensor_id == sensor.id) sensor.link = l.link;
+    if (const LinkView* l = find_link(sensor.id)) sensor.link = l->link;
   if (s.plant.control && s.plant.control->link)
-    for (const auto& l : snapshot_.links)
-      if (l.sensor_id == kControlLinkId) s.plant.control->link = l.link;
+    if (const LinkView* l = find_link(kControlLinkId)) s.plant.control->link = l->link;
   return s;
 }
 

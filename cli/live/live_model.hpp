@@ -55,6 +55,8 @@ class LiveModel {
   void set_processes(std::vector<ProcessView> processes) { snapshot_.processes = std::move(processes); }
 
   const LiveSnapshot& snapshot() const { return snapshot_; }
+  /// The link of a sensor id (kControlLinkId: the actuation link); nullptr when not in the scenario.
+  const LinkView* find_link(int sensor_id) const;
   const Scenario& scenario() const { return scenario_; }
   /// Events raised since the last call.
   std::vector<LiveEvent> take_events();
@@ -69,6 +71,9 @@ class LiveModel {
 
   Scenario scenario_;
   LiveSnapshot snapshot_;
+  // sensor id -> index in snapshot_.links (fixed at construction): every link reports once a
+  // second, and a search of 4096 links per report is quadratic.
+  std::map<int, std::size_t> link_index_;
   PeriodJoin join_;
   RunningCost cost_;  // the snapshot's mean_cost (the summary's `cost` over the periods seen so far)
   double sum_trace_ = 0.0;

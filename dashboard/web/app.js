@@ -101,6 +101,7 @@
     theoryBands: null,         // the latest theory's bands: {configured, final: {stable, lower, upper} or null}
     plotLengths: {},           // uPlot data lengths per chart, after the last redraw
     setParametersSent: 0,
+    linkTableMs: null,         // the last link table redraw (filter, sort, rows), ms
     connected: false,
   };
   window.netkfDashboard = dash;
@@ -1143,6 +1144,7 @@
   }
 
   function renderLinkTable() {
+    const started = performance.now();
     const column = LINK_COLUMNS.find((c) => c.key === linkTable.sort) || LINK_COLUMNS[0];
     const matches = linkMatcher(linkTable.query);
     const rows = [...store.links.values()].filter(matches).sort(compareLinks(column, linkTable.descending));
@@ -1161,6 +1163,7 @@
       (linkTable.query.trim() ? ', ' + rows.length + ' match' : '') + ', showing ' + shown.length +
       ', by ' + column.label + (linkTable.descending ? ' (highest first)' : ' (lowest first)');
     $('link-table-more').hidden = rows.length <= shown.length;
+    dash.linkTableMs = Math.round((performance.now() - started) * 10) / 10;
   }
 
   // --------------------------------------------------------------- charts
@@ -1947,27 +1950,12 @@
       ', highest ' + rateText(rates[highest]);
   }
 
-  // "sensor_node[1,2,3,5]" shown as "sensor_node[1–3,5]": a process of 128 sensors in a line.
-  function processLabel(name) {
-    const m = /^(.*)\[(\d+(?:,\d+)+)\]$/.exec(name);
-    if (!m) return name;
-    const ids = m[2].split(',').map(Number);
-    const parts = [];
-    for (let i = 0; i < ids.length; i++) {
-      let j = i;
-      while (j + 1 < ids.length && ids[j + 1] === ids[j] + 1) j++;
-      parts.push(j > i + 1 ? ids[i] + '–' + ids[j] : (j === i + 1 ? ids[i] + ',' + ids[j] : String(ids[i])));
-      i = j;
-    }
-    return m[1] + '[' + parts.join(',') + ']';
-  }
-
   function renderNetwork() {
     const nw = store.latestNetwork;
     if (!nw) return;
     const body = document.querySelector('#process-table tbody');
     body.replaceChildren(...(nw.processes || []).map((p) => el('tr', { class: p.running ? '' : 'down' }, [
-      el('td', { text: processLabel(String(p.name)), title: String(p.name) }), el('td', { text: String(p.host || '') }), el('td', { text: String(p.pid) }),
+      el('td', { text: String(p.name), title: String(p.name) }), el('td', { text: String(p.host || '') }), el('td', { text: String(p.pid) }),
       el('td', { text: p.running ? 'yes' : 'no' }), el('td', { text: String(p.restarts) })])));
     $('network-counters').textContent = 'estimates ' + nw.estimates + ' · mean Tr P ' + fmt(nw.mean_trace_P, 3) +
       ' · mean Tr P k|k−1 ' + fmt(nw.mean_trace_P_pred, 3) + ' · late ' + nw.late_total + ' · rejected ' + nw.rejected_total +

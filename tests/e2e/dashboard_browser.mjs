@@ -255,17 +255,19 @@ async function readLinkTable(page) {
     const sorted = document.querySelector('#link-table th[aria-sort="ascending"], #link-table th[aria-sort="descending"]');
     return { count: document.getElementById('link-table-count')?.textContent ?? '', rows,
       sort: sorted ? { column: sorted.dataset.sort, order: sorted.getAttribute('aria-sort') } : null,
-      cards: document.querySelectorAll('article.link-card').length };
+      cards: document.querySelectorAll('article.link-card').length,
+      redraw_ms: window.netkfDashboard ? window.netkfDashboard.linkTableMs : null };
   });
 }
 
 // --select: search the table for a link, click its row, wait for its card.
 async function selectInTable(page, id) {
-  const out = { search_rows: null, card: false, error: null };
+  const out = { search_rows: null, card: false, error: null, ms: null };
   try {
     await page.waitForFunction(() => document.querySelectorAll('#link-table tbody tr').length > 0, null,
       { timeout: remaining(15000), polling: 100 });
     result.table_before = await readLinkTable(page);
+    const started = Date.now();
     await page.fill('#link-search', String(id), { timeout: remaining(5000) });
     // The table redraws at most twice a second: wait for the search to show.
     await page.waitForFunction((want) => {
@@ -279,6 +281,7 @@ async function selectInTable(page, id) {
     await page.waitForFunction((sel) => (document.querySelector(sel)?.textContent || '').includes('λ since change'),
       `article.link-card[data-link="${id}"] .link-stats`, { timeout: remaining(5000), polling: 50 });
     out.card = true;
+    out.ms = Date.now() - started;   // search typed to the card's stats shown
   } catch (err) {
     out.error = err.message.split('\n')[0];
   }
@@ -451,6 +454,7 @@ async function main() {
   result.final = { ...(after.dash || {}), conn_state: after.conn_state, period_text: after.period_text };
   result.link_stats = (await readLinkStats(page)).links;
   result.table = await readLinkTable(page);
+  result.js_heap_mb = await page.evaluate(() => (performance.memory ? performance.memory.usedJSHeapSize / 1048576 : null));
   result.verdict = after.verdict;
   result.actuation_theory_after = await actuationTheory();
   result.event_log_entries = await readEventLog(page);

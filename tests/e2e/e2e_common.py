@@ -328,10 +328,27 @@ def netkf_processes(domain):
     return found
 
 
+def sensor_process_name(ids):
+    """The launch's name of a sensor process (launch_plan.hpp): runs of three or more ids as
+    ranges, sensor_node[1-3,5,7,8]."""
+    parts, i = [], 0
+    while i < len(ids):
+        j = i
+        while j + 1 < len(ids) and ids[j + 1] == ids[j] + 1:
+            j += 1
+        if j >= i + 2:
+            parts.append("%d-%d" % (ids[i], ids[j]))
+            i = j + 1
+        else:
+            parts.append(str(ids[i]))
+            i += 1
+    return "sensor_node[%s]" % ",".join(parts)
+
+
 def node_pids(domain):
     """The netkf node processes of this build running on `domain` now (restarted ones included),
     found in /proc, as {name: pid}: plant_node, channel_emulator, estimator_node (each estimator
-    as "estimator_node@STRENGTH", its --ownership-strength), sensor_node[1,2]. Warm spares (argv
+    as "estimator_node@STRENGTH", its --ownership-strength), sensor_node[1,2] (sensor_process_name). Warm spares (argv
     --spare, even once activated) are left out: Launch.child_pids() names the running processes
     of a launch, spares included."""
     found = {}
@@ -347,8 +364,7 @@ def node_pids(domain):
         if "--spare" in argv:
             continue
         if name == "sensor_node":
-            ids = [argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--sensor-id"]
-            name = "sensor_node[%s]" % ",".join(ids)
+            name = sensor_process_name([int(argv[i + 1]) for i, a in enumerate(argv[:-1]) if a == "--sensor-id"])
         elif name == "estimator_node" and "--ownership-strength" in argv:
             name += "@" + argv[argv.index("--ownership-strength") + 1]
         found[name] = pid

@@ -17,6 +17,7 @@
 
 #include <cerrno>
 #include <future>
+#include <set>
 #include <thread>
 
 #include "dashboard_server.hpp"
@@ -224,6 +225,41 @@ TEST(DashboardServer, SpeaksFoxgloveAndStreamsSubscribedChannels) {
   EXPECT_EQ(st["op"], "status");
   EXPECT_EQ(st["level"], 1);
   EXPECT_EQ(st["message"], "careful");
+}
+
+TEST(DashboardServer, ASubscriptionsLatchedStateIsNeverDroppedForASlowClient) {
+  // More latched link statuses than a client's queue holds (a page of a 4096-link run): the
+  // queue dropped its oldest data frames first, and that page never got the scenario.
+  DashboardOptions options;
+  options.max_queued_frames = 8;
+  ServerFixture f(options);
+  Client c(f.port());
+  c.read_json();  // serverInfo
+  c.read_json();  // advertise
+  constexpr int kLinks = 40;
+  f.run([&] {
+    f.server().publish(catalogue::ChannelId::scenario, json{{"name", "many"}}, 1);
+    for (int id = 1; id <= kLinks; ++id)
+      f.server().publish(catalogue::ChannelId::link_status, json{{"sensor_id", id}}, 2, id);
+  });
+  c.send(R"({"op":"subscribe","subscriptions":[{"id":1,"channelId":1},{"id":2,"channelId":4},{"id":3,"channelId":2}]})");
+  // An estimate after them ends the reading (the newest frame is kept in any case).
+  f.run([&] { f.server().publish(catalogue::ChannelId::estimate, json{{"k", 1}}, 3); });
+  bool scenario = false;
+  std::set<int> links;
+  for (;;) {
+    const std::string frame = c.read();
+    ASSERT_FALSE(c.ws.got_text());
+    const json payload = json::parse(frame.substr(13));
+    if (frame[1] == 3) break;
+    if (frame[1] == 1) scenario = payload["name"] == "many";
+    else links.insert(payload["sensor_id"].get<int>());
+  }
+  EXPECT_TRUE(scenario);
+  EXPECT_EQ(links.size(), static_cast<std::size_t>(kLinks));
+  std::uint64_t dropped = 1;
+  f.run([&] { dropped = f.server().dropped_frames(); });
+  EXPECT_EQ(dropped, 0u);
 }
 
 TEST(DashboardServer, AnswersParametersAndPassesChangesOn) {

@@ -67,7 +67,9 @@ TEST(LaunchPlan, SensorsAreGroupedInScenarioOrder) {
   EXPECT_TRUE(sensor_process_groups({}, 3).empty());
   EXPECT_THROW(sensor_process_groups({1}, 0), std::invalid_argument);
   EXPECT_EQ(sensor_process_name({7}), "sensor_node[7]");
-  EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1,2,3]");
+  EXPECT_EQ(sensor_process_name({1, 2}), "sensor_node[1,2]");
+  EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1-3]");
+  EXPECT_EQ(sensor_process_name({1, 2, 3, 4, 6, 8, 9, 11, 12, 13}), "sensor_node[1-4,6,8,9,11-13]");
 }
 
 TEST(LaunchPlan, OnlyParsesRolesAndSensorLists) {

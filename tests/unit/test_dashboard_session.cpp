@@ -247,6 +247,7 @@ TEST(FoxgloveSession, ANewSubscriberGetsTheChannelsLatestMessagesAtOnce) {
   EXPECT_TRUE(a.send[0].binary);
   EXPECT_EQ(a.send[0].frame, message_data_frame(5, 10, R"({"sensor_id":1})"));
   EXPECT_EQ(a.send[1].frame, message_data_frame(5, 11, R"({"sensor_id":2})"));
+  EXPECT_TRUE(a.send[0].keep && a.send[1].keep);  // the state: not dropped for a slow client
   EXPECT_TRUE(a.send_data_now);
 }
 
