@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 names=(fused-update late-fusion monte-carlo python-filter analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
-       security recovery blind-window multi-host shutdown-aborts setup)
+       dashboard-many security recovery blind-window multi-host shutdown-aborts setup)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
@@ -24,6 +24,7 @@ declare -A about=(
   [sensors-100hz]="256 sensors at 100 Hz for 10 minutes: late share, pipeline latency, RSS and fds (bench/bench_sensor_rate.sh)"
   [sensor-limit]="the largest live network: 512 to 4096 sensors at 10 Hz and 1024 at 100 Hz, 40 s each (bench/bench_sensor_rate.sh)"
   [dashboard]="the dashboard's cost: pipeline latency and the launch's CPU with a browser or a protocol client (bench/bench_dashboard.sh)"
+  [dashboard-many]="the page and a late ctl status at 4096 sensors × 10 Hz and 1024 × 100 Hz: link table, selection, launch CPU (bench/bench_dashboard_many.sh)"
   [security]="pipeline latency without and with DDS Security (bench_latency --secure-compare)"
   [recovery]="periods lost to a killed or stopped process (e2e fault_estimator, fault_channel; integration DdsRestart)"
   [blind-window]="a killed estimator in a closed loop under load: periods without an input, fresh process, warm spare, standby (bench/bench_blind_window.sh)"
@@ -336,6 +337,11 @@ bench_sensor_limit() {
   rate_header
   for n in 512 1024 1536 2048 4096; do bench/bench_sensor_rate.sh "$n" 100 40 62 "$netkf"; done
   bench/bench_sensor_rate.sh 1024 10 40 62 "$netkf"
+}
+
+bench_dashboard_many() {
+  bench/bench_dashboard_many.sh 4096 100 60 152 | tee "$out/dashboard-4096.txt"
+  bench/bench_dashboard_many.sh 1024 10 60 152 | tee "$out/dashboard-1024-100hz.txt"
 }
 
 bench_dashboard() {
