@@ -14,15 +14,7 @@ n=${1:-4096} period=${2:-100} seconds=${3:-60} domain=${4:-152}
 dir=$(mktemp -d)
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$dir"' EXIT
 worst=$((n / 2))
-{
-  printf 'name: dashboard-%d\nperiod_ms: %d\nseed: 5\nplant:\n  A: [[0.95, 0.1], [0.0, 0.9]]\n' "$n" "$period"
-  printf '  Q: [[0.1, 0.0], [0.0, 0.1]]\n  x0: [0.0, 0.0]\nsensors:\n'
-  for i in $(seq 1 "$n"); do
-    loss=0.1; [ "$i" -eq "$worst" ] && loss=0.9
-    printf '  - { id: %d, C: [[1.0, 0.0]], R: [[1.0]], link: { model: bernoulli, loss: %s } }\n' "$i" "$loss"
-  done
-  printf 'estimator:\n  deadline_ms: %d\n' $((period * 8 / 10))
-} >"$dir/s.yaml"
+bench/rate_scenario.sh "dashboard-$n" "$n" "$period" "$worst" >"$dir/s.yaml"
 
 NETKF_DOMAIN=$domain exec scripts/in-netns.sh bash -s "$dir" "$n" "$seconds" "$worst" <<'INNER'
 set -euo pipefail

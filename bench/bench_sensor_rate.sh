@@ -12,14 +12,7 @@ n=$1 period=$2 seconds=$3 domain=${4:-60} netkf=${5:-build/default/cli/netkf}
 dir=$(mktemp -d)
 [ -n "${KEEP:-}" ] || trap 'rm -rf "$dir"' EXIT
 
-{
-  printf 'name: rate-%d-%dms\nperiod_ms: %d\nseed: 5\nplant:\n  A: [[0.95, 0.1], [0.0, 0.9]]\n' "$n" "$period" "$period"
-  printf '  Q: [[0.1, 0.0], [0.0, 0.1]]\n  x0: [0.0, 0.0]\nsensors:\n'
-  for i in $(seq 1 "$n"); do
-    printf '  - { id: %d, C: [[1.0, 0.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.1 } }\n' "$i"
-  done
-  printf 'estimator:\n  deadline_ms: %d\n' $((period * 8 / 10))
-} >"$dir/s.yaml"
+bench/rate_scenario.sh "rate-$n-${period}ms" "$n" "$period" >"$dir/s.yaml"
 
 NETKF_DOMAIN=$domain scripts/in-netns.sh "$netkf" launch "$dir/s.yaml" --duration "$seconds" --dashboard off \
   --record "$dir/p.csv" --summary "$dir/summary.json" --pid-file "$dir/pids.txt" >"$dir/launch.log" 2>&1 &

@@ -93,13 +93,14 @@ void LiveConsole::link_status(const LinkStatusRecord& status) {
   // This link only: every link reports once a second (a copy of all links per report was
   // quadratic, the launch's whole thread at 4096 links).
   const LinkView* link = model_.find_link(status.sensor_id);
-  const std::optional<LinkView> before = link ? std::optional<LinkView>(*link) : std::nullopt;
+  // The link as last reported (none before the first report).
+  const std::optional<LinkSpec> before = link && link->reported ? std::optional<LinkSpec>(link->link) : std::nullopt;
   model_.add_link_status(status);
   if (auto a = applied_.find(status.sensor_id); a != applied_.end() && status.last_request_id == a->second.request_id)
     applied_.erase(a);
   if (link) {
     if (dashboard_) dashboard_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(*link), wall_ns(), link->sensor_id);
-    if (!before->reported || !(before->link == link->link)) {
+    if (!before || !(*before == link->link)) {
       theory_due_ = true;  // the configured operating point moved: reassess now
       if (dashboard_) dashboard_->broadcast_parameter_values(dashboard::link_parameter_values(*link, std::nullopt));
     }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 namespace netkf::cli {
 
@@ -25,8 +26,7 @@ LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)), cost_(
 }
 
 LinkView* LiveModel::link(int sensor_id) {
-  const auto it = link_index_.find(sensor_id);
-  return it == link_index_.end() ? nullptr : &snapshot_.links[it->second];
+  return const_cast<LinkView*>(std::as_const(*this).find_link(sensor_id));
 }
 
 const LinkView* LiveModel::find_link(int sensor_id) const {
