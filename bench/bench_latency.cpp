@@ -43,16 +43,26 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include <netkf/bench_wire/bench_hopPubSubTypes.h>
+
 #include "netkf/dds/dds.hpp"
 #include "netkf/scenario.hpp"
+
+// The bare hop's bounded twin of Measurement (--hop-delivery data-sharing).
+template <>
+struct netkf::dds::PubSubTypeOf<netkf::bench_wire::BoundedMeasurement> {
+  using type = CheckedPubSubType<netkf::bench_wire::BoundedMeasurementPubSubType>;
+};
 
 namespace {
 
@@ -125,24 +135,127 @@ pid_t spawn(const std::vector<std::string>& args) {
 
 // Bare hop: topic of the same Measurement type and QoS as the raw samples, private to the benchmark.
 constexpr dds::Topic<netkf::wire::Measurement> kHopTopic{"netkf/bench/hop", dds::topics::raw_measurement.qos};
+// --hop-delivery data-sharing: the same fields with a bounded y, the same QoS, delivered by Fast
+// DDS data-sharing (the writer's history in shared memory, read in place by the reader) instead
+// of the participant's transports (a copy into and out of the shared-memory transport's buffers).
+constexpr dds::Topic<netkf::bench_wire::BoundedMeasurement> kSharedHopTopic{"netkf/bench/hop_shared",
+                                                                           dds::topics::raw_measurement.qos};
+
+/// Data-sharing on (entity creation fails if Fast DDS cannot use it: then the run stops rather
+/// than measuring the transports under another name). It needs preallocated histories.
+template <class Qos>
+Qos with_data_sharing(Qos q) {
+  q.data_sharing().on("/dev/shm");  // file-mapped segments in the shared-memory file system
+  q.endpoint().history_memory_policy = eprosima::fastrtps::rtps::PREALLOCATED_MEMORY_MODE;
+  return q;
+}
+
+/// The bench's side of the bare hop: writes one hop sample, by either delivery.
+class HopWriter {
+ public:
+  HopWriter(dds::Participant& p, bool data_sharing) : participant_(p) {
+    if (!data_sharing) {
+      plain_ = std::make_unique<dds::Writer<netkf::wire::Measurement>>(p, kHopTopic);
+      return;
+    }
+    shared_ = p.publisher()->create_datawriter(p.topic(kSharedHopTopic),
+                                               with_data_sharing(dds::writer_qos(kSharedHopTopic.qos)));
+    if (shared_ == nullptr) throw std::runtime_error("no data-sharing writer (see Fast DDS's log above)");
+  }
+  ~HopWriter() {
+    if (shared_) participant_.publisher()->delete_datawriter(shared_);
+  }
+  HopWriter(const HopWriter&) = delete;
+  HopWriter& operator=(const HopWriter&) = delete;
+
+  void write(int id, std::uint64_t k) {
+    if (plain_) {
+      plain_->write(dds::make_measurement(id, k, dds::steady_now_ns(), netkf::Vector::Zero(1)));
+      return;
+    }
+    netkf::bench_wire::BoundedMeasurement s;
+    s.sensor_id(id);
+    s.k(k);
+    s.y({0.0});
+    s.stamp_ns(dds::steady_now_ns());
+    shared_->write(&s);
+  }
+  bool wait_for_matched(std::chrono::seconds limit) {
+    if (plain_) return plain_->wait_for_matched(1, limit);
+    const auto until = Clock::now() + limit;
+    eprosima::fastdds::dds::PublicationMatchedStatus st;
+    while (shared_->get_publication_matched_status(st) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK &&
+           st.current_count < 1 && Clock::now() < until)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    return st.current_count >= 1;
+  }
+  void wait_for_acknowledgments() {
+    if (plain_) plain_->wait_for_acknowledgments(std::chrono::seconds(2));
+    else shared_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(2, 0));
+  }
+
+ private:
+  dds::Participant& participant_;
+  std::unique_ptr<dds::Writer<netkf::wire::Measurement>> plain_;
+  eprosima::fastdds::dds::DataWriter* shared_ = nullptr;
+};
+
+/// The receiver's side of the data-sharing hop: each sample's latency on the listener thread.
+class SharedHopReader : private eprosima::fastdds::dds::DataReaderListener {
+ public:
+  using OnSample = std::function<void(std::int64_t stamp_ns, int id, std::int64_t now_ns)>;
+  SharedHopReader(dds::Participant& p, OnSample on_sample) : participant_(p), on_sample_(std::move(on_sample)) {
+    reader_ = p.subscriber()->create_datareader(p.topic(kSharedHopTopic),
+                                                with_data_sharing(dds::reader_qos(kSharedHopTopic.qos)), this);
+    if (reader_ == nullptr) throw std::runtime_error("no data-sharing reader (see Fast DDS's log above)");
+  }
+  ~SharedHopReader() override {
+    reader_->set_listener(nullptr);
+    participant_.subscriber()->delete_datareader(reader_);
+  }
+  SharedHopReader(const SharedHopReader&) = delete;
+  SharedHopReader& operator=(const SharedHopReader&) = delete;
+
+ private:
+  void on_data_available(eprosima::fastdds::dds::DataReader* reader) override {
+    netkf::bench_wire::BoundedMeasurement s;
+    eprosima::fastdds::dds::SampleInfo info;
+    while (reader->take_next_sample(&s, &info) == eprosima::fastrtps::types::ReturnCode_t::RETCODE_OK)
+      if (info.valid_data) on_sample_(s.stamp_ns(), s.sensor_id(), dds::steady_now_ns());
+  }
+  dds::Participant& participant_;
+  OnSample on_sample_;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+};
 
 /// Forked child: receive hop samples, write latencies (µs) to `fd` when the writer says stop.
-[[noreturn]] void hop_receiver(int domain, int fd) {
+[[noreturn]] void hop_receiver(int domain, int fd, bool data_sharing) {
   std::vector<double> lat;
   lat.reserve(1 << 20);
   std::mutex m;
   std::atomic<bool> done{false};
+  auto on_sample = [&](std::int64_t stamp_ns, int id, std::int64_t now) {
+    if (id < 0) {
+      done = true;
+      return;
+    }
+    std::lock_guard lock(m);
+    lat.push_back(static_cast<double>(now - stamp_ns) / 1000.0);
+  };
   {
-    dds::Participant p({domain, std::nullopt, "bench-hop-rx", std::nullopt});
-    dds::Reader<netkf::wire::Measurement> r(p, kHopTopic, [&](netkf::wire::Measurement&& s) {
-      const auto now = dds::steady_now_ns();
-      if (s.sensor_id() < 0) {
-        done = true;
-        return;
-      }
-      std::lock_guard lock(m);
-      lat.push_back(static_cast<double>(now - s.stamp_ns()) / 1000.0);
-    });
+    dds::ParticipantOptions po;
+    po.domain = domain;
+    po.name = "bench-hop-rx";
+    dds::Participant p(po);
+    std::unique_ptr<dds::Reader<netkf::wire::Measurement>> plain;
+    std::unique_ptr<SharedHopReader> shared;
+    if (data_sharing) {
+      shared = std::make_unique<SharedHopReader>(p, on_sample);
+    } else {
+      plain = std::make_unique<dds::Reader<netkf::wire::Measurement>>(p, kHopTopic, [&](netkf::wire::Measurement&& s) {
+        on_sample(s.stamp_ns(), s.sensor_id(), dds::steady_now_ns());
+      });
+    }
     const auto until = Clock::now() + std::chrono::minutes(10);
     while (!done && Clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
@@ -177,6 +290,9 @@ struct LaunchShape {
   // the plant's tick) or on each truth sample ("truth", the instant the sensors publish, so
   // the hop meets the same burst of work as the pipeline's first hop).
   std::string hop_clock = "free";
+  // How the bare hop's samples travel: "transport" (netkf's Measurement over the participant's
+  // transports, as the pipeline's samples) or "data-sharing" (a bounded twin, see kSharedHopTopic).
+  std::string hop_delivery = "transport";
 };
 
 RunResult run(const std::string& netkf, const std::string& self, int domain, int sensors, LaunchShape shape,
@@ -196,7 +312,8 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     if (hop_pid == 0) {
       close(pipe_fds[0]);
       const std::string domain_arg = std::to_string(domain), fd_arg = std::to_string(pipe_fds[1]);
-      execl(self.c_str(), self.c_str(), "--hop-receiver", domain_arg.c_str(), fd_arg.c_str(), nullptr);
+      execl(self.c_str(), self.c_str(), "--hop-receiver", domain_arg.c_str(), fd_arg.c_str(),
+            shape.hop_delivery.c_str(), nullptr);
       _exit(127);
     }
     close(pipe_fds[1]);
@@ -222,16 +339,15 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
         to_fused_us.push_back(static_cast<double>(e.fused_at_ns() - e.last_sample_stamp_ns()) / 1000.0);
       }
     });
-    std::unique_ptr<dds::Writer<netkf::wire::Measurement>> hop_writer;
+    std::unique_ptr<HopWriter> hop_writer;
     std::unique_ptr<dds::Reader<netkf::wire::Truth>> hop_trigger;  // --hop-clock truth
-    netkf::Vector y = netkf::Vector::Zero(1);
     if (with_hop) {
-      hop_writer = std::make_unique<dds::Writer<netkf::wire::Measurement>>(p, kHopTopic);
-      hop_writer->wait_for_matched(1, std::chrono::seconds(10));
+      hop_writer = std::make_unique<HopWriter>(p, shape.hop_delivery == "data-sharing");
+      hop_writer->wait_for_matched(std::chrono::seconds(10));
       if (shape.hop_clock == "truth") {
         hop_trigger = std::make_unique<dds::Reader<netkf::wire::Truth>>(
             p, dds::topics::truth, [&, writer = hop_writer.get()](netkf::wire::Truth&& t) {
-              for (int i = 1; i <= sensors; ++i) writer->write(dds::make_measurement(i, t.k(), dds::steady_now_ns(), y));
+              for (int i = 1; i <= sensors; ++i) writer->write(i, t.k());
             });
       }
     }
@@ -251,7 +367,7 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     int status = 0;
     while (waitpid(launch, &status, WNOHANG) == 0) {
       if (hop_writer && !hop_trigger && Clock::now() - start < std::chrono::duration<double>(seconds + warmup_s)) {
-        for (int i = 1; i <= sensors; ++i) hop_writer->write(dds::make_measurement(i, k, dds::steady_now_ns(), y));
+        for (int i = 1; i <= sensors; ++i) hop_writer->write(i, k);
         ++k;
       }
       next += std::chrono::milliseconds(period_ms);
@@ -260,8 +376,8 @@ RunResult run(const std::string& netkf, const std::string& self, int domain, int
     result.launch_status = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     hop_trigger.reset();  // no hop sample after the stop marker below
     if (hop_writer) {
-      hop_writer->write(dds::make_measurement(-1, k, dds::steady_now_ns(), y));
-      hop_writer->wait_for_acknowledgments(std::chrono::seconds(2));
+      hop_writer->write(-1, k);
+      hop_writer->wait_for_acknowledgments();
     }
   }
   if (with_hop) {
@@ -306,7 +422,8 @@ void print(const char* what, const Stats& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 4 && std::string(argv[1]) == "--hop-receiver") hop_receiver(std::stoi(argv[2]), std::stoi(argv[3]));
+  if (argc == 5 && std::string(argv[1]) == "--hop-receiver")
+    hop_receiver(std::stoi(argv[2]), std::stoi(argv[3]), std::string(argv[4]) == "data-sharing");
   int sensors = 8, rate_hz = 100, domain = 90, max_sensors = 128, repeat = 1;
   LaunchShape shape;
   double seconds = 15.0, warmup_s = 1.0;
@@ -325,6 +442,7 @@ int main(int argc, char** argv) {
     else if (a == "--sensors-per-process") shape.per_process = next();
     else if (a == "--sensor-nice") shape.sensor_nice = std::stoi(next());
     else if (a == "--hop-clock") shape.hop_clock = next();
+    else if (a == "--hop-delivery") shape.hop_delivery = next();
     else if (a == "--warmup") warmup_s = std::stod(next());
     else if (a == "--repeat") repeat = std::max(1, std::stoi(next()));
     else if (a == "--secure") secure = std::filesystem::absolute(next());
@@ -333,7 +451,7 @@ int main(int argc, char** argv) {
       secure_compare = true;
     }
     else {
-      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K|auto] [--sensor-nice N] [--hop-clock free|truth] [--rate-hz R] [--seconds S] [--warmup S]\n"
+      std::printf("usage: bench_latency [--sensors D] [--sensors-per-process K|auto] [--sensor-nice N] [--hop-clock free|truth] [--hop-delivery transport|data-sharing] [--rate-hz R] [--seconds S] [--warmup S]\n"
                   "                     [--repeat N] [--domain N] [--capacity [--max-sensors M]] [--secure DIR | --secure-compare DIR]\n");
       return a == "--help" ? 0 : 2;
     }
@@ -342,6 +460,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "warning: not inside scripts/in-netns.sh; DDS stays on localhost by the built-in profile\n");
   if (shape.hop_clock != "free" && shape.hop_clock != "truth") {
     std::fprintf(stderr, "bench_latency: --hop-clock must be free or truth\n");
+    return 2;
+  }
+  if (shape.hop_delivery != "transport" && shape.hop_delivery != "data-sharing") {
+    std::fprintf(stderr, "bench_latency: --hop-delivery must be transport or data-sharing\n");
     return 2;
   }
   const std::string netkf = netkf_path(argv[0]);
@@ -396,7 +518,10 @@ int main(int argc, char** argv) {
         print("pipeline: sample publish -> estimate publish", r.pipeline);
         print("  of which sample publish -> fused update done", r.to_fused);
         print("pipeline: sample publish -> estimate received", r.pipeline_rx);
-        print(shape.hop_clock == "truth" ? "bare Fast DDS hop (same type, on the truth)" : "bare Fast DDS hop (same type, same load)", r.hop);
+        print(shape.hop_delivery == "data-sharing" ? "bare Fast DDS hop (data-sharing, bounded twin)"
+              : shape.hop_clock == "truth"          ? "bare Fast DDS hop (same type, on the truth)"
+                                                    : "bare Fast DDS hop (same type, same load)",
+              r.hop);
         if (r.hop.p50_us > 0) {
           ratios.push_back(r.pipeline.p50_us / r.hop.p50_us);
           std::printf("  pipeline p50 / bare hop p50 = %.2f (goal <= 3)\n", ratios.back());

@@ -9,7 +9,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-names=(fused-update late-fusion monte-carlo python-filter analyze analyze-many latency hop-clock capacity sensors-100hz sensor-limit dashboard
+names=(fused-update late-fusion monte-carlo python-filter analyze analyze-many latency hop-clock hop-delivery capacity sensors-100hz sensor-limit dashboard
        dashboard-many security recovery blind-window multi-host shutdown-aborts setup)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
@@ -20,6 +20,7 @@ declare -A about=(
   [analyze-many]="wall and CPU time of netkf analyze --json for 512-sensor scenarios (bench/bench_many_sensors.sh)"
   [latency]="pipeline latency against one bare DDS hop, 8 sensors at 100 Hz, auto grouping and one process per sensor (bench_latency)"
   [hop-clock]="the same with the bare hop on the truth's clock and on its own (bench_latency --hop-clock)"
+  [hop-delivery]="the bare hop by the transports (shared memory) and by Fast DDS data-sharing, alternating, the pipeline as the control (bench_latency --hop-delivery)"
   [capacity]="sensors at 100 Hz without unintended loss, 64 and 128 sensors (bench_latency --capacity)"
   [sensors-100hz]="256 sensors at 100 Hz for 10 minutes: late share, pipeline latency, RSS and fds (bench/bench_sensor_rate.sh)"
   [sensor-limit]="the largest live network: 512 to 4096 sensors at 10 Hz and 1024 at 100 Hz, 40 s each (bench/bench_sensor_rate.sh)"
@@ -178,6 +179,15 @@ elif mode in ("latency", "hop-clock"):
         row.append(str(sum(r.get("periods-with-unintended-loss", 0) for r in runs)))
     print("| " + " | ".join(row) + " |")
 
+elif mode == "hop-delivery":
+    label, path = args
+    runs = [r for r in latency_runs(path) if r.get("pipeline") and r.get("hop")]
+    ratios = sorted(r["pipeline"][0] / r["hop"][0] for r in runs)
+    got = [int(n) for n in re.findall(r"bare Fast DDS hop .*? n=(\d+)", open(path).read())]
+    print("| %s | %s µs | %s µs | %.2f (%.2f-%.2f) | %s µs | %d-%d |" % (
+        label, span([r["pipeline"][0] for r in runs]), span([r["hop"][0] for r in runs]),
+        ratios[len(ratios) // 2], ratios[0], ratios[-1], span([r["hop"][1] for r in runs]), min(got), max(got)))
+
 elif mode == "capacity":
     label, path = args
     for r in latency_runs(path):
@@ -308,6 +318,22 @@ bench_hop_clock() {
   echo "|---|---|---|---|"
   report hop-clock "truth (hop in the sensors' burst)" "$out/hop-clock-truth.txt"
   report hop-clock "free (the bench's own clock)" "$out/hop-clock-free.txt"
+}
+
+bench_hop_delivery() {
+  local series
+  for series in 1 2; do
+    "$netns" "$bin/bench_latency" --repeat 5 --seconds 12 | tee "$out/hop-delivery-transport-$series.txt"
+    "$netns" "$bin/bench_latency" --repeat 5 --seconds 12 --hop-delivery data-sharing \
+      | tee "$out/hop-delivery-data-sharing-$series.txt"
+  done
+  echo
+  echo "| bare hop delivered by | pipeline p50 (the control) | bare hop p50 | ratio p50 median (min-max) | bare hop p99 | hop samples received of 9600 after warm-up |"
+  echo "|---|---|---|---|---|---|"
+  for series in 1 2; do
+    report hop-delivery "transports (shared memory), series $series" "$out/hop-delivery-transport-$series.txt"
+    report hop-delivery "data-sharing (bounded twin), series $series" "$out/hop-delivery-data-sharing-$series.txt"
+  done
 }
 
 bench_capacity() {

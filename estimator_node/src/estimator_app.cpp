@@ -59,7 +59,7 @@ class EstimatorApp::Impl {
       presence_.emplace(participant, dds::presence_role::estimator, std::vector<int>{}, hash);
     };
     schedule_status();
-    schedule_liveliness();
+    push_back_liveliness_check();
   }
 
   // Before it says it is present (the plant starts period 0 when every process is), the estimator
@@ -254,6 +254,8 @@ class EstimatorApp::Impl {
       armed_for_.reset();
       publish(core_.on_deadline(dds::steady_now_ns()));
       arm_deadline();
+      assert_liveliness_if_quiet();
+      push_back_liveliness_check();
     });
   }
 
@@ -290,20 +292,28 @@ class EstimatorApp::Impl {
 
   // The estimate and control writers' liveliness, asserted from the io thread (the one that
   // handles ticks and deadlines): an estimator whose io thread stops (killed, stopped, hung)
-  // loses its writers after dds::kOwnershipLease and a standby takes over. Writes assert it too;
-  // this covers periods longer than the lease.
-  void schedule_liveliness() {
-    liveliness_timer_.expires_after(dds::kOwnershipLease / 4);
+  // loses its writers after dds::kOwnershipLease and a standby takes over. Writes assert it too.
+  // The check runs at each period's deadline and, on its own timer, only when no deadline came
+  // for a quarter lease (a silent plant, a period longer than that): each deadline pushes the
+  // timer back. A timer of its own every quarter lease (80 Hz) woke this thread at phases
+  // unrelated to the period, some inside the period's burst of samples (BENCHMARKS.md, "Levers
+  // toward two hops at the cost of two hops").
+  void push_back_liveliness_check() {
+    liveliness_timer_.expires_after(dds::kOwnershipLease / 4);  // cancels the pending wait
     liveliness_timer_.async_wait([this](const boost::system::error_code& ec) {
-      if (ec) return;
-      // Only when nothing was written meanwhile (a write asserts it): no extra messages at the
-      // default period, one every lease/4 while the plant is silent.
-      if (std::chrono::steady_clock::now() - last_write_.load() >= dds::kOwnershipLease / 4) {
-        estimate_.assert_liveliness();
-        control_.assert_liveliness();
-      }
-      schedule_liveliness();
+      if (ec) return;  // pushed back by a deadline, or stopping
+      assert_liveliness_if_quiet();
+      push_back_liveliness_check();
     });
+  }
+
+  // Only when nothing was written for a quarter lease (a write asserts it): no extra messages at
+  // the default period.
+  void assert_liveliness_if_quiet() {
+    if (std::chrono::steady_clock::now() - last_write_.load() >= dds::kOwnershipLease / 4) {
+      estimate_.assert_liveliness();
+      control_.assert_liveliness();
+    }
   }
 
   void schedule_status() {

@@ -179,6 +179,55 @@ TEST(EstimatorApp, ResumesExactlyFromItsLastEstimate) {
   }
 }
 
+// A standby takes over when the primary's writers lose their liveliness (dds::kOwnershipLease,
+// 50 ms). At a period of 100 ms and while the plant is silent, nothing is written for longer
+// than that: the estimator must assert its writers' liveliness on its own, or every reader would
+// hand the topic to a standby between two periods. The reader's own liveliness tracking (Fast
+// DDS's, MANUAL_BY_TOPIC) is the judge.
+TEST(EstimatorApp, KeepsItsWritersAliveBetweenSlowPeriodsAndWhileThePlantIsSilent) {
+  const auto sc = scenario();  // 100 ms periods: twice the lease
+  dds::Participant harness(options("it-alive-harness"));
+  dds::Writer<wire::Tick> ticks(harness, dds::topics::tick);
+  Estimates got;
+  dds::Reader<wire::Estimate> estimates(harness, dds::topics::estimate, [&](wire::Estimate&& w) {
+    std::lock_guard lock(got.m);
+    got.by_k.emplace(w.k(), dds::from_wire(w, 2));
+    got.cv.notify_all();
+  });
+  // Polled every 5 ms: a writer that lost its liveliness stays lost until its next write (tens
+  // of ms here), so no loss goes unseen.
+  int least_alive = 1, most_not_alive = 0;
+  auto watch = [&](std::chrono::milliseconds how_long) {
+    const auto until = std::chrono::steady_clock::now() + how_long;
+    while (std::chrono::steady_clock::now() < until) {
+      eprosima::fastdds::dds::LivelinessChangedStatus st;
+      estimates.get()->get_liveliness_changed_status(st);
+      least_alive = std::min(least_alive, st.alive_count);
+      most_not_alive = std::max(most_not_alive, st.not_alive_count);
+      std::this_thread::sleep_for(5ms);
+    }
+  };
+  RunningEstimator estimator(sc, {});
+  ASSERT_TRUE(ticks.wait_for_matched(1, 10s));
+  ASSERT_TRUE(estimator.wait_for_estimate_readers(1, 10s));
+  ASSERT_TRUE(ticks.write(dds::make_tick(0, 0.0, input_of(0), false)));
+  ASSERT_TRUE(got.wait_for(0, 5s));  // the writer is alive for this reader from its first write on
+  // Periods without samples (each ends at its deadline), then 0.8 s without a tick, then more.
+  for (std::uint64_t k = 1; k < 5; ++k) {
+    watch(100ms);
+    ASSERT_TRUE(ticks.write(dds::make_tick(k, 0.1 * static_cast<double>(k), input_of(k), false)));
+  }
+  watch(800ms);
+  for (std::uint64_t k = 5; k < 8; ++k) {
+    ASSERT_TRUE(ticks.write(dds::make_tick(k, 0.1 * static_cast<double>(k), input_of(k), false)));
+    watch(100ms);
+  }
+  ASSERT_TRUE(got.wait_for(7, 5s));
+  EXPECT_EQ(least_alive, 1) << "the estimate writer was not alive for this reader at some moment";
+  EXPECT_EQ(most_not_alive, 0) << "the estimate writer lost its liveliness between periods or while the plant "
+                                  "was silent";
+}
+
 TEST(EstimatorApp, RefusesACheckpointOfAnotherShape) {
   const auto sc = scenario();
   dds::Participant p(options("it-refuse"));
