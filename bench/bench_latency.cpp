@@ -18,7 +18,9 @@
 // so both figures see the same machine load. `--hop-clock truth` publishes the hop's d samples
 // on each truth sample instead of on the bench's own clock, i.e. in the same burst of work as
 // the sensors' samples (the pipeline's newest sample always meets that burst; a free-running
-// hop rarely does).
+// hop rarely does). `--hop-delivery data-sharing` sends the bare hop by Fast DDS data-sharing
+// (a bounded twin of the type, bench_hop.idl) instead of the transports, the pipeline being the
+// control: does data-sharing make a hop cheaper here?
 //
 // Security: `--secure DIR` runs the launch with DDS Security (DIR from `netkf security init`; this
 // process reads the estimates as the observer role). `--secure-compare DIR` alternates a run
