@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   netkf::cli::add_fit_command(app);
   netkf::cli::add_trace_command(app);
   netkf::cli::add_security_command(app);
+  netkf::cli::add_relay_command(app);
   netkf::cli::add_sweep_command(app, std::vector<std::string>(argv, argv + argc));
   try {
     app.parse(argc, argv);

@@ -15,6 +15,7 @@ void add_simulate_command(CLI::App& app);
 void add_fit_command(CLI::App& app);
 void add_trace_command(CLI::App& app);
 void add_security_command(CLI::App& app);
+void add_relay_command(CLI::App& app);
 /// `argv`: the command line as given (sweep.yaml records it).
 void add_sweep_command(CLI::App& app, const std::vector<std::string>& argv);
 

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <set>
 #include <system_error>
 
 #include <spdlog/spdlog.h>
@@ -36,6 +37,23 @@ namespace fdds = eprosima::fastdds::dds;
 using eprosima::fastrtps::types::ReturnCode_t;
 
 namespace {
+
+// The participant ids of this process's live participants, whatever their domain: Fast DDS
+// refuses a second participant with the same id in one process (RTPSDomain), e.g. the two
+// participants of `netkf relay`.
+std::mutex& process_ids_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<int>& process_ids() {
+  static std::set<int> ids;
+  return ids;
+}
+void forget_process_id(const std::optional<ParticipantSlot>& slot) {
+  if (!slot) return;
+  const std::lock_guard lock(process_ids_mutex());
+  process_ids().erase(slot->id());
+}
 std::mutex& factory_mutex() {
   static std::mutex m;
   return m;
@@ -251,21 +269,27 @@ Participant::Participant(const ParticipantOptions& options)
       qos = localhost_participant_qos(name_);
     }
   }
-  // The built-in configurations use shared memory: take an id no killed process left its
-  // port on (participant_slot.hpp). A profile file's own id, if any, is the user's choice.
-  if (!options.profile_file && qos.wire_protocol().participant_id < 0) {
-    slot_ = ParticipantSlot::claim(domain_);
-    if (slot_) qos.wire_protocol().participant_id = slot_->id();
-  }
-  qos.name(name_for_fast_dds(name_));
   std::optional<SecurityFiles> security;
   if (options.security) {
     security = security_files(options.security->dir, options.security->role);
     check_security_files(*security);  // a missing file is named here, not in Fast DDS's log
     add_security_properties(qos, *security);
   }
-  participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_), qos);
+  // The built-in configurations use shared memory: take an id no killed process left its
+  // port on (participant_slot.hpp). A profile file's own id, if any, is the user's choice.
+  if (!options.profile_file && qos.wire_protocol().participant_id < 0) {
+    const std::lock_guard lock(process_ids_mutex());
+    slot_ = ParticipantSlot::claim(domain_, kParticipantSlotDir, process_ids());
+    if (slot_) {
+      qos.wire_protocol().participant_id = slot_->id();
+      process_ids().insert(slot_->id());
+    }
+  }
+  qos.name(name_for_fast_dds(name_));
+  participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(domain_), qos, options.discovery_listener,
+                                             fdds::StatusMask::none());
   if (participant_ == nullptr) {
+    forget_process_id(slot_);
     std::string why = "cannot create DDS participant '" + name_ + "' on domain " + std::to_string(domain_) +
                       (options.profile_file ? " with profile " + options.profile_file->string() : std::string());
     if (security)
@@ -280,6 +304,7 @@ Participant::Participant(const ParticipantOptions& options)
   if (publisher_ == nullptr || subscriber_ == nullptr) {
     participant_->delete_contained_entities();
     factory->delete_participant(participant_);
+    forget_process_id(slot_);
     throw DdsError("cannot create DDS publisher/subscriber for participant '" + name_ + "'");
   }
 }
@@ -288,9 +313,10 @@ Participant::~Participant() {
   if (participant_ == nullptr) return;
   participant_->delete_contained_entities();
   fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+  forget_process_id(slot_);
 }
 
-fdds::Topic* Participant::topic_impl(const std::string& name, fdds::TypeSupport type) {
+fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
   if (auto it = topics_.find(name); it != topics_.end()) return it->second;
   const std::string type_name = type.get_type_name();
   if (participant_->find_type(type_name).empty() && type.register_type(participant_) != ReturnCode_t::RETCODE_OK) {

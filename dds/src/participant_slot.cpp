@@ -22,8 +22,10 @@ std::filesystem::path marker_path(const std::filesystem::path& dir, int domain, 
 
 }  // namespace
 
-std::optional<ParticipantSlot> ParticipantSlot::claim(int domain, const std::filesystem::path& dir) {
+std::optional<ParticipantSlot> ParticipantSlot::claim(int domain, const std::filesystem::path& dir,
+                                                      const std::set<int>& skip) {
   for (int id = 0; id < kParticipantSlots; ++id) {
+    if (skip.contains(id)) continue;
     auto marker = marker_path(dir, domain, id);
     // O_EXCL: of two processes claiming at once, exactly one creates the marker.
     const int fd = ::open(marker.c_str(), O_RDWR | O_CREAT | O_EXCL | O_CLOEXEC, 0644);

@@ -19,6 +19,7 @@
 #include <string_view>
 
 #include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantListener.hpp>
 #include <fastdds/dds/domain/qos/DomainParticipantQos.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
@@ -83,6 +84,9 @@ struct ParticipantOptions {
   /// (discovery_client_qos). A profile file still overrides everything.
   std::optional<DiscoveryServerAddress> discovery_server;
   bool serve_discovery = false;
+  /// Told of every participant, writer and reader discovered (on Fast DDS's discovery thread),
+  /// from the participant's creation on, so none is missed (`netkf relay`). Not owned.
+  eprosima::fastdds::dds::DomainParticipantListener* discovery_listener = nullptr;
 };
 
 /// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
@@ -141,11 +145,12 @@ class Participant {
   /// The DDS topic for `spec` (created and its type registered on first use).
   template <class T>
   eprosima::fastdds::dds::Topic* topic(const Topic<T>& spec) {
-    return topic_impl(std::string(spec.name), eprosima::fastdds::dds::TypeSupport(new typename PubSubTypeOf<T>::type()));
+    return topic(std::string(spec.name), eprosima::fastdds::dds::TypeSupport(new typename PubSubTypeOf<T>::type()));
   }
+  /// The DDS topic `name` of any type (registered under its own name on first use).
+  eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
 
  private:
-  eprosima::fastdds::dds::Topic* topic_impl(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
 
   int domain_ = 0;
   std::string name_;

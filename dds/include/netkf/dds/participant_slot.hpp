@@ -17,6 +17,7 @@
 // together with Fast DDS's own stale files (`fastdds shm clean`).
 #include <filesystem>
 #include <optional>
+#include <set>
 
 namespace netkf::dds {
 
@@ -34,7 +35,10 @@ class ParticipantSlot {
   /// The lowest id of `domain` without a marker (neither held nor left by a killed process);
   /// nullopt when all kParticipantSlots are taken or the directory is not writable (the caller
   /// then lets Fast DDS choose).
-  static std::optional<ParticipantSlot> claim(int domain, const std::filesystem::path& dir = kParticipantSlotDir);
+  /// `skip`: ids not to take (Fast DDS wants an id unique in the process, whatever the domain:
+  /// those of this process's other participants).
+  static std::optional<ParticipantSlot> claim(int domain, const std::filesystem::path& dir = kParticipantSlotDir,
+                                              const std::set<int>& skip = {});
 
   ParticipantSlot(ParticipantSlot&& other) noexcept;
   ParticipantSlot& operator=(ParticipantSlot&& other) noexcept;

@@ -1,0 +1,116 @@
+// `netkf relay`: the lossy link between two DDS domains for anyone's topics (docs/relay.md).
+#include <utility>  // before Asio (Boost 1.74 + GCC 12)
+
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <thread>
+
+#include "command_options.hpp"
+#include "commands.hpp"
+#include "exit_code.hpp"
+#include "netkf/scenario.hpp"
+#include "relay_app.hpp"
+#include "serve_loop.hpp"
+
+namespace netkf::cli {
+namespace {
+
+struct RelayCommandOptions {
+  int from_domain = -1;
+  int to_domain = -1;
+  std::vector<std::string> topics;
+  LinkFlags link;
+  std::string seed = "1";
+  int depth = 100;
+  std::optional<std::string> record;
+  std::optional<std::string> profile;
+  double duration = 0.0;
+};
+
+void print_counts(const std::vector<RelayTopicCounts>& counts) {
+  std::printf("%-32s %-36s %10s %10s %10s %9s %8s\n", "topic", "type", "samples", "delivered", "dropped", "loss",
+              "refused");
+  for (const auto& c : counts) {
+    const double loss = c.samples ? static_cast<double>(c.dropped) / static_cast<double>(c.samples) : 0.0;
+    std::printf("%-32s %-36s %10llu %10llu %10llu %9.4f %8llu\n", c.topic.c_str(),
+                c.type.empty() ? "(no writer seen)" : c.type.c_str(), static_cast<unsigned long long>(c.samples),
+                static_cast<unsigned long long>(c.delivered), static_cast<unsigned long long>(c.dropped), loss,
+                static_cast<unsigned long long>(c.refused));
+  }
+  std::fflush(stdout);
+}
+
+int run_relay(const RelayCommandOptions& o) {
+  const LinkKeys keys = link_keys_of(o.link);
+  if (keys.empty())
+    fail(ExitCode::bad_usage, "give the topics' link: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD LOSS_BAD], "
+                              "--trace FILE or --model with its keys");
+  if (o.from_domain == o.to_domain)
+    fail(ExitCode::bad_usage, "--from-domain and --to-domain must differ (the relay would relay its own samples)");
+  RelayOptions options;
+  options.from_domain = o.from_domain;
+  options.to_domain = o.to_domain;
+  try {
+    const LinkSpec link = link_from_keys(keys);
+    for (const auto& t : o.topics) options.topics.push_back({t, link});
+    options.seed = parse_seed(o.seed);
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, e.what());
+  }
+  options.depth = o.depth;
+  if (o.profile) options.profile = *o.profile;
+  if (o.record) options.record = *o.record;
+  std::unique_ptr<RelayApp> app;
+  try {
+    app = std::make_unique<RelayApp>(std::move(options));
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, e.what());
+  }
+  std::thread relay_thread([&] { app->run(); });
+  boost::asio::io_context io;
+  bool stop = false;
+  boost::asio::signal_set signals(io, SIGINT, SIGTERM);
+  signals.async_wait([&](const boost::system::error_code& ec, int) { stop = !ec; });
+  const auto start = std::chrono::steady_clock::now();
+  std::cerr << "netkf relay: " << o.topics.size() << " topic(s) from domain " << o.from_domain << " to domain "
+            << o.to_domain << "; Ctrl-C stops" << std::endl;
+  serve(io, std::chrono::milliseconds(100), [&] {
+    return !(stop || (o.duration > 0 &&
+                      std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(o.duration)));
+  });
+  signals.cancel();
+  app->stop();
+  relay_thread.join();
+  print_counts(app->counts());
+  app.reset();
+  return 0;
+}
+
+}  // namespace
+
+void add_relay_command(CLI::App& app) {
+  auto o = std::make_shared<RelayCommandOptions>();
+  auto* cmd = app.add_subcommand(
+      "relay", "Relay DDS topics of any type from one domain to another through a lossy link (docs/relay.md)");
+  cmd->add_option("--from-domain", o->from_domain, "The domain the topics' writers are on")
+      ->required()
+      ->check(CLI::Range(0, 232));
+  cmd->add_option("--to-domain", o->to_domain, "The domain the relay writes them on, for the readers there")
+      ->required()
+      ->check(CLI::Range(0, 232));
+  cmd->add_option("--topic", o->topics, "A DDS topic name to relay (e.g. rt/chatter); repeatable")->required();
+  add_link_flags(cmd, o->link);
+  cmd->add_option("--seed", o->seed, "Seed of the links' random streams (each topic its own stream)");
+  cmd->add_option("--depth", o->depth, "Keep-last history of the relay's readers and writers")
+      ->check(CLI::Range(1, 100000));
+  cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
+  cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");
+  cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
+  cmd->callback([o] { run_command([&] { return run_relay(*o); }); });
+}
+
+}  // namespace netkf::cli

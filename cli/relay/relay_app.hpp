@@ -1,0 +1,56 @@
+#pragma once
+// `netkf relay` (docs/relay.md): every sample of the named topics that a writer on one DDS
+// domain publishes is passed, through its topic's lossy link, to readers on another domain,
+// under the same topic name and type name, its serialized payload untouched. The relay needs
+// no IDL: a topic is relayed from the moment discovery shows a writer of it on the source
+// domain, with that writer's reliability and durability.
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "netkf/relay_links.hpp"
+
+namespace netkf::cli {
+
+struct RelayOptions {
+  int from_domain = 0;
+  int to_domain = 1;
+  std::vector<RelayTopic> topics;
+  std::uint64_t seed = 1;
+  /// Keep-last history of the relay's readers and writers (per instance).
+  int depth = 100;
+  /// Fast DDS XML profile of both participants (nullopt: the built-in localhost-only one).
+  std::optional<std::filesystem::path> profile;
+  /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay.
+  std::optional<std::filesystem::path> record;
+};
+
+/// What each topic's link did.
+struct RelayTopicCounts {
+  std::string topic;
+  std::string type;  // as discovered ("" while no writer was seen)
+  std::uint64_t samples = 0, delivered = 0, dropped = 0, refused = 0;  // refused: DDS refused the write
+};
+
+class RelayApp {
+ public:
+  /// Throws (DDS, the record file) with a clear message.
+  explicit RelayApp(RelayOptions options);
+  ~RelayApp();
+  RelayApp(const RelayApp&) = delete;
+  RelayApp& operator=(const RelayApp&) = delete;
+
+  /// Runs the relay's thread (discovery's follow-up, delayed samples) until stop().
+  void run();
+  void stop();
+  std::vector<RelayTopicCounts> counts() const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace netkf::cli

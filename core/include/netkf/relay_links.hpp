@@ -1,0 +1,65 @@
+#pragma once
+// The links of `netkf relay` (docs/relay.md): one per relayed topic, each with its own seeded
+// loss and delay streams, so the same seed and the same samples make the same decisions.
+// DDS-free: which sample of a topic is dropped, how long a delivered one is held, what each
+// link did. A topic's n-th sample (n = 0, 1, ...) plays the role a period plays for a sensor's
+// link (a trace link replays row offset + n).
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "netkf/link.hpp"
+#include "netkf/loss_model.hpp"
+
+namespace netkf {
+
+/// A topic to relay and its link.
+struct RelayTopic {
+  std::string name;  // the DDS topic name, e.g. rt/scan
+  LinkSpec link;
+};
+
+/// The decision for one relayed sample.
+struct RelayFate {
+  std::uint64_t index = 0;  // the sample's number on its topic (0 first)
+  bool delivered = false;
+  double delay_ms = 0.0;    // delivered: how long to hold it first
+};
+
+class RelayLinks {
+ public:
+  /// Topic i draws its losses from derive_seed(seed, "relay-link", hash of its name) and its
+  /// delays from derive_seed(seed, "relay-link-delay", the same hash): a topic keeps its streams
+  /// whatever other topics are relayed. Throws std::invalid_argument on a duplicate or empty
+  /// topic name.
+  RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed);
+
+  /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed.
+  std::optional<RelayFate> on_sample(const std::string& topic);
+
+  /// Replace a topic's link from its next sample on (statistics restart); false for an unknown
+  /// topic. Throws LinkError on an invalid link (nothing changes).
+  bool set_link(const std::string& topic, const LinkSpec& link);
+
+  struct Report {
+    std::string topic;
+    LinkSpec link;
+    LinkStatistics stats;  // since the link was set
+  };
+  std::vector<Report> reports() const;
+
+ private:
+  struct Link {
+    LinkSpec spec;
+    LinkLossProcess loss;
+    LinkDelayProcess delay;
+    LinkStatistics stats;
+    std::uint64_t samples = 0;      // every sample of the topic (the trace's row index)
+    std::uint64_t trace_start = 0;  // the sample a trace link took effect at
+  };
+  std::map<std::string, Link> links_;
+};
+
+}  // namespace netkf

@@ -1,0 +1,105 @@
+"""`netkf relay` between two DDS domains for a topic netkf knows nothing of (docs/relay.md): a
+Cyclone DDS talker (tests/interop/netkf_cyclone_chatter.c) writes the ROS-2-named topic
+rt/chatter with the ROS-2-named type std_msgs::msg::dds_::String_ on domain 107; the relay, with
+a Bernoulli link of loss 0.3, passes it to domain 108, where a Cyclone listener reads it with its
+own type (compiled by Cyclone's idlc from tests/interop/ros2_chatter.idl; the relay has no IDL).
+
+Independent expectations: the talker's own numbering ("hello i" is its i-th write, RTPS sequence
+number i) and the listener's decoding. The listener receives exactly the samples the relay's
+recording says it delivered (by sequence number), each once and intact, none it says it dropped;
+about 70 % of 500 (5 binomial standard deviations); the relay's printed counts equal its
+recording; the type it discovered is the talker's. The domains are adjacent on purpose: Fast DDS
+2.9's localhost profile lets a participant of one domain discover the next one's, so the relay
+sees its own writer come back, and must not relay its samples again (the listener would receive
+duplicates)."""
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+
+from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, workdir
+
+require_netns()
+FROM, TO = 107, 108
+COUNT, LOSS = 500, 0.3
+CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
+if not CHATTER or not os.access(CHATTER, os.X_OK):
+    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
+    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
+          "scripts/deps.sh)", flush=True)
+    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+out = workdir("relay")
+env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
+record = os.path.join(out, "fates.csv")
+
+
+def start(name, cmd):
+    print("$", " ".join(cmd), flush=True)
+    return subprocess.Popen(cmd, stdout=open(os.path.join(out, name + ".out"), "w"),
+                            stderr=open(os.path.join(out, name + ".log"), "w"), env=env)
+
+
+def text(name, ext):
+    with open(os.path.join(out, name + ext)) as f:
+        return f.read()
+
+
+def stop(proc, timeout=20):
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.wait()
+
+
+listener = start("listener", [CHATTER, "listen", "--domain", str(TO), "--duration", "120"])
+relay = start("relay", [NETKF, "relay", "--from-domain", str(FROM), "--to-domain", str(TO), "--topic", "rt/chatter",
+                        "--bernoulli", str(LOSS), "--seed", "11", "--record", record])
+try:
+    check(wait_for(lambda: "ready" in text("listener", ".log"), 20), "the listener is up")
+    talker = subprocess.run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT), "--rate-hz", "200"],
+                            capture_output=True, text=True, env=env, timeout=90)
+    print(talker.stderr, end="", flush=True)
+    check(talker.returncode == 0, "the talker found a reader (the relay's) and wrote %d samples" % COUNT)
+    time.sleep(1.0)  # the last relayed samples reach the listener
+finally:
+    rc_relay = stop(relay)
+    rc_listener = stop(listener)
+print("---- relay ----\n" + text("relay", ".out") + text("relay", ".log")[-3000:], flush=True)
+check(rc_relay == 0 and rc_listener == 0, "relay and listener exit 0 (%s, %s)" % (rc_relay, rc_listener))
+check("relaying rt/chatter (type std_msgs::msg::dds_::String_, reliable, volatile) from domain %d to domain %d"
+      % (FROM, TO) in text("relay", ".out") + text("relay", ".log"), "the relay took the type name and QoS from discovery")
+
+with open(record) as f:
+    rows = list(csv.DictReader(f))
+check(rows and list(rows[0].keys()) == ["topic", "index", "sequence", "bytes", "fate", "delay_ms"], "the recording's columns")
+sequences = [int(r["sequence"]) for r in rows]
+check(sorted(sequences) == list(range(1, COUNT + 1)),
+      "the relay saw each of the talker's %d samples once (sequence numbers 1..%d; got %d rows)" % (COUNT, COUNT, len(rows)))
+check([int(r["index"]) for r in rows] == list(range(len(rows))), "the recording numbers the topic's samples 0, 1, ...")
+delivered = {int(r["sequence"]) for r in rows if r["fate"] == "delivered"}
+dropped = {int(r["sequence"]) for r in rows if r["fate"] == "dropped"}
+check(len(delivered) + len(dropped) == len(rows), "every sample is delivered or dropped")
+
+got = [line for line in text("listener", ".out").splitlines() if line]
+check(len(got) == len(set(got)), "no sample reached the listener twice (%d lines, %d distinct)" % (len(got), len(set(got))))
+got_seq = set()
+for line in got:
+    word, _, number = line.partition(" ")
+    if word == "hello" and number.isdigit():
+        got_seq.add(int(number))
+    else:
+        check(False, "the listener decoded an intact sample (got %r)" % line)
+check(got_seq == delivered, "the listener got exactly the samples the relay delivered (%d; missing %s, extra %s)"
+      % (len(delivered), sorted(delivered - got_seq)[:10], sorted(got_seq - delivered)[:10]))
+check(not (got_seq & dropped), "no dropped sample reached the listener")
+mean, sd = COUNT * (1 - LOSS), (COUNT * LOSS * (1 - LOSS)) ** 0.5
+check(abs(len(delivered) - mean) <= 5 * sd, "delivered %d of %d: within 5 sd (%.1f) of %.0f" % (len(delivered), COUNT, sd, mean))
+summary = [l.split() for l in text("relay", ".out").splitlines() if l.startswith("rt/chatter")]
+check(summary and summary[0][2:5] == [str(len(rows)), str(len(delivered)), str(len(dropped))],
+      "the relay's printed counts (samples, delivered, dropped) equal its recording: %s" % (summary[0][2:5] if summary else None))
+finish()
