@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/relay_links.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/log_throttle.hpp"
 #include "netkf/nodes/release_queue.hpp"
@@ -313,6 +314,7 @@ class ChannelApp::Impl {
 
   // io thread
   void on_control(const wire::LinkControl& c) {
+    if (c.sensor_id() == kRelayTopicLinkId) return;  // a topic of `netkf relay`: not a link of this network
     LinkChangeResult result;
     LinkSpec applied;
     const LinkKeys keys = dds::link_keys_of(c);

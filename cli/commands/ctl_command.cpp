@@ -18,6 +18,7 @@
 #include "live_status.hpp"
 #include "serve_loop.hpp"
 #include "text.hpp"
+#include "netkf/relay_links.hpp"
 
 namespace netkf::cli {
 namespace {
@@ -136,15 +137,21 @@ int run_ctl_set_link(const CtlOptions& o) {
   }
   const auto timeout = std::chrono::milliseconds(static_cast<int>(o.timeout * 1000));
   const auto start = Clock::now();
+  // A link that is neither a sensor id nor control names a topic of `netkf relay` (docs/relay.md).
+  const std::optional<int> link_id = parse_link_name(o.link);
+  const char* answerer = link_id ? "channel emulator" : "netkf relay";
   if (!run_until(io, [&] { return bus->link_control_readers() > 0 && bus->link_reply_writers() > 0; }, timeout))
-    fail(ExitCode::no_network, "no channel emulator found on DDS domain " + std::to_string(bus->domain()) + " within " +
-                number_text(o.timeout) + " s (is a network running? netkf launch)");
-  const int sensor_id = *parse_link_name(o.link);
-  if (!bus->send_link_control(request_id, sensor_id, keys)) fail(ExitCode::no_network, "DDS refused to send the link change");
+    fail(ExitCode::no_network, std::string("no ") + answerer + " found on DDS domain " + std::to_string(bus->domain()) +
+                " within " + number_text(o.timeout) + " s (is a " + (link_id ? "network" : "relay") + " running? " +
+                (link_id ? "netkf launch" : "netkf relay --to-domain ...") + ")");
+  LinkKeys request = keys;
+  if (!link_id) request.insert(request.begin(), LinkKey{kRelayTopicKey, o.link});
+  if (!bus->send_link_control(request_id, link_id.value_or(kRelayTopicLinkId), request))
+    fail(ExitCode::no_network, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))
-    fail(ExitCode::no_network, "the channel emulator did not answer request " + std::to_string(request_id) + " within " +
-                number_text(o.timeout) + " s");
+    fail(ExitCode::no_network, std::string("no ") + answerer + " answered request " + std::to_string(request_id) +
+                " within " + number_text(o.timeout) + " s" + (link_id ? "" : " (is " + o.link + " relayed on this domain?)"));
   if (!reply->applied) fail(ExitCode::refused, "link " + o.link + ": change rejected: " + reply->reason);
   // Show the status that acknowledges the request (published right after applying).
   run_until(io, [&] { return acknowledged.has_value(); }, std::chrono::milliseconds(2000));
@@ -167,10 +174,14 @@ void add_ctl_command(CLI::App& app) {
   cmd->require_subcommand(1);
   auto* set = cmd->add_subcommand(
       "set-link", "Change one link from its next sample on: only what is given changes (e.g. --delay keeps the loss)");
-  set->add_option("link", o->link, "The link: a sensor id, or control (the actuation link, plant.control.link)")
+  set->add_option("link", o->link,
+                  "The link: a sensor id, control (the actuation link, plant.control.link), or a topic that a netkf relay "
+                  "relays to this domain (docs/relay.md)")
       ->required()
       ->check([](const std::string& text) {
-        return parse_link_name(text) ? std::string() : "a link is a sensor id or control, got '" + text + "'";
+        return text.empty() || text.find_first_of(" \t\n") != std::string::npos
+                   ? "a link is a sensor id, control or a topic name, got '" + text + "'"
+                   : std::string();
       });
   add_link_flags(set, o->change);
   add_network_options(set, o->network);

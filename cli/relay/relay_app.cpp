@@ -18,12 +18,13 @@
 #include <fastdds/rtps/writer/WriterDiscoveryInfo.h>
 #include <spdlog/spdlog.h>
 
-#include "netkf/dds/participant.hpp"
+#include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
 
 namespace netkf::cli {
 
 namespace fdds = eprosima::fastdds::dds;
+namespace wire = netkf::wire;
 
 class RelayApp::Impl : private fdds::DomainParticipantListener {
  public:
@@ -34,11 +35,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     for (const auto& t : options_.topics) counts_[t.name].topic = t.name;
     if (options_.record) {
       // "x": created here or refused, never an existing file truncated.
-      record_ = std::fopen(options_.record->c_str(), "wx");
-      if (record_ == nullptr)
+      record_.reset(std::fopen(options_.record->c_str(), "wx"));
+      if (!record_)
         throw std::runtime_error("cannot create " + options_.record->string() + ": " + std::strerror(errno) +
                                  (errno == EEXIST ? " (give another name)" : ""));
-      std::fputs("topic,index,sequence,bytes,fate,delay_ms\n", record_);
+      std::fputs("topic,index,sequence,bytes,fate,delay_ms\n", record_.get());
     }
     dds::ParticipantOptions to;
     to.domain = options_.to_domain;
@@ -46,6 +47,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     to.profile_file = options_.profile;
     destination_ = std::make_unique<dds::Participant>(to);
     destination_prefix_ = destination_->get()->guid().guidPrefix;
+    // Link changes (`netkf ctl set-link TOPIC ... --domain TO`) on the readers' domain.
+    reply_.emplace(*destination_, dds::topics::link_control_reply);
+    control_.emplace(*destination_, dds::topics::link_control,
+                     dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
     dds::ParticipantOptions from;
     from.domain = options_.from_domain;
     from.name = "netkf-relay-in";
@@ -57,6 +62,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   ~Impl() override {
     // The readers first: no sample callback may run into what follows. Taken out under the lock,
     // deleted outside it (deleting a reader waits for its callback, which may wait for the lock).
+    control_.reset();
     std::vector<std::unique_ptr<dds::RawReader>> readers;
     {
       const std::lock_guard lock(mutex_);
@@ -68,8 +74,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                    options_.from_domain);
     source_.reset();
     relayed_.clear();
+    reply_.reset();
     destination_.reset();
-    if (record_ != nullptr) std::fclose(record_);
   }
 
   Impl(const Impl&) = delete;
@@ -167,8 +173,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       auto& c = counts_[r.writer.topic];
       ++c.samples;
       ++(fate.delivered ? c.delivered : c.dropped);
-      if (record_ != nullptr)
-        std::fprintf(record_, "%s,%llu,%lld,%zu,%s,%.6g\n", r.writer.topic.c_str(),
+      if (record_)
+        std::fprintf(record_.get(), "%s,%llu,%lld,%zu,%s,%.6g\n", r.writer.topic.c_str(),
                      static_cast<unsigned long long>(fate.index), static_cast<long long>(sample.sequence),
                      sample.payload.size(), fate.delivered ? "delivered" : "dropped", fate.delay_ms);
     }
@@ -186,6 +192,46 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     });
   }
 
+  // Relay thread: a change of one of its topics' links, from its next sample on. A request for a
+  // topic it does not relay is another relay's: no answer.
+  void on_control(const wire::LinkControl& c) {
+    if (c.sensor_id() != kRelayTopicLinkId) return;
+    LinkKeys keys = dds::link_keys_of(c);
+    if (keys.empty() || keys.front().name != kRelayTopicKey || !std::holds_alternative<std::string>(keys.front().value))
+      return;  // not the relay's form (docs/relay.md)
+    const std::string topic = std::get<std::string>(keys.front().value);
+    keys.erase(keys.begin());
+    std::optional<LinkSpec> current;
+    {
+      const std::lock_guard lock(mutex_);
+      current = links_.link(topic);
+    }
+    if (!current) {
+      spdlog::debug("request {}: {} is not relayed here", c.request_id(), topic);
+      return;
+    }
+    std::string reason;
+    try {
+      // Outside the lock: a trace named here is read now, never on the sample path.
+      const LinkSpec next = apply_link_keys(*current, keys);
+      const std::lock_guard lock(mutex_);
+      links_.set_link(topic, next);
+    } catch (const std::exception& e) {
+      reason = e.what();
+    }
+    if (reason.empty())
+      spdlog::info("request {}: {} now has a {} link (from its next sample on)", c.request_id(), topic,
+                   link_kind(*links_link(topic)));
+    else
+      spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
+    reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
+  }
+
+  std::optional<LinkSpec> links_link(const std::string& topic) const {
+    const std::lock_guard lock(mutex_);
+    return links_.link(topic);
+  }
+
   void send(Relayed& r, dds::RawSample& sample) {
     if (r.out->write(sample)) return;
     const std::lock_guard lock(mutex_);
@@ -198,7 +244,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       if (ec) return;
       {
         const std::lock_guard lock(mutex_);
-        if (record_ != nullptr) std::fflush(record_);
+        if (record_) std::fflush(record_.get());
       }
       schedule_flush();
     });
@@ -210,10 +256,12 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   mutable std::mutex mutex_;  // links_, counts_, relayed_, the record file
   RelayLinks links_;
   std::map<std::string, RelayTopicCounts> counts_;
-  std::FILE* record_ = nullptr;
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> record_{nullptr, &std::fclose};
   boost::asio::steady_timer flush_timer_;
   std::unique_ptr<dds::Participant> destination_;
   eprosima::fastrtps::rtps::GuidPrefix_t destination_prefix_;
+  std::optional<dds::Writer<wire::LinkControlReply>> reply_;
+  std::optional<dds::Reader<wire::LinkControl>> control_;
   std::atomic<std::uint64_t> own_samples_{0};  // its own samples that came back, not relayed
   std::map<std::string, std::unique_ptr<Relayed>> relayed_;
   std::unique_ptr<dds::Participant> source_;  // last made, first gone: its discovery uses all of the above

@@ -62,6 +62,12 @@ bool RelayLinks::set_link(const std::string& topic, const LinkSpec& spec) {
   return true;
 }
 
+std::optional<LinkSpec> RelayLinks::link(const std::string& topic) const {
+  const auto it = links_.find(topic);
+  if (it == links_.end()) return std::nullopt;
+  return it->second.spec;
+}
+
 std::vector<RelayLinks::Report> RelayLinks::reports() const {
   std::vector<Report> out;
   for (const auto& [name, link] : links_) out.push_back({name, link.spec, link.stats});

@@ -2,6 +2,8 @@
 // from the network is untrusted input.
 #include "netkf/dds/conversions.hpp"
 
+#include "netkf/relay_links.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -284,7 +286,7 @@ LinkKeys link_keys_of(const wire::LinkControl& control) {
   for (const auto& w : control.keys()) {
     // The key's own kind decides which field counts: a word key with an empty word is
     // reported as such by the link's validation, never read as the number 0.
-    if (link_key_is_word(w.name())) {
+    if (link_key_is_word(w.name()) || w.name() == kRelayTopicKey) {
       keys.push_back({w.name(), w.word()});
     } else {
       keys.push_back({w.name(), w.number()});

@@ -24,6 +24,7 @@ from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, work
 require_netns()
 FROM, TO = 107, 108
 COUNT, LOSS = 500, 0.3
+COUNT2 = 200  # after the link is made lossless
 CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
 if not CHATTER or not os.access(CHATTER, os.X_OK):
     required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
@@ -66,6 +67,26 @@ try:
     print(talker.stderr, end="", flush=True)
     check(talker.returncode == 0, "the talker found a reader (the relay's) and wrote %d samples" % COUNT)
     time.sleep(1.0)  # the last relayed samples reach the listener
+    # Live: the topic's link becomes lossless; a second talker (a new writer: its sequence
+    # numbers start at 1 again) writes "hello 1001" .. "hello 1200".
+    lossless = subprocess.run([NETKF, "ctl", "set-link", "rt/chatter", "--bernoulli", "0", "--domain", str(TO)],
+                              capture_output=True, text=True, timeout=30)
+    print(lossless.stdout, lossless.stderr, end="", flush=True)
+    check(lossless.returncode == 0, "`netkf ctl set-link rt/chatter --bernoulli 0` is applied by the relay (rc=%d)"
+          % lossless.returncode)
+    unknown = subprocess.run([NETKF, "ctl", "set-link", "rt/unknown", "--bernoulli", "0", "--domain", str(TO),
+                              "--timeout", "2"], capture_output=True, text=True, timeout=30)
+    check(unknown.returncode == 3, "a topic the relay does not relay gets no answer: exit 3 (rc=%d)" % unknown.returncode)
+    # A trace's row offset on a Bernoulli link: only the link's owner can tell it does not apply.
+    invalid = subprocess.run([NETKF, "ctl", "set-link", "rt/chatter", "--set", "offset=3", "--domain", str(TO)],
+                             capture_output=True, text=True, timeout=30)
+    print(invalid.stdout, invalid.stderr, end="", flush=True)
+    check(invalid.returncode == 4, "the relay refuses a change that does not apply to the link: exit 4 (rc=%d)"
+          % invalid.returncode)
+    talker2 = subprocess.run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT2), "--first", "1001",
+                              "--rate-hz", "200"], capture_output=True, text=True, env=env, timeout=90)
+    check(talker2.returncode == 0, "the second talker wrote %d samples" % COUNT2)
+    time.sleep(1.0)
 finally:
     rc_relay = stop(relay)
     rc_listener = stop(listener)
@@ -75,7 +96,8 @@ check("relaying rt/chatter (type std_msgs::msg::dds_::String_, reliable, volatil
       % (FROM, TO) in text("relay", ".out") + text("relay", ".log"), "the relay took the type name and QoS from discovery")
 
 with open(record) as f:
-    rows = list(csv.DictReader(f))
+    all_rows = list(csv.DictReader(f))
+rows, after = all_rows[:COUNT], all_rows[COUNT:]
 check(rows and list(rows[0].keys()) == ["topic", "index", "sequence", "bytes", "fate", "delay_ms"], "the recording's columns")
 sequences = [int(r["sequence"]) for r in rows]
 check(sorted(sequences) == list(range(1, COUNT + 1)),
@@ -85,7 +107,15 @@ delivered = {int(r["sequence"]) for r in rows if r["fate"] == "delivered"}
 dropped = {int(r["sequence"]) for r in rows if r["fate"] == "dropped"}
 check(len(delivered) + len(dropped) == len(rows), "every sample is delivered or dropped")
 
-got = [line for line in text("listener", ".out").splitlines() if line]
+got_all = [line for line in text("listener", ".out").splitlines() if line]
+
+
+def number_of(line):
+    word, _, number = line.partition(" ")
+    return int(number) if word == "hello" and number.isdigit() else None
+
+
+got = [line for line in got_all if (number_of(line) or 0) <= 1000]  # the first talker's (and anything malformed)
 check(len(got) == len(set(got)), "no sample reached the listener twice (%d lines, %d distinct)" % (len(got), len(set(got))))
 got_seq = set()
 for line in got:
@@ -99,7 +129,14 @@ check(got_seq == delivered, "the listener got exactly the samples the relay deli
 check(not (got_seq & dropped), "no dropped sample reached the listener")
 mean, sd = COUNT * (1 - LOSS), (COUNT * LOSS * (1 - LOSS)) ** 0.5
 check(abs(len(delivered) - mean) <= 5 * sd, "delivered %d of %d: within 5 sd (%.1f) of %.0f" % (len(delivered), COUNT, sd, mean))
+check(len(after) == COUNT2 and all(r["fate"] == "delivered" for r in after)
+      and [int(r["sequence"]) for r in after] == list(range(1, COUNT2 + 1)),
+      "after the change every one of the second talker's %d samples is delivered (recording: %d rows, %d delivered)"
+      % (COUNT2, len(after), sum(r["fate"] == "delivered" for r in after)))
+second = sorted(n for n in map(number_of, got_all) if n and n > 1000)
+check(second == list(range(1001, 1001 + COUNT2)), "the listener got all of them, once each (%d)" % len(second))
 summary = [l.split() for l in text("relay", ".out").splitlines() if l.startswith("rt/chatter")]
-check(summary and summary[0][2:5] == [str(len(rows)), str(len(delivered)), str(len(dropped))],
+total_delivered = len(delivered) + len(after)
+check(summary and summary[0][2:5] == [str(len(all_rows)), str(total_delivered), str(len(dropped))],
       "the relay's printed counts (samples, delivered, dropped) equal its recording: %s" % (summary[0][2:5] if summary else None))
 finish()

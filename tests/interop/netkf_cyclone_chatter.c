@@ -3,9 +3,10 @@
  * topic rt/chatter, type std_msgs::msg::dds_::String_ (tests/interop/ros2_chatter.idl,
  * compiled by Cyclone's idlc), reliable, volatile, keep-last 1000.
  *
- *   netkf_cyclone_chatter talk   --domain N --count C [--rate-hz R] [--settle S] [--topic T]
+ *   netkf_cyclone_chatter talk   --domain N --count C [--first F] [--rate-hz R] [--settle S] [--topic T]
  *     waits (at most 20 s) for a matched reader, then S seconds more (default 2: the readers
- *     behind it find their writer), writes "hello 1" .. "hello C" at R Hz (default 100), waits
+ *     behind it find their writer), writes "hello F" .. "hello F+C-1" (F default 1) at R Hz
+ *     (default 100), waits
  *     until they are acknowledged (at most 10 s) and exits 0; 1 when no reader matched.
  *   netkf_cyclone_chatter listen --domain N --duration S [--topic T]
  *     prints each sample's data on its own line (stdout) until S seconds passed or SIGINT/SIGTERM;
@@ -51,8 +52,8 @@ static void sleep_s(double s) {
   nanosleep(&t, NULL);
 }
 
-static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double count, double rate_hz,
-                double settle) {
+static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double count, double first,
+                double rate_hz, double settle) {
   const dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
   if (writer < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the writer: %s\n", dds_strretcode(-writer));
@@ -73,7 +74,7 @@ static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, do
   sleep_s(settle);
   char text[64];
   for (long i = 1; i <= (long)count && !stop_requested; ++i) {
-    snprintf(text, sizeof text, "hello %ld", i);
+    snprintf(text, sizeof text, "hello %ld", i + (long)first - 1);
     std_msgs_msg_dds__String_ msg;
     msg.data = text;
     const dds_return_t rc = dds_write(writer, &msg);
@@ -122,12 +123,12 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
 
 int main(int argc, char **argv) {
   if (argc < 2 || (strcmp(argv[1], "talk") != 0 && strcmp(argv[1], "listen") != 0)) {
-    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--rate-hz R] [--settle S] [--duration S] [--topic T]\n",
+    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--first F] [--rate-hz R] [--settle S] [--duration S] [--topic T]\n",
             argv[0]);
     return 2;
   }
   const bool talker = strcmp(argv[1], "talk") == 0;
-  double domain = 0, count = 100, rate_hz = 100, settle = 2, duration = 60;
+  double domain = 0, count = 100, first = 1, rate_hz = 100, settle = 2, duration = 60;
   const char *topic_name = "rt/chatter";
   for (int i = 2; i < argc; i += 2) {
     const char *a = argv[i];
@@ -137,6 +138,8 @@ int main(int argc, char **argv) {
       ok = parse_number(v, 0, 232, &domain) && domain == floor(domain);
     else if (ok && strcmp(a, "--count") == 0)
       ok = parse_number(v, 0, 1e9, &count) && count == floor(count);
+    else if (ok && strcmp(a, "--first") == 0)
+      ok = parse_number(v, 0, 1e9, &first) && first == floor(first);
     else if (ok && strcmp(a, "--rate-hz") == 0)
       ok = parse_number(v, 0.1, 1e5, &rate_hz);
     else if (ok && strcmp(a, "--settle") == 0)
@@ -174,7 +177,7 @@ int main(int argc, char **argv) {
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
   dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 1000);
-  const int rc = talker ? talk(participant, topic, qos, count, rate_hz, settle) : listen_for(participant, topic, qos, duration);
+  const int rc = talker ? talk(participant, topic, qos, count, first, rate_hz, settle) : listen_for(participant, topic, qos, duration);
   dds_delete_qos(qos);
   dds_delete(participant);
   return rc;

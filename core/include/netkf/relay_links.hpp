@@ -15,6 +15,12 @@
 
 namespace netkf {
 
+/// A link change for a relayed topic (`netkf ctl set-link rt/scan ...`) travels as an ordinary
+/// link-control request with this link id, its topic named by the key `topic` (a word) before
+/// the link's own keys; the channel emulator ignores it, a relay answers for its own topics.
+inline constexpr int kRelayTopicLinkId = -2;
+inline constexpr const char* kRelayTopicKey = "topic";
+
 /// A topic to relay and its link.
 struct RelayTopic {
   std::string name;  // the DDS topic name, e.g. rt/scan
@@ -42,6 +48,9 @@ class RelayLinks {
   /// Replace a topic's link from its next sample on (statistics restart); false for an unknown
   /// topic. Throws LinkError on an invalid link (nothing changes).
   bool set_link(const std::string& topic, const LinkSpec& link);
+
+  /// A topic's current link; nullopt for a topic that is not relayed.
+  std::optional<LinkSpec> link(const std::string& topic) const;
 
   struct Report {
     std::string topic;
