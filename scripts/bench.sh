@@ -10,7 +10,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 names=(fused-update late-fusion monte-carlo python-filter analyze analyze-many latency hop-clock hop-delivery capacity sensors-100hz sensor-limit dashboard
-       dashboard-many security recovery blind-window multi-host shutdown-aborts setup)
+       dashboard-many security recovery blind-window multi-host shutdown-aborts relay setup)
 declare -A about=(
   [fused-update]="one fused measurement update: production, naive stacked inverse, sequential Joseph (bench_fused_update)"
   [late-fusion]="worst-case re-run of late_policy fuse_within: D = 64 periods, 16 sensors (bench_late_fusion)"
@@ -31,6 +31,7 @@ declare -A about=(
   [blind-window]="a killed estimator in a closed loop under load: periods without an input, fresh process, warm spare, standby (bench/bench_blind_window.sh)"
   [multi-host]="three hosts over a Discovery Server (e2e multi_host)"
   [shutdown-aborts]="Fast DDS aborts while a run stops, counted over repeated launches"
+  [relay]="netkf relay's throughput and CPU per sample against a bare hop, 100 B to 1 MB payloads, Cyclone DDS at both ends (bench/bench_relay.sh)"
   [setup]="the README's two commands on a fresh clone, cold (empty caches) and warm, per step (bench/bench_setup.sh)"
 )
 
@@ -334,6 +335,10 @@ bench_hop_delivery() {
     report hop-delivery "transports (shared memory), series $series" "$out/hop-delivery-transport-$series.txt"
     report hop-delivery "data-sharing (bounded twin), series $series" "$out/hop-delivery-data-sharing-$series.txt"
   done
+}
+
+bench_relay() {
+  "$netns" bench/bench_relay.sh build/default "$out/relay" | tee "$out/relay.md"
 }
 
 bench_capacity() {

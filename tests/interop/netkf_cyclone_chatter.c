@@ -3,14 +3,17 @@
  * topic rt/chatter, type std_msgs::msg::dds_::String_ (tests/interop/ros2_chatter.idl,
  * compiled by Cyclone's idlc), reliable, volatile, keep-last 1000.
  *
- *   netkf_cyclone_chatter talk   --domain N --count C [--first F] [--rate-hz R] [--settle S] [--topic T]
+ *   netkf_cyclone_chatter talk   --domain N --count C [--first F] [--bytes B] [--rate-hz R] [--settle S] [--topic T]
  *     waits (at most 20 s) for a matched reader, then S seconds more (default 2: the readers
  *     behind it find their writer), writes "hello F" .. "hello F+C-1" (F default 1) at R Hz
  *     (default 100), waits
  *     until they are acknowledged (at most 10 s) and exits 0; 1 when no reader matched.
- *   netkf_cyclone_chatter listen --domain N --duration S [--topic T]
+ *   netkf_cyclone_chatter listen --domain N --duration S [--topic T] [--count-only]
  *     prints each sample's data on its own line (stdout) until S seconds passed or SIGINT/SIGTERM;
- *     "ready" on stderr once its reader exists.
+ *     "ready" on stderr once its reader exists. --count-only prints instead one line at the end:
+ *     "samples N bytes B first_s F last_s L" (monotonic clock seconds of the first and last arrival).
+ *   talk --bytes B pads each text with 'x' to B bytes; --keep-all (either mode) keeps every sample
+ *   instead of the last 1000, so a fast writer waits for its reader (bench/bench_relay.sh).
  * The Cyclone configuration comes from CYCLONEDDS_URI. */
 #include <math.h>
 #include <signal.h>
@@ -53,7 +56,7 @@ static void sleep_s(double s) {
 }
 
 static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double count, double first,
-                double rate_hz, double settle) {
+                double rate_hz, double settle, double bytes) {
   const dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
   if (writer < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the writer: %s\n", dds_strretcode(-writer));
@@ -72,21 +75,28 @@ static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, do
   }
   fprintf(stderr, "netkf_cyclone_chatter: a reader matched; writing %.0f samples in %.1f s\n", count, settle);
   sleep_s(settle);
-  char text[64];
+  const size_t size = bytes > 64 ? (size_t)bytes : 64;
+  char *text = malloc(size + 1);
+  if (text == NULL) return 1;
   for (long i = 1; i <= (long)count && !stop_requested; ++i) {
-    snprintf(text, sizeof text, "hello %ld", i + (long)first - 1);
+    const int n = snprintf(text, size + 1, "hello %ld", i + (long)first - 1);
+    if (bytes > 0 && (size_t)n < (size_t)bytes) {
+      memset(text + n, 'x', (size_t)bytes - (size_t)n);
+      text[(size_t)bytes] = '\0';
+    }
     std_msgs_msg_dds__String_ msg;
     msg.data = text;
     const dds_return_t rc = dds_write(writer, &msg);
     if (rc != DDS_RETCODE_OK) fprintf(stderr, "netkf_cyclone_chatter: write %ld failed: %s\n", i, dds_strretcode(-rc));
-    sleep_s(1.0 / rate_hz);
+    if (rate_hz < 1e5) sleep_s(1.0 / rate_hz);  /* 1e5: as fast as the writer takes them */
   }
+  free(text);
   const dds_return_t acked = dds_wait_for_acks(writer, DDS_SECS(10));
   fprintf(stderr, "netkf_cyclone_chatter: done (%s)\n", acked == DDS_RETCODE_OK ? "all acknowledged" : "not all acknowledged");
   return 0;
 }
 
-static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double duration) {
+static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double duration, bool count_only) {
   const dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
   if (reader < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the reader: %s\n", dds_strretcode(-reader));
@@ -97,6 +107,7 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
   void *samples[64] = {NULL};
   dds_sample_info_t infos[64];
   long received = 0;
+  double total_bytes = 0, first_s = 0, last_s = 0;
   while (!stop_requested) {
     const dds_return_t n = dds_take(reader, samples, infos, 64, 64);
     if (n < 0) {
@@ -106,7 +117,13 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
       const std_msgs_msg_dds__String_ *msg = samples[i];
-      printf("%s\n", msg->data);
+      if (count_only) {
+        last_s = now_s();
+        if (received == 0) first_s = last_s;
+        total_bytes += (double)strlen(msg->data);
+      } else {
+        printf("%s\n", msg->data);
+      }
       ++received;
     }
     if (n > 0) {
@@ -117,27 +134,39 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
     if (now_s() >= end) break;
     sleep_s(0.005);
   }
+  if (count_only) printf("samples %ld bytes %.0f first_s %.6f last_s %.6f\n", received, total_bytes, first_s, last_s);
   fprintf(stderr, "netkf_cyclone_chatter: %ld samples\n", received);
   return 0;
 }
 
 int main(int argc, char **argv) {
   if (argc < 2 || (strcmp(argv[1], "talk") != 0 && strcmp(argv[1], "listen") != 0)) {
-    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--first F] [--rate-hz R] [--settle S] [--duration S] [--topic T]\n",
+    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--first F] [--rate-hz R] [--settle S] [--duration S] [--topic T] [--count-only] [--keep-all]\n",
             argv[0]);
     return 2;
   }
   const bool talker = strcmp(argv[1], "talk") == 0;
-  double domain = 0, count = 100, first = 1, rate_hz = 100, settle = 2, duration = 60;
+  double domain = 0, count = 100, first = 1, rate_hz = 100, settle = 2, duration = 60, bytes = 0;
+  bool count_only = false, keep_all = false;
   const char *topic_name = "rt/chatter";
   for (int i = 2; i < argc; i += 2) {
     const char *a = argv[i];
+    if (strcmp(a, "--count-only") == 0 || strcmp(a, "--keep-all") == 0) {
+      if (a[2] == 'c')
+        count_only = true;
+      else
+        keep_all = true;
+      --i;
+      continue;
+    }
     const char *v = i + 1 < argc ? argv[i + 1] : NULL;
     bool ok = v != NULL;
     if (ok && strcmp(a, "--domain") == 0)
       ok = parse_number(v, 0, 232, &domain) && domain == floor(domain);
     else if (ok && strcmp(a, "--count") == 0)
       ok = parse_number(v, 0, 1e9, &count) && count == floor(count);
+    else if (ok && strcmp(a, "--bytes") == 0)
+      ok = parse_number(v, 0, 64e6, &bytes) && bytes == floor(bytes);
     else if (ok && strcmp(a, "--first") == 0)
       ok = parse_number(v, 0, 1e9, &first) && first == floor(first);
     else if (ok && strcmp(a, "--rate-hz") == 0)
@@ -176,8 +205,12 @@ int main(int argc, char **argv) {
   dds_qos_t *qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
   dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 1000);
-  const int rc = talker ? talk(participant, topic, qos, count, first, rate_hz, settle) : listen_for(participant, topic, qos, duration);
+  if (keep_all)
+    dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
+  else
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 1000);
+  const int rc = talker ? talk(participant, topic, qos, count, first, rate_hz, settle, bytes)
+                         : listen_for(participant, topic, qos, duration, count_only);
   dds_delete_qos(qos);
   dds_delete(participant);
   return rc;
