@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "exit_code.hpp"
 #include "netkf/scenario.hpp"
+#include "netkf/relay_config.hpp"
 #include "relay_app.hpp"
 #include "serve_loop.hpp"
 
@@ -20,12 +21,13 @@ namespace netkf::cli {
 namespace {
 
 struct RelayCommandOptions {
-  int from_domain = -1;
-  int to_domain = -1;
+  std::optional<std::string> file;
+  std::optional<int> from_domain;
+  std::optional<int> to_domain;
   std::vector<std::string> topics;
   LinkFlags link;
-  std::string seed = "1";
-  int depth = 100;
+  std::optional<std::string> seed;
+  std::optional<int> depth;
   std::optional<std::string> record;
   std::optional<std::string> profile;
   double duration = 0.0;
@@ -44,24 +46,49 @@ void print_counts(const std::vector<RelayTopicCounts>& counts) {
   std::fflush(stdout);
 }
 
-int run_relay(const RelayCommandOptions& o) {
-  const LinkKeys keys = link_keys_of(o.link);
-  if (keys.empty())
-    fail(ExitCode::bad_usage, "give the topics' link: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD LOSS_BAD], "
-                              "--trace FILE or --model with its keys");
-  if (o.from_domain == o.to_domain)
-    fail(ExitCode::bad_usage, "--from-domain and --to-domain must differ (the relay would relay its own samples)");
+/// The relay's settings: a relay file's (docs/relay.md), or the flags' (one link for every
+/// --topic); --from-domain, --to-domain, --seed and --depth given beside a file override it.
+RelayOptions relay_options(const RelayCommandOptions& o) {
   RelayOptions options;
-  options.from_domain = o.from_domain;
-  options.to_domain = o.to_domain;
+  const LinkKeys keys = link_keys_of(o.link);
   try {
-    const LinkSpec link = link_from_keys(keys);
-    for (const auto& t : o.topics) options.topics.push_back({t, link});
-    options.seed = parse_seed(o.seed);
+    if (o.file) {
+      if (!o.topics.empty() || !keys.empty())
+        fail(ExitCode::bad_usage, "give the topics and their links in " + *o.file + " or with --topic and the link "
+                                  "flags, not both");
+      const RelayConfig file = load_relay_config_file(*o.file);
+      options.from_domain = file.from_domain;
+      options.to_domain = file.to_domain;
+      options.seed = file.seed;
+      options.depth = file.depth;
+      options.topics = file.topics;
+    } else {
+      if (o.topics.empty()) fail(ExitCode::bad_usage, "give a relay file or --topic (repeatable) with a link");
+      if (keys.empty())
+        fail(ExitCode::bad_usage, "give the topics' link: --bernoulli LOSS, --gilbert-elliott P R [LOSS_GOOD "
+                                  "LOSS_BAD], --trace FILE or --model with its keys");
+      if (!o.from_domain || !o.to_domain) fail(ExitCode::bad_usage, "give --from-domain and --to-domain (or a relay file)");
+      const LinkSpec link = link_from_keys(keys);
+      for (const auto& t : o.topics) options.topics.push_back({t, link, std::nullopt});
+    }
+    if (o.from_domain) options.from_domain = *o.from_domain;
+    if (o.to_domain) options.to_domain = *o.to_domain;
+    if (o.seed) options.seed = parse_seed(*o.seed);
+    if (o.depth) options.depth = *o.depth;
+  } catch (const CommandError&) {
+    throw;
   } catch (const std::exception& e) {
     fail(ExitCode::bad_usage, e.what());
   }
-  options.depth = o.depth;
+  if (options.from_domain == options.to_domain)
+    fail(ExitCode::bad_usage, "the two domains must differ (the relay would relay its own samples)");
+  return options;
+}
+
+int run_relay(const RelayCommandOptions& o) {
+  RelayOptions options = relay_options(o);
+  const std::size_t topics = options.topics.size();
+  const int from = options.from_domain, to = options.to_domain;
   if (o.profile) options.profile = *o.profile;
   if (o.record) options.record = *o.record;
   std::unique_ptr<RelayApp> app;
@@ -76,8 +103,8 @@ int run_relay(const RelayCommandOptions& o) {
   boost::asio::signal_set signals(io, SIGINT, SIGTERM);
   signals.async_wait([&](const boost::system::error_code& ec, int) { stop = !ec; });
   const auto start = std::chrono::steady_clock::now();
-  std::cerr << "netkf relay: " << o.topics.size() << " topic(s) from domain " << o.from_domain << " to domain "
-            << o.to_domain << "; Ctrl-C stops" << std::endl;
+  std::cerr << "netkf relay: " << topics << " topic(s) from domain " << from << " to domain " << to << "; Ctrl-C stops"
+            << std::endl;
   serve(io, std::chrono::milliseconds(100), [&] {
     return !(stop || (o.duration > 0 &&
                       std::chrono::steady_clock::now() - start >= std::chrono::duration<double>(o.duration)));
@@ -96,16 +123,15 @@ void add_relay_command(CLI::App& app) {
   auto o = std::make_shared<RelayCommandOptions>();
   auto* cmd = app.add_subcommand(
       "relay", "Relay DDS topics of any type from one domain to another through a lossy link (docs/relay.md)");
-  cmd->add_option("--from-domain", o->from_domain, "The domain the topics' writers are on")
-      ->required()
-      ->check(CLI::Range(0, 232));
+  cmd->add_option("file", o->file, "A relay file: the domains and a link per topic (docs/relay.md)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--from-domain", o->from_domain, "The domain the topics' writers are on")->check(CLI::Range(0, 232));
   cmd->add_option("--to-domain", o->to_domain, "The domain the relay writes them on, for the readers there")
-      ->required()
       ->check(CLI::Range(0, 232));
-  cmd->add_option("--topic", o->topics, "A DDS topic name to relay (e.g. rt/chatter); repeatable")->required();
+  cmd->add_option("--topic", o->topics, "A DDS topic name to relay (e.g. rt/chatter); repeatable");
   add_link_flags(cmd, o->link);
-  cmd->add_option("--seed", o->seed, "Seed of the links' random streams (each topic its own stream)");
-  cmd->add_option("--depth", o->depth, "Keep-last history of the relay's readers and writers")
+  cmd->add_option("--seed", o->seed, "Seed of the links' random streams (each topic its own stream; default 1)");
+  cmd->add_option("--depth", o->depth, "Keep-last history of the relay's readers and writers (default 100)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
   cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");

@@ -32,7 +32,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       : options_(std::move(options)), links_(options_.topics, options_.seed), flush_timer_(io_) {
     if (options_.from_domain == options_.to_domain)
       throw std::invalid_argument("the relay's two domains must differ (it would relay its own samples again)");
-    for (const auto& t : options_.topics) counts_[t.name].topic = t.name;
+    for (const auto& t : options_.topics) {
+      counts_[t.name].topic = t.name;
+      wanted_types_[t.name] = t.type;
+    }
     if (options_.record) {
       // "x": created here or refused, never an existing file truncated.
       record_.reset(std::fopen(options_.record->c_str(), "wx"));
@@ -117,6 +120,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     dds::DiscoveredWriter writer = dds::discovered_writer(info);
     if (!counts_.contains(writer.topic)) return;  // counts_' keys never change after construction
     if (writer.participant == destination_prefix_) return;  // its own (see on_sample)
+    if (const auto& wanted = wanted_types_.at(writer.topic); wanted && *wanted != writer.type) {
+      spdlog::warn("a writer of {} with type {} is not relayed (the relay file asks for {})", writer.topic, writer.type,
+                   *wanted);
+      return;
+    }
     boost::asio::post(io_, [this, writer = std::move(writer)] { start_relaying(writer); });
   }
 
@@ -256,6 +264,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   mutable std::mutex mutex_;  // links_, counts_, relayed_, the record file
   RelayLinks links_;
   std::map<std::string, RelayTopicCounts> counts_;
+  std::map<std::string, std::optional<std::string>> wanted_types_;  // per topic; never changed after construction
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> record_{nullptr, &std::fclose};
   boost::asio::steady_timer flush_timer_;
   std::unique_ptr<dds::Participant> destination_;

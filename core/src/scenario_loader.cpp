@@ -21,6 +21,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "netkf/scenario.hpp"
+#include "netkf/relay_config.hpp"
 #include "netkf/input_file.hpp"
 
 namespace netkf {
@@ -170,6 +171,60 @@ class Loader {
     check.events.insert(check.events.end(), scenario.events.begin(), scenario.events.end());
     validate_scenario(check, [this](const std::string& path) { return locate(path); });
     return events;
+  }
+
+  // A relay file (netkf/relay_config.hpp).
+  RelayConfig load_relay(const std::string& text) {
+    YAML::Node root;
+    try {
+      root = YAML::Load(text);
+    } catch (const YAML::ParserException& e) {
+      fail(e.mark, "YAML syntax error: " + e.msg);
+    }
+    if (root.IsNull() || !root.IsMap())
+      fail(root.IsNull() ? YAML::Mark::null_mark() : root.Mark(),
+           "a relay file is a mapping with 'relay:' (from_domain, to_domain, topics), got " +
+               (root.IsNull() ? std::string("nothing") : describe(root)));
+    const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"relay"});
+    const YAML::Node& node = require(top, "relay");
+    const MapView m = open_map(node, "relay", mark_of(node, "relay"), {"from_domain", "to_domain", "seed", "depth", "topics"});
+    RelayConfig c;
+    auto domain = [&](const std::string& key) {
+      const std::string path = "relay." + key;
+      const YAML::Node& n = require(m, key);
+      const int d = read_int(n, path);
+      if (d < 0 || d > 232) fail(mark_of(n, path), path + " must be a DDS domain id in [0, 232], got " + n.Scalar());
+      return d;
+    };
+    c.from_domain = domain("from_domain");
+    c.to_domain = domain("to_domain");
+    if (c.to_domain == c.from_domain)
+      fail(mark_of(m.values.at("to_domain"), "relay.to_domain"),
+           "relay.to_domain must differ from relay.from_domain (the relay would relay its own samples)");
+    if (m.has("seed")) c.seed = read_seed(m.values.at("seed"));
+    if (m.has("depth")) {
+      c.depth = read_int(m.values.at("depth"), "relay.depth");
+      if (c.depth < 1 || c.depth > 100000)
+        fail(mark_of(m.values.at("depth"), "relay.depth"), "relay.depth must be in [1, 100000], got " + std::to_string(c.depth));
+    }
+    const YAML::Node& topics = require(m, "topics");
+    if (!topics.IsSequence() || topics.size() == 0)
+      fail(mark_of(topics, "relay.topics"), "relay.topics must be a non-empty list of {name, link}, got " + describe(topics));
+    std::map<std::string, std::size_t> seen;
+    for (std::size_t i = 0; i < topics.size(); ++i) {
+      const std::string at = "relay.topics[" + std::to_string(i) + "]";
+      const YAML::Node t = topics[i];
+      const MapView tm = open_map(t, at, t.Mark(), {"name", "type", "link"});
+      RelayTopic topic;
+      topic.name = read_string(require(tm, "name"), at + ".name");
+      if (const auto [it, fresh] = seen.emplace(topic.name, i); !fresh)
+        fail(mark_of(tm.values.at("name"), at + ".name"),
+             "topic " + topic.name + " is relayed twice (also relay.topics[" + std::to_string(it->second) + "])");
+      if (tm.has("type")) topic.type = read_string(tm.values.at("type"), at + ".type");
+      topic.link = read_link(require(tm, "link"), at + ".link");
+      c.topics.push_back(std::move(topic));
+    }
+    return c;
   }
 
  private:
@@ -603,6 +658,20 @@ std::vector<LinkEvent> load_events_file(const std::filesystem::path& path, const
 
 Scenario load_scenario_file(const std::filesystem::path& path) {
   return parse_scenario(read_text_file(path, "scenario file"), path.string());
+}
+
+RelayConfig parse_relay_config(const std::string& yaml_text, const std::string& source_name) {
+  try {
+    return Loader(source_name.empty() ? "<relay>" : source_name).load_relay(yaml_text);
+  } catch (const YAML::Exception& e) {
+    std::string prefix = source_name;
+    if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
+    throw ScenarioError(prefix + ": " + e.msg);
+  }
+}
+
+RelayConfig load_relay_config_file(const std::filesystem::path& path) {
+  return parse_relay_config(read_text_file(path, "relay file"), path.string());
 }
 
 }  // namespace netkf

@@ -8,7 +8,8 @@ Independent expectations: the talker's own numbering ("hello i" is its i-th writ
 number i) and the listener's decoding. The listener receives exactly the samples the relay's
 recording says it delivered (by sequence number), each once and intact, none it says it dropped;
 about 70 % of 500 (5 binomial standard deviations); the relay's printed counts equal its
-recording; the type it discovered is the talker's. The domains are adjacent on purpose: Fast DDS
+recording; the type it discovered is the talker's; `netkf ctl set-link` retunes the topic live;
+a relay file gives each topic its own link and may ask for a type. The domains are adjacent on purpose: Fast DDS
 2.9's localhost profile lets a participant of one domain discover the next one's, so the relay
 sees its own writer come back, and must not relay its samples again (the listener would receive
 duplicates)."""
@@ -34,6 +35,9 @@ if not CHATTER or not os.access(CHATTER, os.X_OK):
 out = workdir("relay")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
 record = os.path.join(out, "fates.csv")
+record2 = os.path.join(out, "fates-file.csv")
+relay_file = os.path.join(out, "relay.yaml")
+relay2, rc_relay2 = None, None
 
 
 def start(name, cmd):
@@ -87,8 +91,28 @@ try:
                               "--rate-hz", "200"], capture_output=True, text=True, env=env, timeout=90)
     check(talker2.returncode == 0, "the second talker wrote %d samples" % COUNT2)
     time.sleep(1.0)
+    rc_relay = stop(relay)
+    # A relay file: rt/chatter now drops everything; rt/other is relayed only from writers of the
+    # type the file names, and the talker's is another.
+    with open(relay_file, "w") as f:
+        f.write("relay:\n  from_domain: %d\n  to_domain: %d\n  seed: 3\n  topics:\n"
+                "    - name: rt/chatter\n      link: {model: bernoulli, loss: 1.0}\n"
+                "    - name: rt/other\n      type: other_msgs::msg::dds_::Other_\n"
+                "      link: {model: bernoulli, loss: 0}\n" % (FROM, TO))
+    relay2 = start("relay2", [NETKF, "relay", relay_file, "--record", record2])
+    talker3 = subprocess.run([CHATTER, "talk", "--domain", str(FROM), "--count", "50", "--first", "2001",
+                              "--rate-hz", "200"], capture_output=True, text=True, env=env, timeout=90)
+    check(talker3.returncode == 0, "a third talker wrote 50 samples to the relay of the file")
+    other = start("other", [CHATTER, "talk", "--domain", str(FROM), "--topic", "rt/other", "--count", "5"])
+    check(wait_for(lambda: "is not relayed" in text("relay2", ".out") + text("relay2", ".log"), 20),
+          "the relay of the file refuses rt/other's writer of another type")
+    stop(other)
+    time.sleep(1.0)
+    rc_relay2 = stop(relay2)
 finally:
     rc_relay = stop(relay)
+    if relay2 is not None:
+        rc_relay2 = stop(relay2)
     rc_listener = stop(listener)
 print("---- relay ----\n" + text("relay", ".out") + text("relay", ".log")[-3000:], flush=True)
 check(rc_relay == 0 and rc_listener == 0, "relay and listener exit 0 (%s, %s)" % (rc_relay, rc_listener))
@@ -135,6 +159,16 @@ check(len(after) == COUNT2 and all(r["fate"] == "delivered" for r in after)
       % (COUNT2, len(after), sum(r["fate"] == "delivered" for r in after)))
 second = sorted(n for n in map(number_of, got_all) if n and n > 1000)
 check(second == list(range(1001, 1001 + COUNT2)), "the listener got all of them, once each (%d)" % len(second))
+third = [n for n in map(number_of, got_all) if n and n > 2000]
+check(third == [], "nothing of the third talker reached the listener (loss 1.0 from the file): %s" % third[:5])
+with open(record2) as f:
+    rows2 = list(csv.DictReader(f))
+check(len(rows2) == 50 and all(r["fate"] == "dropped" and r["topic"] == "rt/chatter" for r in rows2),
+      "the file's relay recorded the 50 samples of rt/chatter, all dropped, and none of rt/other (%d rows)" % len(rows2))
+print("---- relay of the file ----\n" + text("relay2", ".out") + text("relay2", ".log")[-2000:], flush=True)
+check(rc_relay2 == 0, "the file's relay exits 0 (%s)" % rc_relay2)
+check(any(l.startswith("rt/other") and "(no writer seen)" in l for l in text("relay2", ".out").splitlines()),
+      "its summary shows rt/other without a relayed writer")
 summary = [l.split() for l in text("relay", ".out").splitlines() if l.startswith("rt/chatter")]
 total_delivered = len(delivered) + len(after)
 check(summary and summary[0][2:5] == [str(len(all_rows)), str(total_delivered), str(len(dropped))],

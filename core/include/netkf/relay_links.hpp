@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "netkf/link.hpp"
@@ -23,8 +24,12 @@ inline constexpr const char* kRelayTopicKey = "topic";
 
 /// A topic to relay and its link.
 struct RelayTopic {
+  RelayTopic() = default;
+  RelayTopic(std::string topic, LinkSpec topic_link, std::optional<std::string> type_name = std::nullopt)
+      : name(std::move(topic)), link(std::move(topic_link)), type(std::move(type_name)) {}
   std::string name;  // the DDS topic name, e.g. rt/scan
   LinkSpec link;
+  std::optional<std::string> type;  // relay only writers of this type name (nullopt: any)
 };
 
 /// The decision for one relayed sample.

@@ -1,0 +1,39 @@
+#pragma once
+// A `netkf relay` file (docs/relay.md, "A relay file"): the two domains and a link per topic.
+//
+//   relay:
+//     from_domain: 1
+//     to_domain: 2
+//     seed: 7          # optional (1)
+//     depth: 100       # optional: keep-last history of the relay's readers and writers
+//     topics:
+//       - name: rt/scan
+//         type: sensor_msgs::msg::dds_::LaserScan_   # optional: relay only writers of this type
+//         link: { model: gilbert_elliott, p: 0.05, r: 0.25 }
+//       - name: rt/odom
+//         link: { model: bernoulli, loss: 0.1, delay_ms: 5 }
+//
+// Read by the scenario's YAML loader (core/src/scenario_loader.cpp): the same link keys, trace
+// paths relative to the file, and errors as FILE:LINE:COL: message (ScenarioError).
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "netkf/relay_links.hpp"
+
+namespace netkf {
+
+struct RelayConfig {
+  int from_domain = 0;
+  int to_domain = 1;
+  std::uint64_t seed = 1;
+  int depth = 100;
+  std::vector<RelayTopic> topics;
+};
+
+/// Throws ScenarioError naming the line and column of the first problem.
+RelayConfig parse_relay_config(const std::string& yaml_text, const std::string& source_name);
+RelayConfig load_relay_config_file(const std::filesystem::path& path);
+
+}  // namespace netkf
