@@ -28,7 +28,7 @@ using Clock = std::chrono::steady_clock;
 struct CtlOptions {
   NetworkSettings network;
   double timeout = 10.0;
-  std::string link;  // a sensor id, or "control"
+  std::string link;  // a sensor id, "control", or a topic a netkf relay relays (docs/relay.md)
   LinkFlags change;
   bool json = false;
 };
