@@ -17,7 +17,7 @@
 #include "netkf/relay_links.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/log_throttle.hpp"
-#include "netkf/nodes/release_queue.hpp"
+#include "netkf/release_queue.hpp"
 
 namespace netkf::nodes {
 

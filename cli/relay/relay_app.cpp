@@ -11,15 +11,18 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <stdexcept>
 
 #include <fastdds/rtps/writer/WriterDiscoveryInfo.h>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
+#include "netkf/release_queue.hpp"
 
 namespace netkf::cli {
 
@@ -29,7 +32,7 @@ namespace wire = netkf::wire;
 class RelayApp::Impl : private fdds::DomainParticipantListener {
  public:
   explicit Impl(RelayOptions options)
-      : options_(std::move(options)), links_(options_.topics, options_.seed), flush_timer_(io_) {
+      : options_(std::move(options)), links_(options_.topics, options_.seed), release_timer_(io_), flush_timer_(io_) {
     if (options_.from_domain == options_.to_domain)
       throw std::invalid_argument("the relay's two domains must differ (it would relay its own samples again)");
     for (const auto& t : options_.topics) {
@@ -76,6 +79,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       spdlog::info("{} of the relay's own samples came back on domain {} and were not relayed again", own,
                    options_.from_domain);
     source_.reset();
+    write_record();  // the lines of the last samples
     relayed_.clear();
     reply_.reset();
     destination_.reset();
@@ -93,6 +97,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   void stop() {
     boost::asio::post(io_, [this] {
       flush_timer_.cancel();
+      release_timer_.cancel();
       work_.reset();
       io_.stop();
     });
@@ -108,6 +113,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
  private:
   // One topic being relayed: the writer on the destination domain, the reader on the source.
   struct Relayed {
+    int index = 0;  // its link's id in the release queue
     dds::DiscoveredWriter writer;
     std::unique_ptr<dds::RawWriter> out;
     std::unique_ptr<dds::RawReader> in;
@@ -147,6 +153,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     }
     auto relayed = std::make_unique<Relayed>();
     relayed->writer = writer;
+    {
+      const std::lock_guard lock(mutex_);
+      relayed->index = static_cast<int>(relayed_.size());
+    }
     try {
       relayed->out = std::make_unique<dds::RawWriter>(*destination_, writer, options_.depth);
       Relayed* r = relayed.get();
@@ -175,29 +185,45 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       return;
     }
     RelayFate fate;
+    bool rearm = false;  // a new earliest held sample: the release timer must move
     {
       const std::lock_guard lock(mutex_);
       fate = *links_.on_sample(r.writer.topic);
       auto& c = counts_[r.writer.topic];
       ++c.samples;
       ++(fate.delivered ? c.delivered : c.dropped);
+      // Into memory here; the relay's thread writes the file (no disk I/O on a DDS thread).
       if (record_)
-        std::fprintf(record_.get(), "%s,%llu,%lld,%zu,%s,%.6g\n", r.writer.topic.c_str(),
-                     static_cast<unsigned long long>(fate.index), static_cast<long long>(sample.sequence),
-                     sample.payload.size(), fate.delivered ? "delivered" : "dropped", fate.delay_ms);
+        fmt::format_to(std::back_inserter(unwritten_), "{},{},{},{},{},{:.6g}\n", r.writer.topic, fate.index,
+                       sample.sequence, sample.payload.size(), fate.delivered ? "delivered" : "dropped", fate.delay_ms);
+      if (fate.delivered && fate.delay_ms > 0.0) {
+        const auto release = std::chrono::steady_clock::now() +
+                             std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                 std::chrono::duration<double, std::milli>(fate.delay_ms));
+        rearm = held_.hold(release, r.index, Held{&r, std::move(sample)});
+      }
     }
-    if (!fate.delivered) return;
-    if (fate.delay_ms <= 0.0) {
-      send(r, sample);
-      return;
+    if (rearm) boost::asio::post(io_, [this] { release_due(); });
+    if (fate.delivered && fate.delay_ms <= 0.0) send(r, sample);
+  }
+
+  // Relay thread: write what is due, then sleep until the next release; re-armed (posted) from
+  // the receive thread when a new earliest sample is held.
+  void release_due() {
+    std::vector<Held> due;
+    std::optional<std::chrono::steady_clock::time_point> next;
+    {
+      const std::lock_guard lock(mutex_);
+      due = held_.take_due(std::chrono::steady_clock::now());
+      next = held_.next_release();
     }
-    auto timer = std::make_shared<boost::asio::steady_timer>(
-        io_, std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                 std::chrono::duration<double, std::milli>(fate.delay_ms)));
-    auto held = std::make_shared<dds::RawSample>(std::move(sample));
-    timer->async_wait([this, &r, timer, held](const boost::system::error_code& ec) {
-      if (!ec) send(r, *held);
-    });
+    for (auto& h : due) send(*h.relayed, h.sample);
+    if (next) {
+      release_timer_.expires_at(*next);
+      release_timer_.async_wait([this](const boost::system::error_code& ec) {
+        if (!ec) release_due();
+      });
+    }
   }
 
   // Relay thread: a change of one of its topics' links, from its next sample on. A request for a
@@ -222,22 +248,16 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     try {
       // Outside the lock: a trace named here is read now, never on the sample path.
       const LinkSpec next = apply_link_keys(*current, keys);
-      const std::lock_guard lock(mutex_);
-      links_.set_link(topic, next);
+      {
+        const std::lock_guard lock(mutex_);
+        links_.set_link(topic, next);
+      }
+      spdlog::info("request {}: {} now has a {} link (from its next sample on)", c.request_id(), topic, link_kind(next));
     } catch (const std::exception& e) {
       reason = e.what();
-    }
-    if (reason.empty())
-      spdlog::info("request {}: {} now has a {} link (from its next sample on)", c.request_id(), topic,
-                   link_kind(*links_link(topic)));
-    else
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
+    }
     reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
-  }
-
-  std::optional<LinkSpec> links_link(const std::string& topic) const {
-    const std::lock_guard lock(mutex_);
-    return links_.link(topic);
   }
 
   void send(Relayed& r, dds::RawSample& sample) {
@@ -250,12 +270,21 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     flush_timer_.expires_after(std::chrono::seconds(1));
     flush_timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
-      {
-        const std::lock_guard lock(mutex_);
-        if (record_) std::fflush(record_.get());
-      }
+      write_record();
       schedule_flush();
     });
+  }
+
+  // Relay thread (and the end): the record lines gathered since, written outside the lock.
+  void write_record() {
+    if (!record_) return;
+    std::string lines;
+    {
+      const std::lock_guard lock(mutex_);
+      lines.swap(unwritten_);
+    }
+    std::fwrite(lines.data(), 1, lines.size(), record_.get());
+    std::fflush(record_.get());
   }
 
   RelayOptions options_;
@@ -266,6 +295,14 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   std::map<std::string, RelayTopicCounts> counts_;
   std::map<std::string, std::optional<std::string>> wanted_types_;  // per topic; never changed after construction
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> record_{nullptr, &std::fclose};
+  std::string unwritten_;  // record lines not yet written (mutex_)
+  // A delivered sample its link delays, until its release (mutex_).
+  struct Held {
+    Relayed* relayed = nullptr;
+    dds::RawSample sample;
+  };
+  ReleaseQueue<Held> held_;
+  boost::asio::steady_timer release_timer_;
   boost::asio::steady_timer flush_timer_;
   std::unique_ptr<dds::Participant> destination_;
   eprosima::fastrtps::rtps::GuidPrefix_t destination_prefix_;

@@ -76,7 +76,7 @@ RawReader::RawReader(Participant& participant, const DiscoveredWriter& writer, i
     : participant_(participant), on_sample_(std::move(on_sample)) {
   reader_ = participant_.subscriber()->create_datareader(
       raw_topic(participant_, writer), reader_qos(raw_topic_qos(writer, depth)), this,
-      fdds::StatusMask::data_available() << fdds::StatusMask::subscription_matched());
+      fdds::StatusMask::data_available());
   if (reader_ == nullptr)
     throw DdsError("cannot create a reader of " + writer.topic + " (" + writer.type + ") on domain " +
                    std::to_string(participant_.domain()));
@@ -111,12 +111,6 @@ RawWriter::RawWriter(Participant& participant, const DiscoveredWriter& writer, i
 RawWriter::~RawWriter() { participant_.publisher()->delete_datawriter(writer_); }
 
 bool RawWriter::write(RawSample& sample) { return writer_->write(&sample); }
-
-int RawWriter::matched() const {
-  fdds::PublicationMatchedStatus status;
-  writer_->get_publication_matched_status(status);
-  return status.current_count;
-}
 
 DiscoveredWriter discovered_writer(const eprosima::fastrtps::rtps::WriterDiscoveryInfo& info) {
   DiscoveredWriter w;

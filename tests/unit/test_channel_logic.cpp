@@ -11,7 +11,7 @@
 
 #include "netkf/analysis/loss_fit.hpp"
 #include "netkf/nodes/channel_links.hpp"
-#include "netkf/nodes/release_queue.hpp"
+#include "netkf/release_queue.hpp"
 #include "netkf/random.hpp"
 
 namespace {
@@ -288,8 +288,8 @@ TEST(ChannelLogic, CountsTheSamplesItDelaysBeyondTheDeadline) {
 }
 
 TEST(ReleaseQueue, ReleasesInTimeOrderTiesFirstInFirstOut) {
-  netkf::nodes::ReleaseQueue<int> q;
-  const auto t0 = netkf::nodes::ReleaseQueue<int>::Clock::time_point{} + std::chrono::seconds(100);
+  netkf::ReleaseQueue<int> q;
+  const auto t0 = netkf::ReleaseQueue<int>::Clock::time_point{} + std::chrono::seconds(100);
   using std::chrono::milliseconds;
   EXPECT_TRUE(q.hold(t0 + milliseconds(12), 1, 1));   // first: earliest
   EXPECT_TRUE(q.hold(t0 + milliseconds(4), 2, 2));    // earlier: the timer must move

@@ -3,7 +3,6 @@
 // payload, untouched (the encapsulation header and all), so the relay needs no IDL. The type's
 // name and whether it has a key come from discovery (DiscoveredWriter); the key of a keyed
 // sample is the key hash its writer sent, passed on as is.
-#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -67,19 +66,13 @@ class RawReader : private eprosima::fastdds::dds::DataReaderListener {
   ~RawReader() override;
   RawReader(const RawReader&) = delete;
   RawReader& operator=(const RawReader&) = delete;
-  int matched() const { return matched_.load(); }
 
  private:
   void on_data_available(eprosima::fastdds::dds::DataReader* reader) override;
-  void on_subscription_matched(eprosima::fastdds::dds::DataReader*,
-                               const eprosima::fastdds::dds::SubscriptionMatchedStatus& status) override {
-    matched_.store(status.current_count);
-  }
 
   Participant& participant_;
   std::function<void(RawSample&&)> on_sample_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
-  std::atomic<int> matched_{0};
 };
 
 /// Writes one topic of any type with the QoS of the writer it stands in for.
@@ -91,7 +84,6 @@ class RawWriter {
   RawWriter& operator=(const RawWriter&) = delete;
   /// False when DDS refused the sample.
   bool write(RawSample& sample);
-  int matched() const;
 
  private:
   Participant& participant_;

@@ -1,6 +1,7 @@
 #pragma once
-// Samples held by the channel until their release time (a link's delay). Ordered by release
-// time, so jitter reorders samples as netem does; equal times leave in arrival order.
+// Samples held until their release time (a link's delay): the channel emulator's and the
+// relay's. Ordered by release time, so jitter reorders samples as netem does; equal times leave
+// in arrival order. Not thread-safe: its owner guards it.
 #include <chrono>
 #include <cstdint>
 #include <map>
@@ -9,19 +10,19 @@
 #include <utility>
 #include <vector>
 
-namespace netkf::nodes {
+namespace netkf {
 
 template <class Sample>
 class ReleaseQueue {
  public:
   using Clock = std::chrono::steady_clock;
 
-  /// Hold `sample` of `sensor_id` until `release`. True when it is now the earliest
+  /// Hold `sample` of link `link_id` until `release`. True when it is now the earliest
   /// (whoever owns the timer must re-arm it).
-  bool hold(Clock::time_point release, int sensor_id, Sample sample) {
+  bool hold(Clock::time_point release, int link_id, Sample sample) {
     const bool earliest = queue_.empty() || release < queue_.top().release;
-    queue_.push(Held{release, next_sequence_++, sensor_id, std::move(sample)});
-    ++held_[sensor_id];
+    queue_.push(Held{release, next_sequence_++, link_id, std::move(sample)});
+    ++held_[link_id];
     return earliest;
   }
 
@@ -31,7 +32,7 @@ class ReleaseQueue {
     while (!queue_.empty() && queue_.top().release <= now) {
       // top() is const; the element is popped right after, so moving out of it is safe.
       Held& top = const_cast<Held&>(queue_.top());
-      --held_[top.sensor_id];
+      --held_[top.link_id];
       due.push_back(std::move(top.sample));
       queue_.pop();
     }
@@ -43,8 +44,8 @@ class ReleaseQueue {
     return queue_.top().release;
   }
   std::size_t size() const { return queue_.size(); }
-  std::uint64_t held(int sensor_id) const {
-    const auto it = held_.find(sensor_id);
+  std::uint64_t held(int link_id) const {
+    const auto it = held_.find(link_id);
     return it == held_.end() ? 0 : it->second;
   }
 
@@ -52,7 +53,7 @@ class ReleaseQueue {
   struct Held {
     Clock::time_point release;
     std::uint64_t sequence;  // arrival order: ties leave first-in first-out
-    int sensor_id;
+    int link_id;
     Sample sample;
   };
   struct Later {
@@ -65,4 +66,4 @@ class ReleaseQueue {
   std::uint64_t next_sequence_ = 0;
 };
 
-}  // namespace netkf::nodes
+}  // namespace netkf
