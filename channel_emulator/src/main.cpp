@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
     // Checked before the participant exists (ChannelApp builds its own links the same way).
     const netkf::nodes::ChannelLinks check_links(scenario);
     netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, "netkf-channel", netkf::dds::Role::channel));
+        netkf::dds::node_participant_options(common, scenario, "netkf-channel", netkf::dds::Role::channel));
     spdlog::info("scenario '{}': {} links, domain {}", scenario.name, scenario.sensors.size(), participant.domain());
     if (!spare.wait_until_needed()) return 0;
     {

@@ -18,6 +18,10 @@ void add_network_options(CLI::App* cmd, NetworkSettings& network) {
   cmd->add_option("--discovery-server", network.discovery_server,
                   "Discover the network through the Fast DDS Discovery Server at ADDR:PORT, e.g. on another host "
                   "(default: $NETKF_DISCOVERY_SERVER, else the localhost-only profile; deploy/README.md)");
+  cmd->add_option("--naming", network.naming,
+                  "Topic and type names of the network: netkf, or ros2 (rt/netkf/..., netkf_msgs; docs/ros2.md) "
+                  "(default: $NETKF_NAMING, else the scenario's naming, else netkf)")
+      ->check(CLI::IsMember({"netkf", "ros2"}));
 }
 
 CLI::Validator seconds_in(double min, double max, bool above_min) {

@@ -48,6 +48,7 @@ int run_record(const RecordOptions& o) {
     // Present as a recorder: a plant waits for it, so the recording starts at period 0. Its
     // scenario only sizes the recording (hash 0: it conflicts with no network's scenario).
     BusOptions bus_options = o.network.bus("netkf-record", dds::Role::observer);
+    bus_options.scenario_naming = scenario.naming;
     bus_options.presence = BusOptions::Presence{dds::presence_role::record, 0, {}};
     bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, invalid_samples),
                                     false);

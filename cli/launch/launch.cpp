@@ -159,6 +159,12 @@ void Launch::read_inputs() {
 void Launch::resolve_discovery() {
   or_bad_usage([&] {
     domain_ = dds::resolve_domain(o_.network.domain);
+    naming_ = dds::resolve_naming(o_.network.naming, scenario_.naming);
+    // ROS 2's readers are shared-ownership only, so under its names every topic is (topics.hpp,
+    // naming_qos); the hot standby's failover needs exclusive ownership.
+    if (naming_ == TopicNaming::ros2 && o_.standby)
+      fail(ExitCode::bad_usage, "--standby needs exclusive ownership, which the ros2 naming cannot offer ROS 2's "
+                                "readers (docs/ros2.md): launch with the netkf naming, or without --standby");
     discovery_ = dds::resolve_discovery_server(o_.network.discovery_server);
     if (!o_.serve_discovery) return;
     served_ = dds::parse_discovery_server(*o_.serve_discovery);
@@ -261,6 +267,7 @@ void Launch::open_bus() {
   bus_options.run = run_id_;
   bus_options.estimate_history = true;  // a restarted estimator's first estimates (topics.hpp)
   if (discovery_) bus_options.discovery_server = discovery_->text();
+  bus_options.naming = to_string(naming_);
   bus_options.presence = BusOptions::Presence{dds::presence_role::launch, scenario_hash_, describe_launch_roles(roles_)};
   bus_ = or_bad_usage(
       [&] {
@@ -306,6 +313,7 @@ void Launch::start_children() {
   in.log_level = o_.log_level;
   in.run_id = run_id_;
   if (discovery_) in.discovery_server = discovery_->text();
+  in.naming = to_string(naming_);
   in.dds_profile = o_.network.profile;
   // Explicit (so a launch secured by $NETKF_SECURE secures its children too) and absolute.
   if (const auto secure = dds::resolve_secure(o_.network.secure)) in.secure_dir = secure->string();

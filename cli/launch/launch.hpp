@@ -117,6 +117,7 @@ class Launch {
   std::optional<dds::DiscoveryServerAddress> served_;
   std::optional<dds::DiscoveryServerAddress> discovery_;
   int domain_ = 0;
+  TopicNaming naming_ = TopicNaming::netkf;  // flag, $NETKF_NAMING, the scenario's (every child gets it)
   std::vector<Check> checks_;
   std::unique_ptr<std::ostream> summary_out_;  // --summary (output_file.hpp)
   std::unique_ptr<RunSummaryBuilder> summary_;  // only a run that asks keeps its records

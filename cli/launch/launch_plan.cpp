@@ -149,7 +149,8 @@ namespace {
 
 std::vector<std::string> common_args(const LaunchPlanInputs& in) {
   std::vector<std::string> a{"--scenario", in.scenario_file, "--domain",  std::to_string(in.domain),
-                             "--log-level", in.log_level,    "--run-id", std::to_string(in.run_id)};
+                             "--log-level", in.log_level,    "--run-id", std::to_string(in.run_id),
+                             "--naming",    in.naming};
   if (in.discovery_server) a.insert(a.end(), {"--discovery-server", *in.discovery_server});
   if (in.dds_profile) a.insert(a.end(), {"--dds-profile", *in.dds_profile});
   if (in.secure_dir) a.insert(a.end(), {"--secure", *in.secure_dir});

@@ -57,6 +57,7 @@ struct LaunchPlanInputs {
   std::string log_level = "warn";
   std::uint64_t run_id = 0;
   std::optional<std::string> discovery_server;  // ADDR:PORT of the Discovery Server in use
+  std::string naming = "netkf";                  // --naming of every node
   std::optional<std::string> dds_profile;
   std::optional<std::string> secure_dir;  // absolute: the children of a secured launch are secured
   LaunchRoles roles;

@@ -145,6 +145,7 @@ LiveBus::LiveBus(boost::asio::io_context& io, const BusOptions& options, BusHand
   po.run = options.run;
   if (auto dir = dds::resolve_secure(options.secure)) po.security = dds::ParticipantOptions::Security{*dir, options.role};
   po.discovery_server = dds::resolve_discovery_server(options.discovery_server);
+  po.naming = dds::resolve_naming(options.naming, options.scenario_naming);
   impl_ = std::make_unique<Impl>(po);
   if (options.presence) {
     impl_->presence_watch = std::make_unique<dds::PresenceWatcher>(impl_->participant);

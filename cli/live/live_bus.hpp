@@ -29,6 +29,8 @@ struct BusOptions {
   dds::Role role = dds::Role::observer;  // the identity used with security
   std::uint64_t run = 0;               // the launch's run id (samples of another run dropped); 0: any
   std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (else $NETKF_DISCOVERY_SERVER)
+  std::optional<std::string> naming;   // --naming netkf|ros2 (else $NETKF_NAMING, else scenario_naming)
+  TopicNaming scenario_naming = TopicNaming::netkf;  // the scenario's naming, for a command that has one
   /// Announce this process on netkf/presence (as a launch or a recorder, which read the truth:
   /// the plant waits for them) and watch everyone's presence (LiveBus::processes).
   struct Presence {
@@ -43,12 +45,13 @@ struct BusOptions {
 };
 
 /// The DDS settings every live command shares (--domain, --dds-profile, --secure,
-/// --discovery-server; each falls back to its NETKF_* variable, then the localhost default).
+/// --discovery-server, --naming; each falls back to its NETKF_* variable, then the localhost default).
 struct NetworkSettings {
   std::optional<int> domain;
   std::optional<std::string> profile;
   std::optional<std::string> secure;
   std::optional<std::string> discovery_server;
+  std::optional<std::string> naming;
   BusOptions bus(const std::string& name, dds::Role role) const {
     BusOptions b;
     b.domain = domain;
@@ -57,6 +60,7 @@ struct NetworkSettings {
     b.secure = secure;
     b.role = role;
     b.discovery_server = discovery_server;
+    b.naming = naming;
     return b;
   }
 };

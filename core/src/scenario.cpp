@@ -411,6 +411,14 @@ void complete_scenario(Scenario& scenario, const ScenarioLocator& locate) {
 
 const char* to_string(OnLoss on_loss) { return on_loss == OnLoss::hold ? "hold" : "zero"; }
 
+const char* to_string(TopicNaming naming) { return naming == TopicNaming::ros2 ? "ros2" : "netkf"; }
+
+std::optional<TopicNaming> topic_naming_from_string(std::string_view word) {
+  if (word == "netkf") return TopicNaming::netkf;
+  if (word == "ros2") return TopicNaming::ros2;
+  return std::nullopt;
+}
+
 std::string link_name(int link_id) {
   return link_id == kControlLinkId ? std::string(kControlLinkName) : std::to_string(link_id);
 }
@@ -462,6 +470,8 @@ std::string scenario_to_yaml(const Scenario& s) {
   out << YAML::Key << "name" << YAML::Value << s.name;
   out << YAML::Key << "period_ms" << YAML::Value << s.period_ms;
   out << YAML::Key << "seed" << YAML::Value << s.seed;
+  // Only when set: a scenario with the default names keeps its text (and its hash).
+  if (s.naming != TopicNaming::netkf) out << YAML::Key << "naming" << YAML::Value << to_string(s.naming);
 
   out << YAML::Key << "plant" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "A" << YAML::Value;

@@ -129,11 +129,17 @@ class Loader {
     Scenario s;
     s.source = source_;
     const MapView top = open_map(root, "", YAML::Mark::null_mark(),
-                                 {"name", "period_ms", "seed", "plant", "sensors", "estimator", "events"});
+                                 {"name", "period_ms", "seed", "naming", "plant", "sensors", "estimator", "events"});
     s.name = top.has("name") ? read_string(top.values.at("name"), "name") : default_name();
     s.period_ms = read_int(require(top, "period_ms"), "period_ms");
     // Optional: a scenario without a seed is still reproducible (seed 0).
     if (top.has("seed")) s.seed = read_seed(top.values.at("seed"));
+    if (top.has("naming")) {
+      const YAML::Node& v = top.values.at("naming");
+      const auto naming = topic_naming_from_string(read_string(v, "naming"));
+      if (!naming) fail(v.Mark(), "naming must be netkf or ros2, got " + describe(v));
+      s.naming = *naming;
+    }
     read_plant(require(top, "plant"), s.plant);
     read_sensors(require(top, "sensors"), s.sensors);
     if (top.has("estimator")) read_estimator(top.values.at("estimator"), s.estimator);

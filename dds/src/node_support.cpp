@@ -21,6 +21,10 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags) {
   app.add_option("--discovery-server", flags.discovery_server,
                  "Discover the others through the Fast DDS Discovery Server at ADDR:PORT (default: "
                  "$NETKF_DISCOVERY_SERVER, else the localhost-only profile)");
+  app.add_option("--naming", flags.naming,
+                 "Topic and type names: netkf, or ros2 (rt/netkf/..., netkf_msgs; docs/ros2.md) (default: "
+                 "$NETKF_NAMING, else the scenario's naming, else netkf)")
+      ->check(CLI::IsMember({"netkf", "ros2"}));
   app.add_flag("--spare", flags.spare,
                "Join the DDS network, then wait for SIGUSR1 before running (a warm spare `netkf launch` activates "
                "when the running one dies)");
@@ -37,9 +41,10 @@ void setup_node_logging(const std::string& node_name, const std::string& level) 
   spdlog::set_default_logger(logger);
 }
 
-ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name,
-                                            Role role) {
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const Scenario& scenario,
+                                            const std::string& participant_name, Role role) {
   ParticipantOptions o;
+  o.naming = resolve_naming(flags.naming, scenario.naming);
   o.domain = resolve_domain(flags.domain);
   o.profile_file = resolve_profile(flags.dds_profile);
   o.name = participant_name;

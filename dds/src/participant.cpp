@@ -136,6 +136,17 @@ std::string local_address_towards(const DiscoveryServerAddress& server) {
   return buf;
 }
 
+TopicNaming resolve_naming(const std::optional<std::string>& flag, TopicNaming scenario_naming) {
+  auto parse = [](const std::string& word, const std::string& where) {
+    if (auto naming = topic_naming_from_string(word)) return *naming;
+    throw DdsError(where + " '" + word + "' is not a naming: netkf or ros2");
+  };
+  if (flag && !flag->empty()) return parse(*flag, "--naming");
+  if (const char* env = std::getenv(kNamingEnv); env != nullptr && *env != '\0')
+    return parse(env, std::string(kNamingEnv));
+  return scenario_naming;
+}
+
 int resolve_domain(std::optional<int> flag) {
   int domain = 0;
   if (flag) {
@@ -242,7 +253,11 @@ fdds::DomainParticipantQos discovery_server_qos(const std::string& name, const D
 }
 
 Participant::Participant(const ParticipantOptions& options)
-    : domain_(options.domain), name_(options.name), run_(options.run), secure_(options.security.has_value()) {
+    : domain_(options.domain),
+      name_(options.name),
+      run_(options.run),
+      naming_(options.naming),
+      secure_(options.security.has_value()) {
   if (domain_ < 0 || domain_ > 232) throw DdsError("DDS domain id " + std::to_string(domain_) + " is outside [0, 232]");
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   fdds::DomainParticipantQos qos;

@@ -65,7 +65,7 @@ void PresenceAnnouncer::end(const std::string& why) {
 
 PresenceWatcher::PresenceWatcher(Participant& participant) : participant_(participant) {
   reader_ = participant_.subscriber()->create_datareader(participant_.topic(topics::presence),
-                                                        reader_qos(topics::presence.qos), nullptr,
+                                                        reader_qos(participant_.topic_qos(topics::presence.qos)), nullptr,
                                                         fdds::StatusMask::none());
   if (reader_ == nullptr)
     throw DdsError("cannot create a DDS reader for topic " + std::string(topics::presence.name) + refused_hint(participant));

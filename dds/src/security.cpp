@@ -240,7 +240,11 @@ std::string permissions_xml(Role role, const std::string &subject, const std::st
   auto list = [&o](const char *tag, const std::vector<std::string_view> &names) {
     if (names.empty()) return;
     o << "        <" << tag << ">\n          <topics>\n";
-    for (auto n : names) o << "            <topic>" << xml_escape(n) << "</topic>\n";
+    // Each topic under both namings (--naming ros2: docs/ros2.md), so one security directory
+    // serves a network of either.
+    for (auto n : names)
+      for (TopicNaming naming : {TopicNaming::netkf, TopicNaming::ros2})
+        o << "            <topic>" << xml_escape(dds_topic_name(n, naming)) << "</topic>\n";
     o << "          </topics>\n        </" << tag << ">\n";
   };
   list("publish", policy.publish);

@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
     netkf::dds::setup_node_logging("estimator", common.log_level);
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, "netkf-estimator", netkf::dds::Role::estimator));
+        netkf::dds::node_participant_options(common, scenario, "netkf-estimator", netkf::dds::Role::estimator));
     // A spare reads the checkpoint the launch wrote just before activating it.
     if (!spare.wait_until_needed()) return 0;
     if (!resume_from.empty() && std::filesystem::exists(resume_from))

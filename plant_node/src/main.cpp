@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
     netkf::dds::setup_node_logging("plant", common.log_level);
     const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
     netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, "netkf-plant", netkf::dds::Role::plant));
+        netkf::dds::node_participant_options(common, scenario, "netkf-plant", netkf::dds::Role::plant));
     spdlog::info("scenario '{}' period {} ms, domain {}", scenario.name, scenario.period_ms, participant.domain());
     {
       netkf::nodes::PlantApp node(scenario, participant, options);

@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
       [[maybe_unused]] const netkf::nodes::SensorSimulator known(scenario, id);  // throws for an unknown id
     }
     netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, "netkf-sensor-" + ids, netkf::dds::Role::sensor));
+        netkf::dds::node_participant_options(common, scenario, "netkf-sensor-" + ids, netkf::dds::Role::sensor));
     spdlog::info("sensor {} of scenario '{}', domain {}", ids, scenario.name, participant.domain());
     {
       netkf::nodes::SensorApp node(scenario, participant, options);

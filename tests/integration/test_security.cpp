@@ -80,7 +80,15 @@ TEST(SecurityPolicy, PermissionsAllowExactlyTheIntendedTopics) {
       {Role::observer, {{presence}, observed}},
   };
   ASSERT_EQ(nd::all_roles().size(), intended.size());
-  for (const auto& [role, topics] : intended) {
+  // Each also under its ROS 2 name (--naming ros2: "rt/" before it, as rmw names a topic).
+  const auto with_ros2_names = [](const std::set<std::string>& names) {
+    std::set<std::string> both = names;
+    for (const auto& n : names) both.insert("rt/" + n);
+    return both;
+  };
+  for (auto [role, netkf_topics] : intended) {
+    const std::pair<std::set<std::string>, std::set<std::string>> topics{with_ros2_names(netkf_topics.first),
+                                                                         with_ros2_names(netkf_topics.second)};
     SCOPED_TRACE(std::string(nd::role_name(role)));
     const std::string xml =
         nd::permissions_xml(role, nd::role_subject(role), "2020-01-01T00:00:00", "2030-01-01T00:00:00");

@@ -302,6 +302,24 @@ TEST(ScenarioErrors, SeedAbove64BitsIsRejected) {
               StartsWith("seed.yaml:2:7: seed must fit in 64 bits"));
 }
 
+TEST(ScenarioNaming, RosTwoOrNetkfElseAnErrorAtTheValue) {
+  const std::string rest =
+      "plant: { A: [[0.5]], Q: [[1.0]] }\n"
+      "sensors: [ { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.1 } } ]\n";
+  EXPECT_EQ(netkf::parse_scenario("period_ms: 10\n" + rest, "a.yaml").naming, netkf::TopicNaming::netkf);
+  const netkf::Scenario ros2 = netkf::parse_scenario("period_ms: 10\nnaming: ros2\n" + rest, "b.yaml");
+  EXPECT_EQ(ros2.naming, netkf::TopicNaming::ros2);
+  EXPECT_EQ(netkf::parse_scenario("period_ms: 10\nnaming: netkf\n" + rest, "c.yaml").naming,
+            netkf::TopicNaming::netkf);
+  EXPECT_THAT(error_of([&] { netkf::parse_scenario("period_ms: 10\nnaming: ROS2\n" + rest, "d.yaml"); }),
+              StartsWith("d.yaml:2:9: naming must be netkf or ros2"));
+  // The effective scenario a launch hands its processes keeps the key; the default adds none
+  // (an unchanged text keeps the scenario's hash).
+  EXPECT_EQ(netkf::parse_scenario(netkf::scenario_to_yaml(ros2), "e.yaml").naming, netkf::TopicNaming::ros2);
+  EXPECT_EQ(netkf::scenario_to_yaml(netkf::parse_scenario("period_ms: 10\n" + rest, "f.yaml")).find("naming"),
+            std::string::npos);
+}
+
 // ---------------------------------------------------------------------------------
 // Good files load with the right values.
 

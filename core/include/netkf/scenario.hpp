@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -89,6 +90,17 @@ struct LinkEvent {
   bool operator==(const LinkEvent&) const = default;
 };
 
+/// How the live network names its DDS topics and types (docs/ros2.md): netkf's own names
+/// (netkf/estimate of type netkf::wire::Estimate) or ROS 2's (rt/netkf/estimate of type
+/// netkf_msgs::msg::dds_::Estimate_, the .msg twins in netkf_msgs/), so ROS 2 tools read it.
+enum class TopicNaming {
+  netkf,
+  ros2,
+};
+const char* to_string(TopicNaming naming);
+/// "netkf" or "ros2"; nullopt for anything else.
+std::optional<TopicNaming> topic_naming_from_string(std::string_view word);
+
 struct Scenario {
   std::string name;
   std::string source;          // file the scenario was loaded from (for messages)
@@ -98,6 +110,8 @@ struct Scenario {
   std::vector<SensorSpec> sensors;
   EstimatorSpec estimator;
   std::vector<LinkEvent> events;  // in the order they apply (stable by at_period)
+  /// `naming:` the default for every process of the run (a --naming flag or $NETKF_NAMING wins).
+  TopicNaming naming = TopicNaming::netkf;
 
   int state_dim() const { return static_cast<int>(plant.A.rows()); }
   /// The sampling period in seconds.

@@ -69,8 +69,9 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
       : Writer(participant, spec, WriterOptions{.samples_per_second = samples_per_second}) {}
   Writer(Participant& participant, const Topic<T>& spec, const WriterOptions& options)
       : participant_(participant), topic_name_(spec.name) {
-    TopicQos qos = spec.qos;
+    TopicQos qos = participant_.topic_qos(spec.qos);
     qos.depth = history_depth_for_rate(options.samples_per_second, qos.depth);
+    asserts_liveliness_ = qos.exclusive_ownership;
     writer_ = participant_.publisher()->create_datawriter(participant_.topic(spec), writer_qos(qos, options), this,
                                                           eprosima::fastdds::dds::StatusMask::publication_matched());
     if (writer_ == nullptr) throw DdsError("cannot create a DDS writer for topic " + topic_name_ + refused_hint(participant));
@@ -99,8 +100,11 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
   /// Number of readers currently matched.
   int matched() const { return matched_.load(); }
   /// Exclusive-ownership topics: tell the readers this writer is alive without writing (within
-  /// every kOwnershipLease, see topics.hpp).
-  void assert_liveliness() { writer_->assert_liveliness(); }
+  /// every kOwnershipLease, see topics.hpp). Nothing on a shared topic (e.g. under ROS 2 naming),
+  /// whose liveliness Fast DDS asserts itself (and refuses to be asked, with an error logged).
+  void assert_liveliness() {
+    if (asserts_liveliness_) writer_->assert_liveliness();
+  }
   /// Wait until at least `n` readers are matched; false on timeout.
   bool wait_for_matched(int n, std::chrono::milliseconds timeout) const {
     return detail::wait_until([this] { return matched(); }, n, timeout);
@@ -121,6 +125,7 @@ class Writer : private eprosima::fastdds::dds::DataWriterListener {
 
   Participant& participant_;
   std::string topic_name_;
+  bool asserts_liveliness_ = false;  // MANUAL_BY_TOPIC liveliness: the exclusive-ownership topics
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   std::atomic<int> matched_{0};
 };
@@ -136,7 +141,7 @@ class Reader : private eprosima::fastdds::dds::DataReaderListener {
   Reader(Participant& participant, const Topic<T>& spec, Callback on_sample)
       : participant_(participant), topic_name_(spec.name), on_sample_(std::move(on_sample)) {
     reader_ = participant_.subscriber()->create_datareader(
-        participant_.topic(spec), reader_qos(spec.qos), this,
+        participant_.topic(spec), reader_qos(participant_.topic_qos(spec.qos)), this,
         eprosima::fastdds::dds::StatusMask::data_available() << eprosima::fastdds::dds::StatusMask::subscription_matched());
     if (reader_ == nullptr) throw DdsError("cannot create a DDS reader for topic " + topic_name_ + refused_hint(participant));
   }

@@ -27,6 +27,7 @@ struct CommonNodeFlags {
   std::string log_level = "info";        // --log-level trace|debug|info|warn|error
   std::uint64_t run_id = 0;              // --run-id N (given by `netkf launch`; 0: accept every run)
   std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (default $NETKF_DISCOVERY_SERVER)
+  std::optional<std::string> naming;     // --naming netkf|ros2 (default $NETKF_NAMING, else the scenario's)
   bool spare = false;                    // --spare: join the network, then wait for SIGUSR1 (SpareGate)
 };
 
@@ -47,10 +48,10 @@ void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);
 /// Log to stderr with the node's name in every line, at `level` (validated by the flags).
 void setup_node_logging(const std::string& node_name, const std::string& level);
 
-/// Resolve domain, profile and security directory (flag, then environment, then default);
-/// `role`: the identity the node uses when security is on. Throws DdsError.
-ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const std::string& participant_name,
-                                            Role role);
+/// Resolve domain, profile, security directory and naming (flag, then environment, then the
+/// scenario or the default); `role`: the identity the node uses when security is on. Throws DdsError.
+ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const Scenario& scenario,
+                                            const std::string& participant_name, Role role);
 
 /// A warm spare (--spare; `netkf launch` keeps one per channel and estimator): the process
 /// creates its DDS participant, so the network discovers it ahead of need, and waits before it

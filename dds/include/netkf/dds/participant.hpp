@@ -87,6 +87,9 @@ struct ParticipantOptions {
   /// Told of every participant, writer and reader discovered (on Fast DDS's discovery thread),
   /// from the participant's creation on, so none is missed (`netkf relay`). Not owned.
   eprosima::fastdds::dds::DomainParticipantListener* discovery_listener = nullptr;
+  /// netkf's topic and type names, or ROS 2's (topics.hpp, dds_topic_name): every process of a
+  /// network must use the same.
+  TopicNaming naming = TopicNaming::netkf;
 };
 
 /// Domain id: the flag when given, else $NETKF_DOMAIN, else 0. Throws DdsError when
@@ -115,6 +118,12 @@ eprosima::fastdds::dds::DomainParticipantQos discovery_client_qos(const std::str
 eprosima::fastdds::dds::DomainParticipantQos discovery_server_qos(const std::string& name,
                                                                   const DiscoveryServerAddress& server);
 
+/// Environment variable of the naming (as --naming).
+inline constexpr const char* kNamingEnv = "NETKF_NAMING";
+/// The naming: the flag when given (non-empty), else $NETKF_NAMING (if set and non-empty), else
+/// the scenario's `naming:`. Throws DdsError for a word other than netkf or ros2.
+TopicNaming resolve_naming(const std::optional<std::string>& flag, TopicNaming scenario_naming);
+
 /// One DDS participant with one publisher and one subscriber. Topics are created on
 /// first use (the type is registered then). Not copyable; destroying it deletes all
 /// entities it created and leaves the domain cleanly (writers/readers must be
@@ -129,6 +138,9 @@ class Participant {
 
   int domain() const { return domain_; }
   const std::string& name() const { return name_; }
+  TopicNaming naming() const { return naming_; }
+  /// `qos` as this participant's naming has it (naming_qos).
+  TopicQos topic_qos(const TopicQos& qos) const { return naming_qos(qos, naming_); }
   std::uint64_t run() const { return run_; }
   /// A sample of another run arrived on `topic` and was dropped (counted; logged, throttled).
   void count_foreign_sample(const std::string& topic, std::uint64_t their_run);
@@ -142,10 +154,13 @@ class Participant {
   eprosima::fastdds::dds::Publisher* publisher() const { return publisher_; }
   eprosima::fastdds::dds::Subscriber* subscriber() const { return subscriber_; }
 
-  /// The DDS topic for `spec` (created and its type registered on first use).
+  /// The DDS topic for `spec` under this participant's naming (created and its type registered
+  /// on first use).
   template <class T>
   eprosima::fastdds::dds::Topic* topic(const Topic<T>& spec) {
-    return topic(std::string(spec.name), eprosima::fastdds::dds::TypeSupport(new typename PubSubTypeOf<T>::type()));
+    auto* type = new typename PubSubTypeOf<T>::type();
+    type->setName(dds_type_name(type->getName(), naming_).c_str());
+    return topic(dds_topic_name(spec.name, naming_), eprosima::fastdds::dds::TypeSupport(type));
   }
   /// The DDS topic `name` of any type (registered under its own name on first use).
   eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
@@ -155,6 +170,7 @@ class Participant {
   int domain_ = 0;
   std::string name_;
   std::uint64_t run_ = 0;
+  TopicNaming naming_ = TopicNaming::netkf;
   std::atomic<std::uint64_t> foreign_samples_{0};
   bool secure_ = false;
   std::optional<ParticipantSlot> slot_;  // released after the participant is deleted

@@ -3,12 +3,14 @@
 // A Topic<T> ties a name to its wire type so a Writer/Reader cannot mix them up.
 #include <chrono>
 #include <cstdint>
+#include <string>
 #include <string_view>
 
 #include <fastcdr/exceptions/Exception.h>
 #include <fastdds/rtps/common/SerializedPayload.h>
 
 #include "netkf/dds/wire.hpp"
+#include "netkf/scenario.hpp"
 
 namespace netkf::dds {
 
@@ -79,6 +81,18 @@ struct WriterOptions {
 /// asserts its liveliness on a timer (Writer::assert_liveliness), so the lease is one constant
 /// that every reader can ask for without knowing the scenario.
 inline constexpr std::chrono::milliseconds kOwnershipLease{50};
+
+/// The DDS topic name of netkf's topic `name` under `naming`: itself, or ROS 2's form of the
+/// ROS 2 topic /name ("rt/" + name: rmw's prefix of a topic, docs/ros2.md).
+std::string dds_topic_name(std::string_view name, TopicNaming naming);
+/// The DDS type name of the wire type `wire_type_name` (netkf::wire::Estimate) under `naming`:
+/// itself, or the name rmw gives the ROS 2 message netkf_msgs/msg/Estimate
+/// (netkf_msgs::msg::dds_::Estimate_). Throws std::invalid_argument for a name outside netkf::wire.
+std::string dds_type_name(std::string_view wire_type_name, TopicNaming naming);
+/// `qos` as `naming` has it: ROS 2's readers have shared ownership only (rmw offers no other),
+/// and a shared reader does not match an exclusive writer, so under ROS 2 naming every topic is
+/// shared (a hot standby, which needs exclusive ownership, is then refused: docs/ros2.md).
+TopicQos naming_qos(TopicQos qos, TopicNaming naming);
 
 template <class T>
 struct Topic {
