@@ -3,8 +3,8 @@
 It reads what netkf writes (cli/recording/mcap_writer.hpp: the unchunked, unindexed form,
 CRCs 0) and, beyond that, any MCAP file: chunked (uncompressed, or zstd / lz4 compressed when
 Debian's python3-zstandard / python3-lz4 is installed), with a summary section, attachments and
-metadata. Index, statistics, attachment and metadata records are skipped: the reader streams
-the file the way @mcap/core's McapStreamReader does.
+metadata. Index, statistics and attachment records are skipped (metadata records are kept in
+`metadata` when well formed): the reader streams the file the way @mcap/core's McapStreamReader does.
 
 A file cut short (what `kill -9` leaves) yields every whole record before the cut, with
 `complete` False. A file that ends with a Footer and the closing magic was closed by its
@@ -350,7 +350,12 @@ class McapFile:
         elif opcode == OP_CHUNK:
             self._chunk(c, offset)
         elif opcode == OP_METADATA:
-            self.metadata.append((c.string(), c.string_map()))
+            # Kept for the caller (a ros2 bag's `rosbag2` record); the messages do not depend on
+            # it, so a malformed one is skipped like the other records a stream reader ignores.
+            try:
+                self.metadata.append((c.string(), c.string_map()))
+            except McapError:
+                pass
         elif opcode == OP_ATTACHMENT:
             c.u64(), c.u64(), c.string(), c.string(), c.bytes64()
             covered = c.pos
