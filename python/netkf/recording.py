@@ -292,7 +292,14 @@ def _topic_messages(m, topic):
     ros2 = ROS2_TOPICS.get(topic)
     if topic not in m.topics() and ros2 in m.topics():
         convert = _FROM_ROS2[topic]
-        return [(t, convert(msg)) for t, msg in m.decoded(ros2)]
+        out = []
+        for i, (t, msg) in enumerate(m.decoded(ros2)):
+            try:
+                out.append((t, convert(msg)))
+            except (KeyError, TypeError) as e:  # a schema other than netkf_msgs' (a field missing)
+                raise FormatError("%s: message %d on %s is not what netkf writes (%s: %s)"
+                                  % (m.path, i, ros2, type(e).__name__, e)) from None
+        return out
     return m.decoded(topic)
 
 
@@ -302,8 +309,8 @@ def read_mcap(path):
 
 
 def read_mcap_topic(path_or_file, topic):
-    """Every message of one channel as a DataFrame: log_time (ns) and the JSON message's
-    top-level fields (arrays stay Python lists)."""
+    """Every message of one channel as a DataFrame: log_time (ns) and the message's top-level
+    fields (JSON, or a ros2 bag's CDR by its .msg names; arrays stay Python lists)."""
     m = path_or_file if isinstance(path_or_file, McapFile) else McapFile(path_or_file)
     rows = []
     for i, (t, msg) in enumerate(m.decoded(topic)):

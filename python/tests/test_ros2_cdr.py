@@ -154,3 +154,26 @@ def test_bad_input_is_a_clear_error():
         ros2msg.parse_definition("netkf_msgs/msg/LinkChange", msg_text("LinkChange"))  # LinkSpec missing
     with pytest.raises(ros2msg.Ros2MsgError):
         ros2msg.parse_definition("netkf_msgs/msg/Truth", "uint64 k\nfloat64[ x\n")
+
+
+def test_a_bag_of_other_types_is_a_format_error(tmp_path):
+    """A ros2-profile file whose /netkf/truth is some other type: the period reader says so."""
+    import netkf
+
+    def record(op, body):
+        return bytes([op]) + struct.pack("<Q", len(body)) + body
+
+    def s(v):
+        return struct.pack("<I", len(v)) + v.encode()
+
+    magic = b"\x89MCAP0\r\n"
+    body = record(0x01, s("ros2") + s("test"))
+    body += record(0x03, struct.pack("<H", 1) + s("other_msgs/msg/Truth") + s("ros2msg") + s("uint64 k\n"))
+    body += record(0x04, struct.pack("<HH", 0, 1) + s("/netkf/truth") + s("cdr") + struct.pack("<I", 0))
+    body += record(0x05, struct.pack("<HIQQ", 0, 0, 0, 0) + b"\x00\x01\x00\x00" + struct.pack("<Q", 4))
+    body += record(0x0F, struct.pack("<I", 0)) + record(0x02, struct.pack("<QQI", 0, 0, 0))
+    path = tmp_path / "other.mcap"
+    path.write_bytes(magic + body + magic)
+    assert netkf.read_mcap(str(path)).decoded("/netkf/truth")[0][1] == {"k": 4}
+    with pytest.raises(netkf.FormatError, match="not what netkf writes"):
+        netkf.read_mcap_periods(str(path))
