@@ -121,6 +121,5 @@ try {
 } catch (e) {
   out.problems.push(String(e));
 }
-for (const c of out.channels) delete c.reader;
 out.channels = [...channels.values()].map(({ reader: _r, ...c }) => c);
 console.log(JSON.stringify(out));
