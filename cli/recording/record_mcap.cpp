@@ -59,12 +59,11 @@ void McapRecorder::add_ros2_channels() {
   using ros2::Channel;
   std::vector<Channel> channels{Channel::truth, Channel::estimate};
   if (with_delivered_) channels.push_back(Channel::delivered);
-  channels.push_back(Channel::link_status);
-  channels.push_back(Channel::link_change);
+  channels.insert(channels.end(), {Channel::link_status, Channel::link_change, Channel::rosout});
   for (const Channel c : channels) {
     const auto info = ros2::topic_info(c);
-    const std::string type = std::string(ros2::kPackage) + "/msg/" + std::string(info.type);
-    const auto schema = writer_.add_schema(type, "ros2msg", ros2::message_definition(info.type));
+    const auto schema =
+        writer_.add_schema(info.schema_name(), "ros2msg", ros2::message_definition(info.package, info.type));
     ros2_channels_[c] = writer_.add_channel(
         schema, info.topic, "cdr",
         {{"offered_qos_profiles", ros2::offered_qos_profiles(options_.codec->qos(c))}, {"topic_type_hash", ""}});
@@ -74,6 +73,7 @@ void McapRecorder::add_ros2_channels() {
   if (with_delivered_) delivered_ = ros2_channels_[Channel::delivered];
   link_status_ = ros2_channels_[Channel::link_status];
   link_change_ = ros2_channels_[Channel::link_change];
+  events_ = ros2_channels_[Channel::rosout];
 }
 
 // rosbag2 writes its metadata record when the bag is closed: the counts are then known.
@@ -81,8 +81,8 @@ void McapRecorder::write_bag_metadata() {
   std::vector<ros2::BagTopic> topics;
   for (const auto& [c, channel] : ros2_channels_) {
     const auto info = ros2::topic_info(c);
-    topics.push_back({std::string(info.topic), std::string(ros2::kPackage) + "/msg/" + std::string(info.type),
-                      options_.codec->qos(c), writer_.channel_messages(channel)});
+    topics.push_back({std::string(info.topic), info.schema_name(), options_.codec->qos(c),
+                      writer_.channel_messages(channel)});
   }
   writer_.add_metadata("rosbag2", {{"serialized_metadata", ros2::bag_metadata_yaml(topics, options_.file_name,
                                                                                    writer_.first_log_time(),
@@ -102,8 +102,14 @@ void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std
 
 void McapRecorder::write_events() {
   for (const auto& event : model_.take_events()) {
-    if (ros2()) continue;  // no events channel: taken only so that they do not pile up
-    write(events_, latest_ns_, catalogue::log_message(event, latest_ns_).dump());
+    if (ros2()) {
+      const std::uint8_t level = event.level == LiveEvent::Level::error     ? ros2::kLogError
+                                 : event.level == LiveEvent::Level::warning ? ros2::kLogWarn
+                                                                            : ros2::kLogInfo;
+      write(events_, latest_ns_, options_.codec->log(latest_ns_, level, "netkf", event.text));
+    } else {
+      write(events_, latest_ns_, catalogue::log_message(event, latest_ns_).dump());
+    }
     ++events_written_;
   }
 }

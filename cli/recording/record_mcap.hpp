@@ -17,8 +17,8 @@
 //
 // The ros2 profile (McapOptions::profile, ros2_bag.hpp) writes the same records at the same log
 // times as CDR of the wire types on the ROS 2 topic names (/netkf/truth, ...), one link status
-// message per status the channel published (not the dashboard's views), and no events channel
-// (foxglove.Log has no wire type); its file ends with rosbag2's metadata record and a summary.
+// message per status the channel published (not the dashboard's views), and the events as ROS 2
+// log messages on /rosout; its file ends with rosbag2's metadata record and a summary.
 #include <cstdint>
 #include <map>
 #include <memory>

@@ -22,18 +22,22 @@ namespace ros2 {
 TopicInfo topic_info(Channel c) {
   switch (c) {
     case Channel::truth:
-      return {"/netkf/truth", "Truth"};
+      return {"/netkf/truth", kPackage, "Truth"};
     case Channel::estimate:
-      return {"/netkf/estimate", "Estimate"};
+      return {"/netkf/estimate", kPackage, "Estimate"};
     case Channel::delivered:
-      return {"/netkf/measurement/delivered", "Measurement"};
+      return {"/netkf/measurement/delivered", kPackage, "Measurement"};
     case Channel::link_status:
-      return {"/netkf/link/status", "LinkStatus"};
+      return {"/netkf/link/status", kPackage, "LinkStatus"};
     case Channel::link_change:
-      return {"/netkf/link/change", "LinkChange"};
+      return {"/netkf/link/change", kPackage, "LinkChange"};
+    case Channel::rosout:
+      return {"/rosout", "rcl_interfaces", "Log"};
   }
   throw std::logic_error("unknown ROS 2 channel");
 }
+
+std::string TopicInfo::schema_name() const { return std::string(package) + "/msg/" + std::string(type); }
 
 namespace {
 
@@ -44,15 +48,40 @@ bool is_primitive(const std::string& type) {
   return primitives.count(type) > 0;
 }
 
-std::string_view text_of(std::string_view type) {
-  const std::string_view text = msg_text(type);
-  if (text.empty()) throw std::logic_error("no embedded .msg text for netkf_msgs/" + std::string(type));
+// ROS 2's own types the events channel uses (rcl_interfaces/msg/Log and the Time it stamps
+// with): their fields, in ROS 2's order, with the level constants.
+constexpr std::string_view kLogMsg =
+    "# A log message (ROS 2's rcl_interfaces/msg/Log): severity levels, then the fields.\n"
+    "byte DEBUG=10\n"
+    "byte INFO=20\n"
+    "byte WARN=30\n"
+    "byte ERROR=40\n"
+    "byte FATAL=50\n"
+    "\n"
+    "builtin_interfaces/Time stamp  # when the message was made\n"
+    "uint8 level                    # one of the levels above\n"
+    "string name                    # the logger\n"
+    "string msg                     # the message\n"
+    "string file                    # source file, function and line (empty, 0 for netkf's events)\n"
+    "string function\n"
+    "uint32 line\n";
+constexpr std::string_view kTimeMsg =
+    "# Time (ROS 2's builtin_interfaces/msg/Time): seconds and nanoseconds.\n"
+    "int32 sec\n"
+    "uint32 nanosec\n";
+
+std::string_view text_of(std::string_view package, std::string_view type) {
+  std::string_view text;
+  if (package == kPackage) text = msg_text(type);
+  else if (package == "rcl_interfaces" && type == "Log") text = kLogMsg;
+  else if (package == "builtin_interfaces" && type == "Time") text = kTimeMsg;
+  if (text.empty()) throw std::logic_error("no .msg text for " + std::string(package) + "/" + std::string(type));
   return text;
 }
 
 }  // namespace
 
-std::vector<std::string> msg_dependencies(std::string_view text) {
+std::vector<std::string> msg_dependencies(std::string_view text, std::string_view package) {
   std::set<std::string> deps;  // rosbag2 keeps them in a std::set: name order
   std::istringstream lines{std::string(text)};
   std::string line;
@@ -64,23 +93,24 @@ std::vector<std::string> msg_dependencies(std::string_view text) {
     type = type.substr(0, type.find('['));           // float64[], Measurement[<=100]
     if (type.find("string<=") == 0) continue;         // a bounded string
     if (is_primitive(type)) continue;
-    deps.insert(type.find('/') == std::string::npos ? std::string(kPackage) + "/" + type : type);
+    deps.insert(type.find('/') == std::string::npos ? std::string(package) + "/" + type : type);
   }
   return {deps.begin(), deps.end()};
 }
 
-std::string message_definition(std::string_view type) {
+std::string message_definition(std::string_view package, std::string_view type) {
   std::set<std::string> seen;
-  const std::function<std::string(std::string_view)> append = [&](std::string_view name) {
-    std::string result(text_of(name));
-    for (const auto& dep : msg_dependencies(result)) {
+  const std::function<std::string(std::string_view, std::string_view)> append = [&](std::string_view pkg,
+                                                                                    std::string_view name) {
+    std::string result(text_of(pkg, name));
+    for (const auto& dep : msg_dependencies(result, pkg)) {
       if (!seen.insert(dep).second) continue;
-      const std::string dep_type = dep.substr(dep.find('/') + 1);
-      result += "\n" + std::string(80, '=') + "\nMSG: " + dep + "\n" + append(dep_type);
+      const auto slash = dep.find('/');
+      result += "\n" + std::string(80, '=') + "\nMSG: " + dep + "\n" + append(dep.substr(0, slash), dep.substr(slash + 1));
     }
     return result;
   };
-  return append(type);
+  return append(package, type);
 }
 
 std::string offered_qos_profiles(const Qos& q) {

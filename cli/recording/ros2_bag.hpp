@@ -32,27 +32,34 @@ inline constexpr std::string_view kPackage = "netkf_msgs";
 /// The ROS distribution the bag's metadata names (rosbag2 shows it; nothing depends on it).
 inline constexpr std::string_view kRosDistro = "humble";
 
-/// The recorded topics: ROS 2 name, message type (netkf_msgs/msg/TYPE) and the QoS the
-/// writer on the DDS topic offers.
-enum class Channel { truth, estimate, delivered, link_status, link_change };
+/// The recorded topics: ROS 2 name, message type (PACKAGE/msg/TYPE) and the QoS the writer on
+/// the DDS topic offers. rosout: the run's events (the json profile's netkf/events) as ROS 2's
+/// log messages, rcl_interfaces/msg/Log on /rosout, which Foxglove's Log panel lists.
+enum class Channel { truth, estimate, delivered, link_status, link_change, rosout };
 struct Qos {
   bool reliable = true;
   bool transient_local = false;
   int depth = 1;
 };
 struct TopicInfo {
-  std::string_view topic;  // "/netkf/truth"
-  std::string_view type;   // "Truth"
+  std::string_view topic;    // "/netkf/truth"
+  std::string_view package;  // "netkf_msgs"
+  std::string_view type;     // "Truth"
+  std::string schema_name() const;  // "netkf_msgs/msg/Truth"
 };
 TopicInfo topic_info(Channel c);
 
-/// netkf_msgs/msg/TYPE's definition as rosbag2 stores it: the type's .msg text, then for
-/// each netkf_msgs type it uses (depth first, each once, in name order at each level) a line
-/// of 80 '=', a line "MSG: netkf_msgs/DEP" and DEP's text. Throws std::logic_error for a type
-/// that was not embedded.
-std::string message_definition(std::string_view type);
-/// The non-primitive field types of a .msg text (netkf_msgs/LinkSpec for a field "LinkSpec link").
-std::vector<std::string> msg_dependencies(std::string_view text);
+/// rcl_interfaces/msg/Log's levels (its constants).
+inline constexpr std::uint8_t kLogInfo = 20, kLogWarn = 30, kLogError = 40;
+
+/// PACKAGE/msg/TYPE's definition as rosbag2 stores it: the type's .msg text, then for each
+/// type it uses (depth first, each once, in name order at each level) a line of 80 '=', a
+/// line "MSG: PACKAGE/DEP" and DEP's text. Throws std::logic_error for a type netkf does not
+/// have the text of (netkf_msgs' embedded ones, rcl_interfaces/Log, builtin_interfaces/Time).
+std::string message_definition(std::string_view package, std::string_view type);
+/// The non-primitive field types of a .msg text of `package` (PACKAGE/LinkSpec for a field
+/// "LinkSpec link").
+std::vector<std::string> msg_dependencies(std::string_view text, std::string_view package = kPackage);
 
 /// The channel metadata value offered_qos_profiles: a YAML list with one profile (the rmw
 /// enums as integers, the form every rosbag2 since Foxy reads; durations 0 = the default).
@@ -82,6 +89,9 @@ class Ros2Codec {
   virtual std::string delivered(const DeliveredRecord& d) const = 0;
   virtual std::string link_status(const LinkStatusRecord& l) const = 0;
   virtual std::string link_change(const LinkChangeRecord& c) const = 0;
+  /// rcl_interfaces/msg/Log: an event at `stamp_ns` (level kLogInfo, ...), logger `name`.
+  virtual std::string log(std::uint64_t stamp_ns, std::uint8_t level, std::string_view name,
+                          std::string_view text) const = 0;
   /// Decoding: throws std::runtime_error for bytes that are not the type's CDR.
   virtual TruthRecord decode_truth(std::string_view cdr) const = 0;
   virtual DeliveredRecord decode_delivered(std::string_view cdr) const = 0;

@@ -4,6 +4,9 @@
 #include <cstring>
 #include <stdexcept>
 
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
+
 #include "netkf/dds/conversions.hpp"
 #include "netkf/dds/topics.hpp"
 
@@ -48,6 +51,8 @@ class FastCdrCodec final : public Ros2Codec {
         return qos_of(dds::topics::link_status.qos);
       case Channel::link_change:
         return qos_of(dds::topics::link_change.qos);
+      case Channel::rosout:
+        return {true, true, 1000};  // rcl's /rosout publisher: reliable, transient local, keep last 1000
     }
     throw std::logic_error("unknown ROS 2 channel");
   }
@@ -100,6 +105,21 @@ class FastCdrCodec final : public Ros2Codec {
   std::string link_change(const LinkChangeRecord& c) const override {
     return serialize(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), c.origin,
                                            c.request_id, c.link, 0));
+  }
+
+  // rcl_interfaces/msg/Log has no wire type in idl/netkf.idl: its fields are serialized one by
+  // one with Fast CDR (the alignment and encapsulation its generated types use).
+  std::string log(std::uint64_t stamp_ns, std::uint8_t level, std::string_view name,
+                  std::string_view text) const override {
+    const std::size_t bound = 64 + name.size() + text.size();
+    std::string buffer(bound, '\0');
+    eprosima::fastcdr::FastBuffer fast(buffer.data(), buffer.size());
+    eprosima::fastcdr::Cdr cdr(fast, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+    cdr.serialize_encapsulation();
+    cdr << static_cast<std::int32_t>(stamp_ns / 1000000000ULL) << static_cast<std::uint32_t>(stamp_ns % 1000000000ULL);
+    cdr << level << std::string(name) << std::string(text) << std::string() << std::string() << std::uint32_t{0};
+    buffer.resize(cdr.getSerializedDataLength());
+    return buffer;
   }
 
   TruthRecord decode_truth(std::string_view cdr) const override {

@@ -140,6 +140,36 @@ def test_nested_types_and_strings():
                  "stamp_ns": -3}
 
 
+# ROS 2's rcl_interfaces/msg/Log and builtin_interfaces/msg/Time, written here from ROS 2's
+# interface definitions (not taken from netkf), as rosbag2 concatenates them.
+ROS2_LOG = """byte DEBUG=10
+byte INFO=20
+byte WARN=30
+byte ERROR=40
+byte FATAL=50
+builtin_interfaces/Time stamp
+uint8 level
+string name
+string msg
+string file
+string function
+uint32 line
+""" + "=" * 80 + """
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+"""
+
+
+def test_an_event_as_a_ros2_log_message():
+    text = "link 1: loss=0.2 (request 7) \u00e9"  # an odd length, and a character beyond ASCII
+    data = encoded("log", {"stamp_ns": 3 * 10 ** 9 + 40 * 10 ** 6, "level": 30, "name": "netkf", "text": text})
+    types = ros2msg.parse_definition("rcl_interfaces/msg/Log", ROS2_LOG)
+    assert ros2msg.decode(types, "rcl_interfaces/Log", data) == {
+        "stamp": {"sec": 3, "nanosec": 40000000}, "level": 30, "name": "netkf", "msg": text, "file": "",
+        "function": "", "line": 0}
+
+
 def test_bad_input_is_a_clear_error():
     good = encoded("truth", {"k": 1, "t": 0.1, "x": [1.0, 2.0], "u": [], "input_arrived": True})
     for cut in (0, 3, 10, len(good) - 1):

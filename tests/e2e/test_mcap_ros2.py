@@ -8,13 +8,14 @@ samples are in it, and in samples.csv); `netkf record --out same.csv` and `netkf
 attached.mcap --mcap-profile ros2` record the same network, attached; `netkf ctl set-link`
 makes one link change. Checks:
 - header profile ros2; one channel per topic under its ROS 2 name, schema encoding ros2msg
-  named netkf_msgs/msg/TYPE, message encoding cdr, offered_qos_profiles in each channel's
+  named netkf_msgs/msg/TYPE (rcl_interfaces/msg/Log for /rosout), message encoding cdr, offered_qos_profiles in each channel's
   metadata (YAML, as rosbag2 writes it); the rosbag2 metadata record (serialized_metadata:
   the bag's YAML with every topic and its message count; ROS_DISTRO);
 - every schema parses with @foxglove/rosmsg and every message decodes with
   @foxglove/rosmsg2-serialization's MessageReader, with no byte left over;
 - every period of same.csv is in run.mcap with the same x̂ and Tr P (the exact doubles), the
-  same fused set and state; the ctl change is on /netkf/link/change;
+  same fused set and state; the ctl change is on /netkf/link/change, and its event on /rosout
+  (rcl_interfaces/msg/Log, INFO);
 - the Python reader's period frame of run.mcap equals same.csv's on the periods both have, and
   its messages equal Foxglove's decoding;
 - `netkf trace extract` of link 1 from run.mcap equals the one from samples.csv;
@@ -39,8 +40,10 @@ require_netns()
 scenario = os.path.join(DATA, "bernoulli3.yaml")  # three links, Bernoulli loss 0.3, period 40 ms, n = 2
 N = 2
 out = workdir("mcap_ros2")
-TOPICS = {"/netkf/truth": "Truth", "/netkf/estimate": "Estimate", "/netkf/measurement/delivered": "Measurement",
-          "/netkf/link/status": "LinkStatus", "/netkf/link/change": "LinkChange"}
+TOPICS = {"/netkf/truth": "netkf_msgs/msg/Truth", "/netkf/estimate": "netkf_msgs/msg/Estimate",
+          "/netkf/measurement/delivered": "netkf_msgs/msg/Measurement", "/netkf/link/status": "netkf_msgs/msg/LinkStatus",
+          "/netkf/link/change": "netkf_msgs/msg/LinkChange", "/rosout": "rcl_interfaces/msg/Log"}
+PERIOD_MS = 40  # bernoulli3.yaml's period
 
 
 def recorder(args):
@@ -87,14 +90,15 @@ channels = m.get("channels", [])
 check([c["topic"] for c in channels] == list(TOPICS), "run.mcap: one channel per ROS 2 topic (%s)"
       % [c["topic"] for c in channels])
 for c in channels:
-    check(c["schemaName"] == "netkf_msgs/msg/" + TOPICS.get(c["topic"], "?") and c["schemaEncoding"] == "ros2msg"
+    check(c["schemaName"] == TOPICS.get(c["topic"]) and c["schemaEncoding"] == "ros2msg"
           and c["messageEncoding"] == "cdr", "%s: schema %s (ros2msg), messages cdr" % (c["topic"], c["schemaName"]))
     qos = yaml.safe_load(c["metadata"].get("offered_qos_profiles", ""))
     check(isinstance(qos, list) and len(qos) == 1 and qos[0].get("reliability") == 1 and qos[0].get("history") == 1
           and qos[0].get("depth", 0) >= 1, "%s: offered_qos_profiles is rosbag2's YAML list (reliable, keep last)"
           % c["topic"])
-    needs_link_spec = c["topic"] in ("/netkf/link/status", "/netkf/link/change")
-    check(c["types"] == (["(root)", "netkf_msgs/LinkSpec"] if needs_link_spec else ["(root)"]),
+    deps = {"/netkf/link/status": ["netkf_msgs/LinkSpec"], "/netkf/link/change": ["netkf_msgs/LinkSpec"],
+            "/rosout": ["builtin_interfaces/Time"]}.get(c["topic"], [])
+    check(c["types"] == ["(root)"] + deps,
           "%s: @foxglove/rosmsg parses the schema with its dependencies (%s)" % (c["topic"], c["types"]))
 counts = m.get("counts", {})
 print("message counts:", counts, flush=True)
@@ -116,7 +120,7 @@ check(bag.get("storage_identifier") == "mcap" and bag.get("version") == 8 and ba
       "serialized_metadata: storage mcap, version 8, the file's message count (%s)" % bag.get("message_count"))
 bag_topics = {t["topic_metadata"]["name"]: t for t in bag.get("topics_with_message_count", [])}
 check(set(bag_topics) == set(TOPICS) and all(
-    bag_topics[t]["message_count"] == counts[t] and bag_topics[t]["topic_metadata"]["type"] == "netkf_msgs/msg/" + ty
+    bag_topics[t]["message_count"] == counts[t] and bag_topics[t]["topic_metadata"]["type"] == ty
     and bag_topics[t]["topic_metadata"]["serialization_format"] == "cdr" for t, ty in TOPICS.items()),
     "serialized_metadata lists every topic with its type and message count")
 
@@ -139,6 +143,17 @@ truth = {t["k"]: t for t in decoded.get("/netkf/truth", [])}
 check(all(r["k"] in truth and truth[r["k"]]["x"] == r["x"] for r in rows), "the truth x is the CSV's (exact doubles)")
 changes = [c for c in decoded.get("/netkf/link/change", []) if c["origin"] == "request" and c["sensor_id"] == 1]
 check(len(changes) == 1 and changes[0]["link"]["loss"] == 0.2, "the ctl change of link 1 is on /netkf/link/change")
+# The run's events as ROS 2 log messages: the ctl change once, at INFO (20), stamped with its log
+# time, from the period before the one the change applied from.
+link_events = [e for e in decoded.get("/rosout", []) if "link 1" in e["msg"] and "loss=0.2" in e["msg"]]
+check(len(link_events) == 1 and link_events[0]["level"] == 20 and link_events[0]["name"] == "netkf",
+      "/rosout: one INFO log message announces link 1's change (%s)" % decoded.get("/rosout"))
+if link_events and changes:
+    ev = link_events[0]
+    ev_ns = ev["stamp"]["sec"] * 1000000000 + ev["stamp"]["nanosec"]
+    check(ev_ns == ev["log_time"] and ev_ns >= (changes[0]["at_period"] - 1) * PERIOD_MS * 1000000,
+          "the log message's stamp is its log time, from the period before the change's (%d) on (%d ns)"
+          % (changes[0]["at_period"], ev_ns))
 
 # ---- the pure-Python reader ----
 frame = netkf_py.read_mcap_periods(run_mcap)

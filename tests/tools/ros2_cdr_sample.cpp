@@ -1,7 +1,7 @@
 // netkf_ros2_cdr_sample KIND JSON: the CDR bytes (hex, one line) that the ros2 MCAP profile's
 // codec (cli/recording/ros2_cdr_codec.hpp, Fast CDR) writes for one record given as JSON, so
 // that python/tests/test_ros2_cdr.py can decode them with the pure-Python decoder and compare
-// with the values it sent. KIND: estimate | truth | delivered.
+// with the values it sent. KIND: estimate | truth | delivered | log.
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -56,7 +56,7 @@ std::string hex(const std::string& bytes) {
 
 int main(int argc, char** argv) {
   if (argc != 3) {
-    std::cerr << "usage: netkf_ros2_cdr_sample estimate|truth|delivered JSON\n";
+    std::cerr << "usage: netkf_ros2_cdr_sample estimate|truth|delivered|log JSON\n";
     return 2;
   }
   try {
@@ -72,6 +72,9 @@ int main(int argc, char** argv) {
     } else if (kind == "delivered") {
       cdr = codec->delivered({j.at("sensor_id").get<int>(), j.at("k").get<std::int64_t>(), j.at("stamp").get<double>(),
                               j.at("y").get<std::vector<double>>()});
+    } else if (kind == "log") {
+      cdr = codec->log(j.at("stamp_ns").get<std::uint64_t>(), j.at("level").get<std::uint8_t>(),
+                       j.at("name").get<std::string>(), j.at("text").get<std::string>());
     } else {
       std::cerr << "unknown kind " << kind << "\n";
       return 2;

@@ -268,15 +268,22 @@ std::string msg_file(const std::string& name) {
 }
 
 TEST(Ros2Bag, MessageDefinitionsAreTheMsgTextsWithTheirDependenciesAppendedAsRosbag2Does) {
-  EXPECT_EQ(ros2::message_definition("Truth"), msg_file("Truth"));  // embedded byte for byte
-  EXPECT_EQ(ros2::message_definition("Estimate"), msg_file("Estimate"));
+  EXPECT_EQ(ros2::message_definition("netkf_msgs", "Truth"), msg_file("Truth"));  // embedded byte for byte
+  EXPECT_EQ(ros2::message_definition("netkf_msgs", "Estimate"), msg_file("Estimate"));
   const std::string separator = "\n" + std::string(80, '=') + "\nMSG: netkf_msgs/LinkSpec\n";
-  EXPECT_EQ(ros2::message_definition("LinkChange"), msg_file("LinkChange") + separator + msg_file("LinkSpec"));
-  EXPECT_EQ(ros2::message_definition("LinkStatus"), msg_file("LinkStatus") + separator + msg_file("LinkSpec"));
-  EXPECT_THROW(ros2::message_definition("Presence"), std::logic_error);  // not embedded: not recorded
+  EXPECT_EQ(ros2::message_definition("netkf_msgs", "LinkChange"), msg_file("LinkChange") + separator + msg_file("LinkSpec"));
+  EXPECT_EQ(ros2::message_definition("netkf_msgs", "LinkStatus"), msg_file("LinkStatus") + separator + msg_file("LinkSpec"));
+  EXPECT_THROW(ros2::message_definition("netkf_msgs", "Presence"), std::logic_error);  // not embedded: not recorded
+  const std::string log = ros2::message_definition("rcl_interfaces", "Log");
+  const auto time = log.find("\n" + std::string(80, '=') + "\nMSG: builtin_interfaces/Time\n");
+  ASSERT_NE(time, std::string::npos) << log;
+  EXPECT_NE(log.find("builtin_interfaces/Time stamp"), std::string::npos);
+  EXPECT_NE(log.find("uint32 nanosec\n", time), std::string::npos);
 }
 
 TEST(Ros2Bag, DependenciesAreTheNonPrimitiveFieldTypes) {
+  EXPECT_EQ(ros2::msg_dependencies("Time stamp\n", "builtin_interfaces"),
+            (std::vector<std::string>{"builtin_interfaces/Time"}));
   EXPECT_EQ(ros2::msg_dependencies("Measurement[<=100] samples  # bounded\nuint64 run\n"),
             (std::vector<std::string>{"netkf_msgs/Measurement"}));
   EXPECT_EQ(ros2::msg_dependencies("# LinkSpec in a comment\nLinkKey[] keys\nstd_msgs/Header header\n"
@@ -371,6 +378,9 @@ class FakeCodec final : public ros2::Ros2Codec {
   std::string delivered(const DeliveredRecord& d) const override { return "delivered " + std::to_string(d.k); }
   std::string link_status(const LinkStatusRecord& l) const override { return "status " + std::to_string(l.sensor_id); }
   std::string link_change(const LinkChangeRecord& c) const override { return "change " + std::to_string(c.at_period); }
+  std::string log(std::uint64_t t, std::uint8_t level, std::string_view, std::string_view text) const override {
+    return "log " + std::to_string(t) + " " + std::to_string(level) + " " + std::string(text);
+  }
   TruthRecord decode_truth(std::string_view) const override { return {}; }
   DeliveredRecord decode_delivered(std::string_view) const override { return {}; }
 };
@@ -392,14 +402,13 @@ TEST(McapRecording, TheRos2ProfileWritesRosbag2sLayout) {
     LinkChangeRecord c;
     c.sensor_id = 1;
     c.at_period = 2;
-    c.origin = "request";
-    c.request_id = 9;
+    c.origin = "timeline";
     c.link = scenario.sensors[0].link;
-    r.link_change(c);
+    r.link_change(c);  // a timeline step: the change and its event
     r.link_change(c);  // a transient-local repeat: written once
     r.finish();
-    EXPECT_EQ(r.messages(), 3u);
-    EXPECT_EQ(r.events(), 0u);  // no events channel in this profile
+    EXPECT_EQ(r.messages(), 4u);
+    EXPECT_EQ(r.events(), 1u);
   }
   const std::string file = bag.str();
   const auto recs = records(file);
@@ -408,11 +417,11 @@ TEST(McapRecording, TheRos2ProfileWritesRosbag2sLayout) {
   std::vector<std::string> topics, schemas, messages;
   std::map<std::string, std::string> metadata;
   for (const auto& rec : recs) {
-    if (rec.opcode == McapWriter::kSchema && schemas.size() < 4) {
+    if (rec.opcode == McapWriter::kSchema && schemas.size() < 5) {
       std::size_t p = 2;
       schemas.push_back(string_at(rec.content, p));
       EXPECT_EQ(string_at(rec.content, p), "ros2msg");
-    } else if (rec.opcode == McapWriter::kChannel && topics.size() < 4) {
+    } else if (rec.opcode == McapWriter::kChannel && topics.size() < 5) {
       std::size_t p = 4;
       topics.push_back(string_at(rec.content, p));
       EXPECT_EQ(string_at(rec.content, p), "cdr");
@@ -432,14 +441,21 @@ TEST(McapRecording, TheRos2ProfileWritesRosbag2sLayout) {
     }
   }
   EXPECT_EQ(topics, (std::vector<std::string>{"/netkf/truth", "/netkf/estimate", "/netkf/link/status",
-                                              "/netkf/link/change"}));
+                                              "/netkf/link/change", "/rosout"}));
   EXPECT_EQ(schemas, (std::vector<std::string>{"netkf_msgs/msg/Truth", "netkf_msgs/msg/Estimate",
-                                               "netkf_msgs/msg/LinkStatus", "netkf_msgs/msg/LinkChange"}));
-  EXPECT_EQ(messages, (std::vector<std::string>{"truth 3", "status " + std::to_string(scenario.sensors[0].id),
-                                                "change 2"}));
+                                               "netkf_msgs/msg/LinkStatus", "netkf_msgs/msg/LinkChange",
+                                               "rcl_interfaces/msg/Log"}));
+  ASSERT_EQ(messages.size(), 4u);
+  EXPECT_EQ(messages[0], "truth 3");
+  EXPECT_EQ(messages[1], "status " + std::to_string(scenario.sensors[0].id));
+  EXPECT_EQ(messages[2], "change 2");
+  // The timeline step's event at the newest record's time (period 3), INFO.
+  const std::uint64_t period_ns = static_cast<std::uint64_t>(scenario.period_ms) * 1000000ULL;
+  EXPECT_EQ(messages[3].rfind("log " + std::to_string(3 * period_ns) + " 20 timeline: link 1 from period 2", 0), 0u)
+      << messages[3];
   EXPECT_EQ(metadata["ROS_DISTRO"], std::string(ros2::kRosDistro));
   const std::string& yaml = metadata["serialized_metadata"];
-  EXPECT_NE(yaml.find("message_count: 3\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("message_count: 4\n"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("      name: /netkf/link/change\n      type: netkf_msgs/msg/LinkChange\n"), std::string::npos);
   EXPECT_NE(yaml.find("relative_file_paths:\n  - \"run.mcap\"\n"), std::string::npos);
   EXPECT_EQ(recs.back().opcode, McapWriter::kFooter);
