@@ -96,8 +96,8 @@ std::uint64_t McapRecorder::period_time_ns(std::int64_t k) const {
 
 void McapRecorder::note_time(double t) { latest_ns_ = std::max(latest_ns_, seconds_to_ns(t)); }
 
-void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json) {
-  writer_.add_message(channel, time_ns, time_ns, json);
+void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std::string& data) {
+  writer_.add_message(channel, time_ns, time_ns, data);
 }
 
 void McapRecorder::write_events() {

@@ -72,7 +72,7 @@ class McapRecorder {
   /// fuse_within: write the held final revisions of the periods up to `last_final`.
   void write_finals(std::int64_t last_final);
   void note_time(double t);
-  void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json);
+  void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& data);  // JSON or CDR
   void write_events();
   bool ros2() const { return options_.profile == McapProfile::ros2; }
   void add_ros2_channels();
