@@ -23,6 +23,7 @@ void check_launch_outputs(const LaunchOptions& o, bool force) {
   if (o.scenario) inputs.push_back({"the scenario", *o.scenario});
   if (o.events) inputs.push_back({"--events", *o.events});
   check_output_files(outputs, inputs);
+  Recording::mcap_options("--record", o.record, o.mcap_profile, nullptr);  // refuses a profile without FILE.mcap
   if (!force) refuse_existing(recordings, "give --force");
 }
 
@@ -38,6 +39,10 @@ void add_launch_command(CLI::App& app) {
                   "Write one CSV row per period: k,t,x..,xhat..,trace_P,fused,late,state,late_samples; and the live link changes "
                   "to FILE.events.yaml (replay with --events). FILE.mcap: an MCAP file instead (truth, estimates, "
                   "link status and changes, delivered samples with --record-samples; JSON, for Foxglove/PlotJuggler)");
+  cmd->add_option("--mcap-profile", o->mcap_profile,
+                  "With --record FILE.mcap: json (default: JSON messages for Foxglove/PlotJuggler) or ros2 (a rosbag2 "
+                  "bag: netkf_msgs CDR on /netkf/... topics, for ros2 bag and Foxglove's ROS 2 panels; docs/recording.md)")
+      ->check(CLI::IsMember({"json", "ros2"}));
   cmd->add_option("--events", o->events,
                   "Replay link changes: an events file (as --record writes FILE.events.yaml); at the same period "
                   "they apply before the scenario's own events")

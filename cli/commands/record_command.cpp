@@ -14,6 +14,7 @@
 #include "live_bus.hpp"
 #include "output_file.hpp"
 #include "recording.hpp"
+#include "ros2_cdr_codec.hpp"
 #include "run_end_watch.hpp"
 #include "serve_loop.hpp"
 
@@ -27,6 +28,7 @@ struct RecordOptions {
   double duration = 0.0;
   std::string out;
   std::optional<std::string> samples;
+  std::optional<std::string> mcap_profile;
   bool force = false;
   NetworkSettings network;
 };
@@ -38,10 +40,11 @@ int run_record(const RecordOptions& o) {
   std::vector<FileArg> inputs;
   if (o.scenario) inputs.push_back({"the scenario", *o.scenario});
   check_output_files(outputs, inputs);
+  McapOptions mcap = Recording::mcap_options("--out", o.out, o.mcap_profile, ros2::make_fastcdr_codec());
   if (!o.force) refuse_existing(outputs, "give --force");
   const Scenario scenario = load_or_default(o.scenario);
   boost::asio::io_context io;
-  Recording recording(o.out, o.samples, scenario);
+  Recording recording(o.out, o.samples, scenario, std::move(mcap));
   std::uint64_t invalid_samples = 0;
   std::unique_ptr<LiveBus> bus;
   try {
@@ -101,6 +104,9 @@ void add_record_command(CLI::App& app) {
                   "link status and changes; delivered samples with --samples)")
       ->required();
   cmd->add_option("--samples", o->samples, "Also write every delivered measurement to this CSV");
+  cmd->add_option("--mcap-profile", o->mcap_profile,
+                  "With --out FILE.mcap: json (default) or ros2 (a rosbag2 bag of netkf_msgs CDR; docs/recording.md)")
+      ->check(CLI::IsMember({"json", "ros2"}));
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
   cmd->add_flag("--force", o->force, "Replace the --out and --samples files (and the journal) of an earlier recording");
   add_network_options(cmd, o->network);

@@ -11,6 +11,7 @@
 #include "netkf/link_trace.hpp"
 #include "netkf/scenario.hpp"
 #include "output_file.hpp"
+#include "ros2_cdr_codec.hpp"
 #include "trace_extract.hpp"
 
 namespace netkf::cli {
@@ -33,7 +34,9 @@ void run_extract(const ExtractArgs& a) {
     check_output_files({{"-o", a.output}}, {{"the recording", a.recording}});
     const int id = *parse_link_name(a.link);
     // The actuation link's arrivals are in the period recording (nu); a sensor's in the samples.
-    trace = extract_link_trace(id == kControlLinkId ? read_input_arrivals(a.recording) : read_delivered_samples(a.recording),
+    const auto codec = ros2::make_fastcdr_codec();  // a ros2-profile MCAP's CDR
+    trace = extract_link_trace(id == kControlLinkId ? read_input_arrivals(a.recording, codec.get())
+                                                    : read_delivered_samples(a.recording, codec.get()),
                                id, a.first, a.last);
   } catch (const std::exception& e) {
     fail(2, e.what());

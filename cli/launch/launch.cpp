@@ -18,6 +18,7 @@
 #include "netkf/nodes/estimator_core.hpp"
 #include "open_files.hpp"
 #include "output_file.hpp"
+#include "ros2_cdr_codec.hpp"
 #include "serve_loop.hpp"
 #include "text.hpp"
 
@@ -201,7 +202,9 @@ void Launch::prepare_files() {
 }
 
 void Launch::open_network() {
-  recording_ = std::make_unique<Recording>(o_.record, o_.record_samples, scenario_);
+  recording_ = std::make_unique<Recording>(
+      o_.record, o_.record_samples, scenario_,
+      Recording::mcap_options("--record", o_.record, o_.mcap_profile, ros2::make_fastcdr_codec()));
   open_console();
   // This run's id: every node stamps it on its samples and drops those of another run. A launch
   // of the whole network draws one; the launches of one network on several hosts (--only) share

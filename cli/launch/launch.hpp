@@ -43,6 +43,7 @@ struct LaunchOptions {
   double duration = 0.0;  // 0: until Ctrl-C
   std::optional<std::string> record;
   std::optional<std::string> record_samples;
+  std::optional<std::string> mcap_profile;  // --mcap-profile json|ros2 (--record FILE.mcap only)
   std::optional<std::string> events;  // replay: an events file (what --record journaled)
   NetworkSettings network;
   std::string log_level = "warn";

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "channel_catalogue.hpp"
 
@@ -30,12 +33,17 @@ bool is_mcap_path(const std::string& path) {
   return ext == ".mcap";
 }
 
-McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered)
-    : writer_(out),
+McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered, McapOptions options)
+    : options_(std::move(options)),
+      writer_(out, "netkf", ros2() ? "ros2" : "", /*with_summary=*/ros2()),
       model_(scenario),
       period_s_(scenario.period_ms / 1000.0),
       with_delivered_(with_delivered),
       max_delay_periods_(scenario.estimator.fusable_delay_periods()) {
+  if (ros2()) {
+    add_ros2_channels();
+    return;
+  }
   using catalogue::ChannelId;
   truth_ = add_channel(writer_, ChannelId::truth);
   estimate_ = add_channel(writer_, ChannelId::estimate);
@@ -45,19 +53,63 @@ McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool wit
   events_ = add_channel(writer_, ChannelId::events);
 }
 
+// The channels in rosbag2's layout: one schema per type, its definition with dependencies.
+void McapRecorder::add_ros2_channels() {
+  if (!options_.codec) throw std::invalid_argument("the ros2 MCAP profile needs a CDR codec");
+  using ros2::Channel;
+  std::vector<Channel> channels{Channel::truth, Channel::estimate};
+  if (with_delivered_) channels.push_back(Channel::delivered);
+  channels.insert(channels.end(), {Channel::link_status, Channel::link_change, Channel::rosout});
+  for (const Channel c : channels) {
+    const auto info = ros2::topic_info(c);
+    const auto schema =
+        writer_.add_schema(info.schema_name(), "ros2msg", ros2::message_definition(info.package, info.type));
+    ros2_channels_[c] = writer_.add_channel(
+        schema, info.topic, "cdr",
+        {{"offered_qos_profiles", ros2::offered_qos_profiles(options_.codec->qos(c))}, {"topic_type_hash", ""}});
+  }
+  truth_ = ros2_channels_[Channel::truth];
+  estimate_ = ros2_channels_[Channel::estimate];
+  if (with_delivered_) delivered_ = ros2_channels_[Channel::delivered];
+  link_status_ = ros2_channels_[Channel::link_status];
+  link_change_ = ros2_channels_[Channel::link_change];
+  events_ = ros2_channels_[Channel::rosout];
+}
+
+// rosbag2 writes its metadata record when the bag is closed: the counts are then known.
+void McapRecorder::write_bag_metadata() {
+  std::vector<ros2::BagTopic> topics;
+  for (const auto& [c, channel] : ros2_channels_) {
+    const auto info = ros2::topic_info(c);
+    topics.push_back({std::string(info.topic), info.schema_name(), options_.codec->qos(c),
+                      writer_.channel_messages(channel)});
+  }
+  writer_.add_metadata("rosbag2", {{"serialized_metadata", ros2::bag_metadata_yaml(topics, options_.file_name,
+                                                                                   writer_.first_log_time(),
+                                                                                   writer_.last_log_time())},
+                                   {"ROS_DISTRO", std::string(ros2::kRosDistro)}});
+}
+
 std::uint64_t McapRecorder::period_time_ns(std::int64_t k) const {
   return seconds_to_ns(static_cast<double>(k) * period_s_);
 }
 
 void McapRecorder::note_time(double t) { latest_ns_ = std::max(latest_ns_, seconds_to_ns(t)); }
 
-void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json) {
-  writer_.add_message(channel, time_ns, time_ns, json);
+void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std::string& data) {
+  writer_.add_message(channel, time_ns, time_ns, data);
 }
 
 void McapRecorder::write_events() {
   for (const auto& event : model_.take_events()) {
-    write(events_, latest_ns_, catalogue::log_message(event, latest_ns_).dump());
+    if (ros2()) {
+      const std::uint8_t level = event.level == LiveEvent::Level::error     ? ros2::kLogError
+                                 : event.level == LiveEvent::Level::warning ? ros2::kLogWarn
+                                                                            : ros2::kLogInfo;
+      write(events_, latest_ns_, options_.codec->log(latest_ns_, level, "netkf", event.text));
+    } else {
+      write(events_, latest_ns_, catalogue::log_message(event, latest_ns_).dump());
+    }
     ++events_written_;
   }
 }
@@ -66,7 +118,7 @@ void McapRecorder::truth(const TruthRecord& t) {
   if (finished()) return;
   model_.add_truth(t);
   note_time(t.t);
-  write(truth_, seconds_to_ns(t.t), catalogue::truth_message(t).dump());
+  write(truth_, seconds_to_ns(t.t), ros2() ? options_.codec->truth(t) : catalogue::truth_message(t).dump());
 }
 
 // late_policy fuse_within: the estimate channel keeps the first (revision 0, written at once)
@@ -90,7 +142,7 @@ void McapRecorder::estimate(const Estimate& e) {
 }
 
 void McapRecorder::write_estimate(const Estimate& e) {
-  write(estimate_, seconds_to_ns(e.t), catalogue::estimate_message(e).dump());
+  write(estimate_, seconds_to_ns(e.t), ros2() ? options_.codec->estimate(e) : catalogue::estimate_message(e).dump());
 }
 
 void McapRecorder::write_finals(std::int64_t last_final) {
@@ -103,18 +155,23 @@ void McapRecorder::write_finals(std::int64_t last_final) {
 void McapRecorder::finish() {
   if (finished()) return;
   if (!finals_.empty()) write_finals(finals_.rbegin()->first);
+  if (ros2()) write_bag_metadata();
   writer_.finish();
 }
 
 void McapRecorder::delivered(const DeliveredRecord& d) {
   if (finished() || !with_delivered_) return;
-  write(delivered_, period_time_ns(d.k), catalogue::delivered_message(d).dump());
+  write(delivered_, period_time_ns(d.k), ros2() ? options_.codec->delivered(d) : catalogue::delivered_message(d).dump());
 }
 
 void McapRecorder::link_status(const LinkStatusRecord& l) {
   if (finished()) return;
   model_.add_link_status(l);
   write_events();
+  if (ros2()) {
+    write(link_status_, latest_ns_, options_.codec->link_status(l));
+    return;
+  }
   for (const auto& view : model_.snapshot().links)
     if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, catalogue::link_status_message(view).dump());
 }
@@ -123,7 +180,7 @@ void McapRecorder::link_change(const LinkChangeRecord& c) {
   if (finished()) return;
   std::string json = catalogue::link_change_message(c).dump();
   if (!changes_seen_.insert(json).second) return;
-  write(link_change_, period_time_ns(c.at_period), json);
+  write(link_change_, period_time_ns(c.at_period), ros2() ? options_.codec->link_change(c) : json);
   model_.add_link_change(c);  // a timeline step is an event too
   write_events();
 }

@@ -14,8 +14,14 @@
 //                                     (link changes, refusals, estimator restarts, silent
 //                                     sensors), as foxglove.Log for Foxglove's Log panel
 // Records are written as they arrive, so log times are not strictly ordered across channels.
+//
+// The ros2 profile (McapOptions::profile, ros2_bag.hpp) writes the same records at the same log
+// times as CDR of the wire types on the ROS 2 topic names (/netkf/truth, ...), one link status
+// message per status the channel published (not the dashboard's views), and the events as ROS 2
+// log messages on /rosout; its file ends with rosbag2's metadata record and a summary.
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <ostream>
 #include <set>
 #include <string>
@@ -23,6 +29,7 @@
 #include "live_model.hpp"
 #include "live_records.hpp"
 #include "mcap_writer.hpp"
+#include "ros2_bag.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -30,11 +37,20 @@ namespace netkf::cli {
 /// True when `path` names an MCAP recording (ends with ".mcap", any case).
 bool is_mcap_path(const std::string& path);
 
+/// The profile of an MCAP recording and, for ros2, the CDR codec (which needs DDS: the
+/// commands give ros2_cdr_codec.hpp's).
+struct McapOptions {
+  McapProfile profile = McapProfile::json;
+  std::shared_ptr<const ros2::Ros2Codec> codec;
+  std::string file_name;  // ros2: the bag metadata's file (the name as given)
+};
+
 class McapRecorder {
  public:
   /// Writes the header, schemas and channels (netkf/measurement/delivered only
-  /// `with_delivered`). `out` must be binary and outlive the recorder.
-  McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered);
+  /// `with_delivered`). `out` must be binary and outlive the recorder. Throws
+  /// std::invalid_argument for the ros2 profile without a codec.
+  McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered, McapOptions options = {});
 
   void truth(const TruthRecord& t);
   void estimate(const Estimate& e);
@@ -56,9 +72,13 @@ class McapRecorder {
   /// fuse_within: write the held final revisions of the periods up to `last_final`.
   void write_finals(std::int64_t last_final);
   void note_time(double t);
-  void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& json);
+  void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& data);  // JSON or CDR
   void write_events();
+  bool ros2() const { return options_.profile == McapProfile::ros2; }
+  void add_ros2_channels();
+  void write_bag_metadata();
 
+  McapOptions options_;
   McapWriter writer_;
   LiveModel model_;  // the link views the dashboard sends (late counts, arrival rates)
   double period_s_;
@@ -69,6 +89,7 @@ class McapRecorder {
   std::uint64_t latest_ns_ = 0;
   std::uint64_t estimates_ = 0;
   std::uint64_t events_written_ = 0;
+  std::map<ros2::Channel, std::uint16_t> ros2_channels_;  // ros2: the channel of each recorded topic
   std::set<std::string> changes_seen_;  // the journal is transient-local: a late reader gets repeats
 };
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
+#include <utility>
 
 #include "exit_code.hpp"
 
@@ -34,11 +36,25 @@ std::vector<FileArg> Recording::outputs(const std::string& periods_option, const
   return files;
 }
 
-namespace {
-}  // namespace
+McapOptions Recording::mcap_options(const std::string& periods_option, const std::optional<std::string>& periods_file,
+                                    const std::optional<std::string>& profile,
+                                    std::shared_ptr<const ros2::Ros2Codec> codec) {
+  McapOptions o;
+  if (!profile) return o;
+  if (!periods_file || !is_mcap_path(*periods_file))
+    fail(ExitCode::bad_usage, "--mcap-profile applies to an MCAP recording: give " + periods_option + " FILE.mcap");
+  try {
+    o.profile = mcap_profile_from_string(*profile);
+  } catch (const std::invalid_argument& e) {
+    fail(ExitCode::bad_usage, std::string("--mcap-profile: ") + e.what());
+  }
+  if (o.profile == McapProfile::ros2) o.codec = std::move(codec);
+  o.file_name = std::filesystem::path(*periods_file).filename().string();
+  return o;
+}
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
-                     const Scenario& scenario)
+                     const Scenario& scenario, McapOptions mcap)
     : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario),
                scenario.actuation_link() != nullptr),
       samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
@@ -46,7 +62,9 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
       samples_file_(samples_file) {
   if (periods_file && is_mcap_path(*periods_file)) {
     mcap_out_ = open_output_stream({"the recording", *periods_file});
-    mcap_ = std::make_unique<McapRecorder>(*mcap_out_, scenario, /*with_delivered=*/samples_file.has_value());
+    if (mcap.file_name.empty()) mcap.file_name = *periods_file;
+    mcap_ = std::make_unique<McapRecorder>(*mcap_out_, scenario, /*with_delivered=*/samples_file.has_value(),
+                                           std::move(mcap));
     mcap_out_->flush();
   } else if (periods_file) {
     periods_out_ = open_output_stream({"the recording", *periods_file});

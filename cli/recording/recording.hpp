@@ -25,9 +25,10 @@ namespace netkf::cli {
 
 class Recording {
  public:
-  /// Throws CommandError (bad_usage) when a file cannot be opened.
+  /// Throws CommandError (bad_usage) when a file cannot be opened. `mcap` (profile, codec)
+  /// applies when periods_file is an MCAP file.
   Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
-            const Scenario& scenario);
+            const Scenario& scenario, McapOptions mcap = {});
   Recording(const Recording&) = delete;
   Recording& operator=(const Recording&) = delete;
   ~Recording();
@@ -44,6 +45,13 @@ class Recording {
   /// refuse_existing before it is made. The journal FILE.events.yaml is one of them.
   static std::vector<FileArg> outputs(const std::string& periods_option, const std::optional<std::string>& periods_file,
                                       const std::string& samples_option, const std::optional<std::string>& samples_file);
+
+  /// The MCAP options of `--mcap-profile` (`profile`, none: json) for the recording
+  /// `periods_file` named by `periods_option`; the codec is used by the ros2 profile. Throws
+  /// CommandError (bad_usage) for a profile given without an MCAP recording, or an unknown one.
+  static McapOptions mcap_options(const std::string& periods_option, const std::optional<std::string>& periods_file,
+                                  const std::optional<std::string>& profile,
+                                  std::shared_ptr<const ros2::Ros2Codec> codec);
 
   bool wants_samples() const { return samples_out_ != nullptr; }
   bool wants_link_status() const { return mcap_ != nullptr; }

@@ -188,9 +188,31 @@ DeliveredSamples read_inputs_csv(std::istream& in, const std::string& path) {
   return s;
 }
 
-DeliveredSamples read_inputs_mcap(std::istream& in, const std::string& path) {
+/// The codec of a ros2-profile file's CDR; none: refused, naming what is missing.
+const ros2::Ros2Codec& cdr_codec(const ros2::Ros2Codec* codec, const std::string& path) {
+  if (!codec) throw std::runtime_error(path + ": a ros2-profile MCAP (CDR messages), and no CDR decoder was given");
+  return *codec;
+}
+
+/// Decodes one CDR message, naming the file when it is not the type's CDR.
+template <class Decode>
+auto decoded(Decode decode, const std::string& path) {
+  try {
+    return decode();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+}
+
+DeliveredSamples read_inputs_mcap(std::istream& in, const std::string& path, const ros2::Ros2Codec* codec) {
   DeliveredSamples s;
   read_mcap_messages(in, path, [&](const McapMessage& m) {
+    if (m.topic == ros2::topic_info(ros2::Channel::truth).topic) {
+      const auto& c = cdr_codec(codec, path);
+      const TruthRecord t = decoded([&] { return c.decode_truth(m.data); }, path);
+      if (!t.u.empty()) add_input(s, t.k, t.input_arrived, path);  // no input: an open loop
+      return;
+    }
     if (m.topic != "netkf/truth") return;
     const auto j = nlohmann::json::parse(m.data, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("k") || !j["k"].is_number_integer())
@@ -202,9 +224,15 @@ DeliveredSamples read_inputs_mcap(std::istream& in, const std::string& path) {
   return s;
 }
 
-DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path) {
+DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path, const ros2::Ros2Codec* codec) {
   DeliveredSamples s;
   read_mcap_messages(in, path, [&](const McapMessage& m) {
+    if (m.topic == ros2::topic_info(ros2::Channel::delivered).topic) {
+      const auto& c = cdr_codec(codec, path);
+      const DeliveredRecord d = decoded([&] { return c.decode_delivered(m.data); }, path);
+      add(s, d.sensor_id, d.k, path);
+      return;
+    }
     if (m.topic != "netkf/measurement/delivered") return;
     const auto j = nlohmann::json::parse(m.data, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("k") || !j.contains("sensor_id") ||
@@ -227,16 +255,20 @@ DeliveredSamples read_recording(const std::string& path, CsvReader csv, McapRead
 }
 }  // namespace
 
-DeliveredSamples read_delivered_samples(const std::string& path) {
-  DeliveredSamples s = read_recording(path, read_samples_csv, read_samples_mcap);
+DeliveredSamples read_delivered_samples(const std::string& path, const ros2::Ros2Codec* codec) {
+  DeliveredSamples s = read_recording(path, read_samples_csv, [codec](std::istream& in, const std::string& p) {
+    return read_samples_mcap(in, p, codec);
+  });
   if (!s.first_k)
     throw std::runtime_error(path + ": no delivered samples (record them with --record-samples; an MCAP has them "
                              "on netkf/measurement/delivered only then)");
   return s;
 }
 
-DeliveredSamples read_input_arrivals(const std::string& path) {
-  DeliveredSamples s = read_recording(path, read_inputs_csv, read_inputs_mcap);
+DeliveredSamples read_input_arrivals(const std::string& path, const ros2::Ros2Codec* codec) {
+  DeliveredSamples s = read_recording(path, read_inputs_csv, [codec](std::istream& in, const std::string& p) {
+    return read_inputs_mcap(in, p, codec);
+  });
   if (!s.first_k)
     throw std::runtime_error(path + ": no control input was due in the recording (a closed loop over an actuation "
                              "link, plant.control.link, records whether each arrived)");

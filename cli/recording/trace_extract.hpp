@@ -10,6 +10,7 @@
 #include <string>
 
 #include "netkf/link_trace.hpp"
+#include "ros2_bag.hpp"
 
 namespace netkf::cli {
 
@@ -20,12 +21,13 @@ struct DeliveredSamples {
 };
 
 /// A recording's delivered samples: a samples CSV (header `k,sensor_id,...`) or an MCAP file
-/// (by its name's `.mcap`). Throws std::runtime_error naming FILE (and LINE for a CSV).
-DeliveredSamples read_delivered_samples(const std::string& path);
+/// (by its name's `.mcap`; a ros2-profile MCAP is decoded with `codec`, without one it is
+/// refused). Throws std::runtime_error naming FILE (and LINE for a CSV).
+DeliveredSamples read_delivered_samples(const std::string& path, const ros2::Ros2Codec* codec = nullptr);
 /// The actuation link's (link `control`, kControlLinkId) arrivals: a period CSV (`--record`,
 /// its `nu` column) or an MCAP (the truth's `input_arrived`) of a scenario with
 /// plant.control.link; input k's fate is in period k + 1's row. Throws like the above.
-DeliveredSamples read_input_arrivals(const std::string& path);
+DeliveredSamples read_input_arrivals(const std::string& path, const ros2::Ros2Codec* codec = nullptr);
 
 /// Link `sensor_id`'s trace over the periods first..last (default: the first and last period
 /// any sensor delivered in; a period after the last delivered sample of every link is unknown).

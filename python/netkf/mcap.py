@@ -3,8 +3,8 @@
 It reads what netkf writes (cli/recording/mcap_writer.hpp: the unchunked, unindexed form,
 CRCs 0) and, beyond that, any MCAP file: chunked (uncompressed, or zstd / lz4 compressed when
 Debian's python3-zstandard / python3-lz4 is installed), with a summary section, attachments and
-metadata. Index, statistics, attachment and metadata records are skipped: the reader streams
-the file the way @mcap/core's McapStreamReader does.
+metadata. Index, statistics and attachment records are skipped (metadata records are kept in
+`metadata` when well formed): the reader streams the file the way @mcap/core's McapStreamReader does.
 
 A file cut short (what `kill -9` leaves) yields every whole record before the cut, with
 `complete` False. A file that ends with a Footer and the closing magic was closed by its
@@ -20,6 +20,8 @@ import json
 import struct
 import zlib
 from dataclasses import dataclass, field
+
+from . import ros2msg
 
 MAGIC = b"\x89MCAP0\r\n"
 
@@ -218,6 +220,7 @@ class McapFile:
         self.schemas = {}
         self.channels = {}
         self.messages = []
+        self.metadata = []  # (name, {key: value}) of each Metadata record, in file order
         self.complete = False
         self.truncated = False
         self._validate = validate_crcs
@@ -346,6 +349,13 @@ class McapFile:
             self.messages.append(m)
         elif opcode == OP_CHUNK:
             self._chunk(c, offset)
+        elif opcode == OP_METADATA:
+            # Kept for the caller (a ros2 bag's `rosbag2` record); the messages do not depend on
+            # it, so a malformed one is skipped like the other records a stream reader ignores.
+            try:
+                self.metadata.append((c.string(), c.string_map()))
+            except McapError:
+                pass
         elif opcode == OP_ATTACHMENT:
             c.u64(), c.u64(), c.string(), c.string(), c.bytes64()
             covered = c.pos
@@ -397,19 +407,39 @@ class McapFile:
         return self.schemas.get(ch.schema_id)
 
     def decoded(self, topic):
-        """(log_time ns, message) of every message on `topic`, in file order; JSON messages
-        are decoded into dicts (netkf's channels are all JSON)."""
+        """(log_time ns, message) of every message on `topic`, in file order, decoded into
+        dicts: JSON messages (the json profile), and CDR messages with a ros2msg schema (the
+        ros2 profile, netkf.ros2msg: the .msg field names)."""
         ch = self.channel(topic)
-        if ch.message_encoding != "json":
-            raise McapError("MCAP: channel %s is %r-encoded; only json is decoded" % (topic, ch.message_encoding))
+        if ch.message_encoding == "json":
+            decode = json.loads
+        elif ch.message_encoding == "cdr":
+            decode = self._cdr_decoder(ch)
+        else:
+            raise McapError("MCAP: channel %s is %r-encoded; json and cdr are decoded" % (topic, ch.message_encoding))
         out = []
         for m in self.messages:
             if m.channel_id == ch.id:
                 try:
-                    out.append((m.log_time, json.loads(m.data)))
-                except (ValueError, RecursionError) as e:  # ValueError: not UTF-8, or not JSON
-                    raise McapError("MCAP: message %d on %s is not JSON (%s)" % (m.sequence, topic, e)) from None
+                    out.append((m.log_time, decode(m.data)))
+                except (ValueError, RecursionError) as e:  # ValueError: not UTF-8, not JSON, not the CDR
+                    raise McapError("MCAP: message %d on %s is not %s (%s)"
+                                    % (m.sequence, topic, "JSON" if ch.message_encoding == "json" else
+                                       "the CDR of its schema", e)) from None
         return out
+
+    def _cdr_decoder(self, ch):
+        schema = self.schemas.get(ch.schema_id)
+        if schema is None or schema.encoding != "ros2msg":
+            raise McapError("MCAP: channel %s is CDR without a ros2msg schema (%s)"
+                            % (ch.topic, "none" if schema is None else schema.encoding))
+        try:
+            text = schema.data.decode("utf-8")
+            types = ros2msg.parse_definition(schema.name, text)
+        except (UnicodeDecodeError, ros2msg.Ros2MsgError) as e:
+            raise McapError("MCAP: %s: the schema %s of %s: %s" % (self.path, schema.name, ch.topic, e)) from None
+        root = ros2msg.schema_name(schema.name)
+        return lambda data: ros2msg.decode(types, root, data, ch.topic)
 
     def counts(self):
         """Messages per topic."""

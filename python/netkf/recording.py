@@ -251,6 +251,56 @@ DELIVERED = "netkf/measurement/delivered"
 LINK_STATUS = "netkf/link/status"
 LINK_CHANGE = "netkf/link/change"
 CONTROL_LINK_ID = -1  # the actuation link (link `control`) where links are numbered (core/scenario.hpp)
+# The ros2 profile (--mcap-profile ros2, docs/recording.md): the same records as CDR of the
+# netkf_msgs types on the ROS 2 topic names; read here into the json profile's messages.
+ROS2_TOPICS = {TRUTH: "/netkf/truth", ESTIMATE: "/netkf/estimate", DELIVERED: "/netkf/measurement/delivered",
+               LINK_STATUS: "/netkf/link/status", LINK_CHANGE: "/netkf/link/change"}
+
+
+def _from_ros2_truth(msg):
+    out = {"k": msg["k"], "t": msg["t"], "x": msg["x"]}
+    if msg["applied_input"]:  # a closed loop (the json profile writes u and input_arrived only then)
+        out.update(u=msg["applied_input"], input_arrived=msg["input_arrived"])
+    return out
+
+
+def _from_ros2_estimate(msg):
+    if len(msg["late_sensors"]) != len(msg["late_periods"]):
+        raise FormatError("an estimate of period %d has %d late sensors but %d late periods"
+                          % (msg["k"], len(msg["late_sensors"]), len(msg["late_periods"])))
+    return {"k": msg["k"], "revision": msg["revision"], "x_hat": msg["x_hat"], "trace_P": msg["trace_p"],
+            "fused": msg["fused"], "late": msg["late"], "state": msg["state"],
+            "late_samples": [{"k": k, "sensor_id": s} for k, s in zip(msg["late_periods"], msg["late_sensors"])]}
+
+
+def _from_ros2_delivered(msg):
+    # The json profile's stamp is seconds, the wire's nanoseconds (the recorder's ns * 1e-9).
+    return {"k": msg["k"], "sensor_id": msg["sensor_id"], "stamp": msg["stamp_ns"] * 1e-9, "y": msg["y"]}
+
+
+_FROM_ROS2 = {TRUTH: _from_ros2_truth, ESTIMATE: _from_ros2_estimate, DELIVERED: _from_ros2_delivered,
+              LINK_STATUS: dict, LINK_CHANGE: dict}
+
+
+def _has_topic(m, topic):
+    return topic in m.topics() or ROS2_TOPICS.get(topic) in m.topics()
+
+
+def _topic_messages(m, topic):
+    """(log_time ns, message) of netkf's channel `topic` in either profile: its JSON messages,
+    or the ros2 profile's CDR messages in the json profile's form."""
+    ros2 = ROS2_TOPICS.get(topic)
+    if topic not in m.topics() and ros2 in m.topics():
+        convert = _FROM_ROS2[topic]
+        out = []
+        for i, (t, msg) in enumerate(m.decoded(ros2)):
+            try:
+                out.append((t, convert(msg)))
+            except (KeyError, TypeError) as e:  # a schema other than netkf_msgs' (a field missing)
+                raise FormatError("%s: message %d on %s is not what netkf writes (%s: %s)"
+                                  % (m.path, i, ros2, type(e).__name__, e)) from None
+        return out
+    return m.decoded(topic)
 
 
 def read_mcap(path):
@@ -259,8 +309,8 @@ def read_mcap(path):
 
 
 def read_mcap_topic(path_or_file, topic):
-    """Every message of one channel as a DataFrame: log_time (ns) and the JSON message's
-    top-level fields (arrays stay Python lists)."""
+    """Every message of one channel as a DataFrame: log_time (ns) and the message's top-level
+    fields (JSON, or a ros2 bag's CDR by its .msg names; arrays stay Python lists)."""
     m = path_or_file if isinstance(path_or_file, McapFile) else McapFile(path_or_file)
     rows = []
     for i, (t, msg) in enumerate(m.decoded(topic)):
@@ -328,7 +378,7 @@ def _parsed(m, topic, parse):
     """The messages of `topic`, each parsed into the fields netkf writes; a message without
     them (or with the wrong types) is a FormatError naming it."""
     out = []
-    for i, (_, msg) in enumerate(m.decoded(topic)):
+    for i, (_, msg) in enumerate(_topic_messages(m, topic)):
         try:
             out.append(parse(msg))
         except (KeyError, TypeError, ValueError) as e:
@@ -365,8 +415,8 @@ def _reports_actuation_link(m):
     one), or a change of it. The truth's input_arrived alone does not say so: every closed loop
     writes it, while the CSV has `nu` only with an actuation link."""
     for topic in (LINK_STATUS, LINK_CHANGE):
-        if topic in m.topics() and any(isinstance(msg, dict) and msg.get("sensor_id") == CONTROL_LINK_ID
-                                       for _, msg in m.decoded(topic)):
+        if _has_topic(m, topic) and any(isinstance(msg, dict) and msg.get("sensor_id") == CONTROL_LINK_ID
+                                        for _, msg in _topic_messages(m, topic)):
             return True
     return False
 

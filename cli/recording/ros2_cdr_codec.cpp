@@ -1,0 +1,141 @@
+#include "ros2_cdr_codec.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
+
+#include "netkf/dds/conversions.hpp"
+#include "netkf/dds/topics.hpp"
+
+namespace netkf::cli::ros2 {
+namespace {
+
+using eprosima::fastrtps::rtps::SerializedPayload_t;
+
+template <class Wire>
+std::string serialize(Wire w) {
+  typename dds::PubSubTypeOf<Wire>::type type;
+  SerializedPayload_t payload(type.getSerializedSizeProvider(&w)());
+  if (!type.serialize(&w, &payload)) throw std::runtime_error("CDR: a sample did not fit its serialized size");
+  return std::string(reinterpret_cast<const char*>(payload.data), payload.length);
+}
+
+template <class Wire>
+Wire deserialize(std::string_view cdr, const char* what) {
+  typename dds::PubSubTypeOf<Wire>::type type;
+  SerializedPayload_t payload(static_cast<std::uint32_t>(cdr.size()));
+  std::memcpy(payload.data, cdr.data(), cdr.size());
+  payload.length = static_cast<std::uint32_t>(cdr.size());
+  Wire w;
+  if (cdr.size() < 4 || !type.deserialize(&payload, &w))
+    throw std::runtime_error(std::string("not the CDR of a ") + what);
+  return w;
+}
+
+Qos qos_of(const dds::TopicQos& q) { return {q.reliable, q.transient_local, q.depth}; }
+
+class FastCdrCodec final : public Ros2Codec {
+ public:
+  Qos qos(Channel c) const override {
+    switch (c) {
+      case Channel::truth:
+        return qos_of(dds::topics::truth.qos);
+      case Channel::estimate:
+        return qos_of(dds::topics::estimate.qos);
+      case Channel::delivered:
+        return qos_of(dds::topics::delivered_measurement.qos);
+      case Channel::link_status:
+        return qos_of(dds::topics::link_status.qos);
+      case Channel::link_change:
+        return qos_of(dds::topics::link_change.qos);
+      case Channel::rosout:
+        return {true, true, 1000};  // rcl's /rosout publisher: reliable, transient local, keep last 1000
+    }
+    throw std::logic_error("unknown ROS 2 channel");
+  }
+
+  std::string truth(const TruthRecord& t) const override {
+    wire::Truth w;
+    w.k(static_cast<std::uint64_t>(t.k));
+    w.t(t.t);
+    w.x(t.x);
+    w.applied_input(t.u);
+    w.input_arrived(t.input_arrived);
+    return serialize(w);
+  }
+
+  std::string estimate(const Estimate& e) const override { return serialize(dds::to_wire(e)); }
+
+  std::string delivered(const DeliveredRecord& d) const override {
+    wire::Measurement w;
+    w.sensor_id(d.sensor_id);
+    w.k(static_cast<std::uint64_t>(d.k));
+    w.stamp_ns(static_cast<std::int64_t>(std::llround(d.stamp * 1e9)));  // the record keeps seconds
+    w.y(d.y);
+    return serialize(w);
+  }
+
+  std::string link_status(const LinkStatusRecord& l) const override {
+    dds::LinkStatusFacts f;
+    f.sensor_id = l.sensor_id;
+    f.link = l.link;
+    f.in_time = l.in_time;
+    f.last_request_id = l.last_request_id;
+    f.last_request_rejected = !l.rejection_reason.empty();
+    f.reject_reason = l.rejection_reason;
+    f.held = l.held;
+    f.past_deadline = l.past_deadline;
+    f.recent_fit = l.recent_fit;
+    wire::LinkStatus s = dds::make_link_status(f, 0);
+    // The record keeps the counts, not the running statistics they came from.
+    s.samples_in(l.samples_in);
+    s.delivered(l.delivered);
+    s.dropped(l.dropped);
+    s.observed_loss(l.observed_loss);
+    s.mean_burst_length(l.mean_burst_length);
+    s.samples_total(l.samples_total);
+    s.delivered_total(l.delivered_total);
+    s.dropped_total(l.dropped_total);
+    return serialize(s);
+  }
+
+  std::string link_change(const LinkChangeRecord& c) const override {
+    return serialize(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), c.origin,
+                                           c.request_id, c.link, 0));
+  }
+
+  // rcl_interfaces/msg/Log has no wire type in idl/netkf.idl: its fields are serialized one by
+  // one with Fast CDR (the alignment and encapsulation its generated types use).
+  std::string log(std::uint64_t stamp_ns, std::uint8_t level, std::string_view name,
+                  std::string_view text) const override {
+    const std::size_t bound = 64 + name.size() + text.size();
+    std::string buffer(bound, '\0');
+    eprosima::fastcdr::FastBuffer fast(buffer.data(), buffer.size());
+    eprosima::fastcdr::Cdr cdr(fast, eprosima::fastcdr::Cdr::DEFAULT_ENDIAN, eprosima::fastcdr::Cdr::DDS_CDR);
+    cdr.serialize_encapsulation();
+    cdr << static_cast<std::int32_t>(stamp_ns / 1000000000ULL) << static_cast<std::uint32_t>(stamp_ns % 1000000000ULL);
+    cdr << level << std::string(name) << std::string(text) << std::string() << std::string() << std::uint32_t{0};
+    buffer.resize(cdr.getSerializedDataLength());
+    return buffer;
+  }
+
+  TruthRecord decode_truth(std::string_view cdr) const override {
+    const auto w = deserialize<wire::Truth>(cdr, "netkf_msgs/msg/Truth");
+    return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
+  }
+
+  DeliveredRecord decode_delivered(std::string_view cdr) const override {
+    const auto w = deserialize<wire::Measurement>(cdr, "netkf_msgs/msg/Measurement");
+    return DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), static_cast<double>(w.stamp_ns()) * 1e-9,
+                           w.y()};
+  }
+};
+
+}  // namespace
+
+std::shared_ptr<const Ros2Codec> make_fastcdr_codec() { return std::make_shared<FastCdrCodec>(); }
+
+}  // namespace netkf::cli::ros2
