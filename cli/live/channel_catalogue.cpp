@@ -360,6 +360,7 @@ json link_status_json(const LinkStatusRecord& l) {
   j["last_request_rejected"] = !l.rejection_reason.empty();
   j["reject_reason"] = l.rejection_reason;
   j["recent_fit"] = l.recent_fit ? recent_fit_json(*l.recent_fit) : json(nullptr);
+  if (!l.topic.empty()) j["topic"] = l.topic;  // a link of netkf relay
   return j;
 }
 
@@ -403,6 +404,7 @@ json link_change_message(const LinkChangeRecord& c) {
   j["at_period"] = c.at_period;
   j["origin"] = c.origin;
   j["request_id"] = c.request_id;
+  if (!c.topic.empty()) j["topic"] = c.topic;
   return j;
 }
 

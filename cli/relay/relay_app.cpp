@@ -55,6 +55,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     destination_prefix_ = destination_->get()->guid().guidPrefix;
     // Link changes (`netkf ctl set-link TOPIC ... --domain TO`) on the readers' domain.
     reply_.emplace(*destination_, dds::topics::link_control_reply);
+    // Each topic's link as a channel's links report themselves (`netkf ctl status --domain TO`),
+    // and its journal of changes.
+    status_.emplace(*destination_, dds::topics::link_status);
+    journal_.emplace(*destination_, dds::topics::link_change);
     control_.emplace(*destination_, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
     dds::ParticipantOptions from;
@@ -80,7 +84,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                    options_.from_domain);
     source_.reset();
     write_record();  // the lines of the last samples
+    publish_status();  // the final counts, for a reader still there
     relayed_.clear();
+    journal_.reset();
+    status_.reset();
     reply_.reset();
     destination_.reset();
   }
@@ -90,6 +97,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
 
   void run() {
     work_.emplace(io_.get_executor());
+    publish_status();  // every topic's link from the start, before its first writer is found
     schedule_flush();
     io_.run();
   }
@@ -117,6 +125,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     dds::DiscoveredWriter writer;
     std::unique_ptr<dds::RawWriter> out;
     std::unique_ptr<dds::RawReader> in;
+    std::atomic<bool> warned_no_key{false};
   };
 
   // Fast DDS's discovery thread: only the topics asked for; the endpoints are made on the
@@ -169,6 +178,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     spdlog::info("relaying {} (type {}, {}, {}) from domain {} to domain {}", writer.topic, writer.type,
                  writer.reliable ? "reliable" : "best effort", writer.transient_local ? "transient local" : "volatile",
                  options_.from_domain, options_.to_domain);
+    // Discovery announces reliability and durability, not history: the relay's own (--depth).
+    spdlog::info("{}: history keep-last {}{} (--depth; a writer's history is not announced in discovery)",
+                 writer.topic, options_.depth, writer.keyed ? " per instance" : "");
+    for (const auto& what : writer.not_mirrored)
+      spdlog::warn("{}: the relay does not mirror {}", writer.topic, what);
     const std::lock_guard lock(mutex_);
     counts_[writer.topic].type = writer.type;
     relayed_.emplace(writer.topic, std::move(relayed));
@@ -184,6 +198,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       own_samples_.fetch_add(1);
       return;
     }
+    // A keyed sample without its key hash (a writer that sends none, e.g. Cyclone DDS by default):
+    // the relay cannot compute the key from a payload it does not understand.
+    if (r.writer.keyed && !sample.key.isDefined() && !r.warned_no_key.exchange(true))
+      spdlog::warn("a writer of keyed topic {} sends no key hash: its instances are relayed as one (docs/relay.md)",
+                   r.writer.topic);
     RelayFate fate;
     bool rearm = false;  // a new earliest held sample: the release timer must move
     {
@@ -245,19 +264,53 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       return;
     }
     std::string reason;
+    std::optional<LinkSpec> applied;
+    std::uint64_t at_sample = 0;
     try {
       // Outside the lock: a trace named here is read now, never on the sample path.
       const LinkSpec next = apply_link_keys(*current, keys);
       {
         const std::lock_guard lock(mutex_);
         links_.set_link(topic, next);
+        links_.note_request(topic, c.request_id(), "");
+        at_sample = links_.report(topic)->next_sample;
       }
-      spdlog::info("request {}: {} now has a {} link (from its next sample on)", c.request_id(), topic, link_kind(next));
+      applied = next;
+      spdlog::info("request {}: {} now has a {} link (from its sample {} on)", c.request_id(), topic, link_kind(next),
+                   at_sample);
     } catch (const std::exception& e) {
       reason = e.what();
+      {
+        const std::lock_guard lock(mutex_);
+        links_.note_request(topic, c.request_id(), reason);
+      }
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
     }
     reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
+    // The journal entry (the sample it applies from: the link decides under the lock, so no
+    // sample of the topic falls between the change and this index), then the status that
+    // acknowledges the request.
+    if (applied)
+      journal_->write(dds::make_link_change(relay_topic_link_id(topic), at_sample, "request", c.request_id(), *applied,
+                                            dds::steady_now_ns(), topic));
+    publish_status();
+  }
+
+  // Relay thread (and the end): every topic's link as a LinkStatus, keyed by its topic's id.
+  // There is no estimator's deadline here: P(in time) is 1 and nothing is past a deadline.
+  void publish_status() {
+    std::vector<dds::LinkStatusFacts> facts;
+    {
+      const std::lock_guard lock(mutex_);
+      for (auto& r : links_.reports()) {
+        const auto relayed = relayed_.find(r.topic);
+        const std::uint64_t held = relayed == relayed_.end() ? 0 : held_.held(relayed->second->index);
+        facts.push_back({relay_topic_link_id(r.topic), r.link, 1.0, r.stats, r.lifetime, r.last_request_id,
+                         !r.reject_reason.empty(), r.reject_reason, held, 0, std::move(r.recent_fit), r.topic});
+      }
+    }
+    const auto now = dds::steady_now_ns();
+    for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
   }
 
   void send(Relayed& r, dds::RawSample& sample) {
@@ -271,6 +324,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     flush_timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
       write_record();
+      publish_status();
       schedule_flush();
     });
   }
@@ -308,6 +362,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   eprosima::fastrtps::rtps::GuidPrefix_t destination_prefix_;
   std::optional<dds::Writer<wire::LinkControlReply>> reply_;
   std::optional<dds::Reader<wire::LinkControl>> control_;
+  std::optional<dds::Writer<wire::LinkStatus>> status_;
+  std::optional<dds::Writer<wire::LinkChange>> journal_;
   std::atomic<std::uint64_t> own_samples_{0};  // its own samples that came back, not relayed
   std::map<std::string, std::unique_ptr<Relayed>> relayed_;
   std::unique_ptr<dds::Participant> source_;  // last made, first gone: its discovery uses all of the above
