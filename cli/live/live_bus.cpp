@@ -110,6 +110,8 @@ std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
 
 }  // namespace
 
+LinkStatusRecord link_status_record(const wire::LinkStatus& status) { return to_record(status); }
+
 struct LiveBus::Impl {
   dds::Participant participant;
   std::unique_ptr<dds::Reader<wire::Truth>> truth;

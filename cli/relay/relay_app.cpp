@@ -20,6 +20,9 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "dashboard_server.hpp"
+#include "live_bus.hpp"
+#include "live_metrics.hpp"
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
 #include "netkf/release_queue.hpp"
@@ -67,9 +70,15 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     from.profile_file = options_.profile;
     from.discovery_listener = this;  // from its creation on: no writer is discovered unseen
     source_ = std::make_unique<dds::Participant>(from);
+    if (options_.metrics_port) serve_metrics(*options_.metrics_port);
+  }
+
+  std::optional<unsigned short> metrics_port() const {
+    return metrics_server_ ? std::optional<unsigned short>(metrics_server_->port()) : std::nullopt;
   }
 
   ~Impl() override {
+    if (metrics_server_) metrics_server_->stop();
     // The readers first: no sample callback may run into what follows. Taken out under the lock,
     // deleted outside it (deleting a reader waits for its callback, which may wait for the lock).
     control_.reset();
@@ -296,9 +305,44 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     publish_status();
   }
 
+  // GET /metrics on 127.0.0.1 (no page: a launch's page shows a scenario's links), served on the
+  // relay's thread; the topics' links as a launch's links are (netkf_link_*{link="TOPIC"}).
+  void serve_metrics(unsigned short port) {
+    DashboardOptions o;
+    o.serve_page = false;
+    o.port = port;
+    o.max_connections = 16;
+    DashboardServer::Hooks hooks;
+    hooks.metrics = [this] { return metrics_text(); };
+    hooks.set_parameters = [](DashboardServer::ClientId, const dashboard::SetParameters&) {};
+    hooks.get_parameters = [](const dashboard::GetParameters&) { return nlohmann::json::object(); };
+    hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
+    const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", nlohmann::json::array()}};
+    metrics_server_ = std::make_unique<DashboardServer>(io_, o, info, std::move(hooks));
+    spdlog::info("metrics of the relayed topics' links: http://127.0.0.1:{}/metrics", metrics_server_->port());
+  }
+
+  std::string metrics_text() {
+    LiveSnapshot snapshot;
+    for (const auto& f : status_facts()) {
+      LinkView view;
+      static_cast<LinkStatusRecord&>(view) = link_status_record(dds::make_link_status(f, 0));
+      view.observed_rate_since_change = observed_rate_since_change(view);
+      snapshot.links.push_back(std::move(view));
+    }
+    metrics_.update(snapshot);
+    return metrics_.serialize();
+  }
+
   // Relay thread (and the end): every topic's link as a LinkStatus, keyed by its topic's id.
   // There is no estimator's deadline here: P(in time) is 1 and nothing is past a deadline.
   void publish_status() {
+    const auto facts = status_facts();
+    const auto now = dds::steady_now_ns();
+    for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
+  }
+
+  std::vector<dds::LinkStatusFacts> status_facts() const {
     std::vector<dds::LinkStatusFacts> facts;
     {
       const std::lock_guard lock(mutex_);
@@ -309,8 +353,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                          !r.reject_reason.empty(), r.reject_reason, held, 0, std::move(r.recent_fit), r.topic});
       }
     }
-    const auto now = dds::steady_now_ns();
-    for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
+    return facts;
   }
 
   void send(Relayed& r, dds::RawSample& sample) {
@@ -364,6 +407,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   std::optional<dds::Reader<wire::LinkControl>> control_;
   std::optional<dds::Writer<wire::LinkStatus>> status_;
   std::optional<dds::Writer<wire::LinkChange>> journal_;
+  LiveMetrics metrics_{LiveMetrics::Scope::links};
+  std::unique_ptr<DashboardServer> metrics_server_;
   std::atomic<std::uint64_t> own_samples_{0};  // its own samples that came back, not relayed
   std::map<std::string, std::unique_ptr<Relayed>> relayed_;
   std::unique_ptr<dds::Participant> source_;  // last made, first gone: its discovery uses all of the above
@@ -373,6 +418,7 @@ RelayApp::RelayApp(RelayOptions options) : impl_(std::make_unique<Impl>(std::mov
 RelayApp::~RelayApp() = default;
 void RelayApp::run() { impl_->run(); }
 void RelayApp::stop() { impl_->stop(); }
+std::optional<unsigned short> RelayApp::metrics_port() const { return impl_->metrics_port(); }
 std::vector<RelayTopicCounts> RelayApp::counts() const { return impl_->counts(); }
 
 }  // namespace netkf::cli

@@ -10,14 +10,18 @@ idl/netkf.idl through Cyclone's idlc) and the binomial bounds of the configured 
 equal to the recording's; the text table names the topic; the Cyclone reader's last status of
 the topic says the same; after `netkf ctl set-link rt/chatter --bernoulli 0` the journal entry
 (seen by the Cyclone reader) names the topic, the request and the index of the first sample the
-recording shows under the new link, and every sample after it is delivered."""
+recording shows under the new link, and every sample after it is delivered; the relay's
+/metrics (--metrics) counts per topic what the recording shows, and serves no page."""
 import csv
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
 import time
+import urllib.error
+import urllib.request
 
 from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, workdir
 
@@ -76,7 +80,27 @@ def status_of_topic():
 listener = start("listener", [CHATTER, "listen", "--domain", str(TO), "--duration", "120", "--count-only"])
 reader = start("reader", [READER, "--domain", str(TO), "--duration", "120"])
 relay = start("relay", [NETKF, "relay", "--from-domain", str(FROM), "--to-domain", str(TO), "--topic", "rt/chatter",
-                        "--bernoulli", str(LOSS), "--seed", "23", "--record", record])
+                        "--bernoulli", str(LOSS), "--seed", "23", "--record", record, "--metrics", "0"])
+
+
+def metrics():
+    port = re.search(r"http://127\.0\.0\.1:(\d+)/metrics", text("relay", ".out") + text("relay", ".log")).group(1)
+    with urllib.request.urlopen("http://127.0.0.1:%s/metrics" % port, timeout=10) as r:
+        body = r.read().decode()
+    values = {}
+    for line in body.splitlines():
+        m = re.match(r'^(netkf_\w+)\{link="rt/chatter"\} (\S+)$', line)
+        if m:
+            values[m.group(1)] = float(m.group(2))
+    return port, values
+
+
+def page_status(port):
+    try:
+        with urllib.request.urlopen("http://127.0.0.1:%s/" % port, timeout=10) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
 try:
     check(wait_for(lambda: "ready" in text("listener", ".log") and "ready" in text("reader", ".log"), 20),
           "the listener and the Cyclone reader are up")
@@ -86,6 +110,9 @@ try:
     check(wait_for(lambda: sum(1 for _ in open(record)) == COUNT + 1, 20), "the recording has a line per sample")
     time.sleep(2.5)
     before = status_of_topic()
+    port, served = metrics()
+    print("metrics:", served, flush=True)
+    root = page_status(port)
     table = run([NETKF, "ctl", "status", "--domain", str(TO)])
     check(table.returncode == 0 and any(l.startswith("rt/chatter ") for l in table.stdout.splitlines()),
           "the status table names the relayed topic's link")
@@ -100,6 +127,7 @@ try:
     check(wait_for(lambda: sum(1 for _ in open(record)) == COUNT + COUNT2 + 1, 20), "the recording has them too")
     time.sleep(2.5)
     after = status_of_topic()
+    _, served_after = metrics()
 finally:
     rc_relay = stop(relay)
     rc_reader = stop(reader)
@@ -161,4 +189,16 @@ check(len(changes) == 1 and changes[0]["link_topic"] == "rt/chatter" and changes
 check(changes and changes[0]["at_period"] == int(second[0]["index"]) == COUNT,
       "the change applies from the topic's sample %s, the first the recording shows under it" % (
           changes[0]["at_period"] if changes else None))
+
+# /metrics: the same counters, per topic.
+check(served.get("netkf_link_samples_total") == COUNT and served.get("netkf_link_delivered_total") == delivered
+      and served.get("netkf_link_dropped_total") == dropped,
+      "/metrics counts rt/chatter's samples, delivered, dropped as the recording does (%s)" % served)
+check(served.get("netkf_link_configured_loss") == LOSS and served.get("netkf_link_held_samples") == 0,
+      "/metrics: the configured loss and nothing held")
+check(served_after.get("netkf_link_samples_total") == COUNT + COUNT2
+      and served_after.get("netkf_link_delivered_total") == delivered + COUNT2
+      and served_after.get("netkf_link_dropped_total") == dropped and served_after.get("netkf_link_configured_loss") == 0,
+      "/metrics after the change: counters go on, the configured loss is 0 (%s)" % served_after)
+check(root == 404, "the relay serves no page (GET / -> %s)" % root)
 finish()
