@@ -138,8 +138,9 @@ void add_relay_command(CLI::App& app) {
   cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
   cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
-  cmd->add_option("--metrics", o->metrics_port,
-                  "Serve the topics' link metrics (Prometheus, GET /metrics) on 127.0.0.1:PORT (0: a free port, logged)")
+  cmd->add_option("--dashboard", o->metrics_port,
+                  "Serve the topics' links on 127.0.0.1:PORT (0: a free port, logged): GET /metrics (Prometheus) and a "
+                  "Foxglove WebSocket (netkf/link/status); no page yet")
       ->check(CLI::Range(0, 65535));
   cmd->callback([o] { run_command([&] { return run_relay(*o); }); });
 }

@@ -27,7 +27,7 @@ namespace netkf::cli {
 inline constexpr std::size_t kDefaultMaxConnections = 256;
 
 struct DashboardOptions {
-  /// false: no page, only /metrics (and the WebSocket) — `netkf relay --metrics`.
+  /// false: no page, only /metrics (and the WebSocket) — `netkf relay --dashboard`.
   bool serve_page = true;
   std::string bind = "127.0.0.1";
   unsigned short port = 8470;                 // 0: any free port (tests)

@@ -66,7 +66,7 @@ struct NetworkSettings {
 };
 
 /// A link status from the wire (throws dds::ConversionError when it is not valid): the one
-/// conversion every reader of link statuses uses (`netkf relay --metrics` too).
+/// conversion every reader of link statuses uses (`netkf relay --dashboard` too).
 LinkStatusRecord link_status_record(const wire::LinkStatus& status);
 
 struct BusHandlers {

@@ -20,6 +20,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "channel_catalogue.hpp"
 #include "dashboard_server.hpp"
 #include "live_bus.hpp"
 #include "live_metrics.hpp"
@@ -305,8 +306,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     publish_status();
   }
 
-  // GET /metrics on 127.0.0.1 (no page: a launch's page shows a scenario's links), served on the
-  // relay's thread; the topics' links as a launch's links are (netkf_link_*{link="TOPIC"}).
+  // GET /metrics and the Foxglove WebSocket (netkf/link/status) on 127.0.0.1,
+  // no page (a launch's page shows a scenario's links), served on the relay's thread; the
+  // topics' links as a launch's links are (netkf_link_*{link="TOPIC"}).
   void serve_metrics(unsigned short port) {
     DashboardOptions o;
     o.serve_page = false;
@@ -319,19 +321,33 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
     const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", nlohmann::json::array()}};
     metrics_server_ = std::make_unique<DashboardServer>(io_, o, info, std::move(hooks));
-    spdlog::info("metrics of the relayed topics' links: http://127.0.0.1:{}/metrics", metrics_server_->port());
+    spdlog::info("the relayed topics' links: http://127.0.0.1:{}/metrics, Foxglove ws://127.0.0.1:{}/",
+                 metrics_server_->port(), metrics_server_->port());
   }
 
   std::string metrics_text() {
     LiveSnapshot snapshot;
-    for (const auto& f : status_facts()) {
+    snapshot.links = link_views(status_facts());
+    metrics_.update(snapshot);
+    return metrics_.serialize();
+  }
+
+  // The links as the launch's live views hold them (through the wire's conversion: one place).
+  static std::vector<LinkView> link_views(const std::vector<dds::LinkStatusFacts>& facts) {
+    std::vector<LinkView> views;
+    for (const auto& f : facts) {
       LinkView view;
       static_cast<LinkStatusRecord&>(view) = link_status_record(dds::make_link_status(f, 0));
       view.observed_rate_since_change = observed_rate_since_change(view);
-      snapshot.links.push_back(std::move(view));
+      views.push_back(std::move(view));
     }
-    metrics_.update(snapshot);
-    return metrics_.serialize();
+    return views;
+  }
+
+  static std::uint64_t wall_ns() {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
   }
 
   // Relay thread (and the end): every topic's link as a LinkStatus, keyed by its topic's id.
@@ -340,6 +356,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     const auto facts = status_facts();
     const auto now = dds::steady_now_ns();
     for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
+    // The same on the Foxglove WebSocket (--dashboard), latched per link.
+    if (metrics_server_)
+      for (const auto& v : link_views(facts))
+        metrics_server_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(v), wall_ns(),
+                                 v.sensor_id);
   }
 
   std::vector<dds::LinkStatusFacts> status_facts() const {

@@ -26,7 +26,8 @@ struct RelayOptions {
   std::optional<std::filesystem::path> profile;
   /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay.
   std::optional<std::filesystem::path> record;
-  /// Serve the topics' link metrics (Prometheus, GET /metrics) on 127.0.0.1:PORT (0: any free port).
+  /// Serve the topics' links on 127.0.0.1:PORT (0: any free port): GET /metrics (Prometheus) and
+  /// the Foxglove WebSocket with netkf/link/status (`--dashboard`).
   std::optional<unsigned short> metrics_port;
 };
 

@@ -23,7 +23,7 @@ import time
 import urllib.error
 import urllib.request
 
-from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, workdir
+from e2e_common import NETKF, REPO, check, finish, node, require_netns, wait_for, workdir
 
 require_netns()
 FROM, TO = 109, 110
@@ -80,7 +80,7 @@ def status_of_topic():
 listener = start("listener", [CHATTER, "listen", "--domain", str(TO), "--duration", "120", "--count-only"])
 reader = start("reader", [READER, "--domain", str(TO), "--duration", "120"])
 relay = start("relay", [NETKF, "relay", "--from-domain", str(FROM), "--to-domain", str(TO), "--topic", "rt/chatter",
-                        "--bernoulli", str(LOSS), "--seed", "23", "--record", record, "--metrics", "0"])
+                        "--bernoulli", str(LOSS), "--seed", "23", "--record", record, "--dashboard", "0"])
 
 
 def metrics():
@@ -128,6 +128,9 @@ try:
     time.sleep(2.5)
     after = status_of_topic()
     _, served_after = metrics()
+    # An independent Foxglove client (@foxglove/ws-protocol) on the relay's WebSocket.
+    fox = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%s/" % port, "--seconds", 2.5,
+               "--topic", "netkf/link/status")
 finally:
     rc_relay = stop(relay)
     rc_reader = stop(reader)
@@ -201,4 +204,10 @@ check(served_after.get("netkf_link_samples_total") == COUNT + COUNT2
       and served_after.get("netkf_link_dropped_total") == dropped and served_after.get("netkf_link_configured_loss") == 0,
       "/metrics after the change: counters go on, the configured loss is 0 (%s)" % served_after)
 check(root == 404, "the relay serves no page (GET / -> %s)" % root)
+fox_last = [m for m in fox.get("estimates", []) if m.get("topic") == "rt/chatter"]
+check(fox_last and fox_last[-1].get("samples_total") == COUNT + COUNT2
+      and fox_last[-1].get("delivered_total") == delivered + COUNT2 and fox_last[-1].get("dropped_total") == dropped
+      and fox_last[-1].get("model") == "bernoulli" and fox_last[-1].get("loss") == 0,
+      "a Foxglove client of the relay's WebSocket gets rt/chatter's link status with the recording's counts (%s)"
+      % (fox_last[-1] if fox_last else fox))
 finish()
