@@ -140,7 +140,7 @@ void add_relay_command(CLI::App& app) {
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
   cmd->add_option("--dashboard", o->metrics_port,
                   "Serve the topics' links on 127.0.0.1:PORT (0: a free port, logged): GET /metrics (Prometheus) and a "
-                  "Foxglove WebSocket (netkf/link/status); no page yet")
+                  "Foxglove WebSocket (netkf/link/status; parameters link.ID.KEY set a topic's link); no page yet")
       ->check(CLI::Range(0, 65535));
   cmd->callback([o] { run_command([&] { return run_relay(*o); }); });
 }

@@ -6,6 +6,7 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -274,20 +275,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       return;
     }
     std::string reason;
-    std::optional<LinkSpec> applied;
-    std::uint64_t at_sample = 0;
     try {
       // Outside the lock: a trace named here is read now, never on the sample path.
-      const LinkSpec next = apply_link_keys(*current, keys);
-      {
-        const std::lock_guard lock(mutex_);
-        links_.set_link(topic, next);
-        links_.note_request(topic, c.request_id(), "");
-        at_sample = links_.report(topic)->next_sample;
-      }
-      applied = next;
-      spdlog::info("request {}: {} now has a {} link (from its sample {} on)", c.request_id(), topic, link_kind(next),
-                   at_sample);
+      apply_change(topic, apply_link_keys(*current, keys), c.request_id());
     } catch (const std::exception& e) {
       reason = e.what();
       {
@@ -297,13 +287,45 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
     }
     reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
-    // The journal entry (the sample it applies from: the link decides under the lock, so no
-    // sample of the topic falls between the change and this index), then the status that
-    // acknowledges the request.
-    if (applied)
-      journal_->write(dds::make_link_change(relay_topic_link_id(topic), at_sample, "request", c.request_id(), *applied,
-                                            dds::steady_now_ns(), topic));
+    publish_status();  // acknowledges the request
+  }
+
+  // Relay thread: a valid link for a topic, from its next sample on, and its journal entry (the
+  // sample it applies from: the link decides under the lock, so no sample of the topic falls
+  // between the change and this index). request_id 0: a change from the WebSocket.
+  void apply_change(const std::string& topic, const LinkSpec& next, std::uint64_t request_id) {
+    std::uint64_t at_sample = 0;
+    {
+      const std::lock_guard lock(mutex_);
+      links_.set_link(topic, next);  // throws on an invalid model (nothing changes)
+      links_.note_request(topic, request_id, "");
+      at_sample = links_.report(topic)->next_sample;
+    }
+    spdlog::info("request {}: {} now has a {} link (from its sample {} on)", request_id, topic, link_kind(next),
+                 at_sample);
+    journal_->write(dds::make_link_change(relay_topic_link_id(topic), at_sample, "request", request_id, next,
+                                          dds::steady_now_ns(), topic));
+  }
+
+  // Relay thread: a WebSocket client's setParameters (link.ID.KEY, ID a topic's link id), checked
+  // as the launch's dashboard checks them; the answer is the link's parameters after it.
+  void on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
+    const auto views = link_views(status_facts());
+    for (const auto& change : dashboard::link_changes(request, views)) {
+      const auto view = std::find_if(views.begin(), views.end(), [&](const LinkView& v) { return v.sensor_id == change.sensor_id; });
+      if (change.keys && view != views.end()) {
+        try {
+          apply_change(view->topic, change.link, 0);
+        } catch (const std::exception& e) {
+          metrics_server_->send_to(client, dashboard::status_message(LiveEvent::Level::error, e.what()));
+        }
+      } else {
+        metrics_server_->send_to(client, dashboard::status_message(LiveEvent::Level::error, change.refusal));
+      }
+    }
     publish_status();
+    for (const auto& v : link_views(status_facts()))
+      if (request.id) metrics_server_->send_to(client, dashboard::link_parameter_values(v, request.id));
   }
 
   // GET /metrics and the Foxglove WebSocket (netkf/link/status) on 127.0.0.1,
@@ -316,10 +338,14 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     o.max_connections = 16;
     DashboardServer::Hooks hooks;
     hooks.metrics = [this] { return metrics_text(); };
-    hooks.set_parameters = [](DashboardServer::ClientId, const dashboard::SetParameters&) {};
-    hooks.get_parameters = [](const dashboard::GetParameters&) { return nlohmann::json::object(); };
+    hooks.set_parameters = [this](DashboardServer::ClientId c, const dashboard::SetParameters& r) {
+      on_set_parameters(c, r);
+    };
+    hooks.get_parameters = [this](const dashboard::GetParameters& r) {
+      return dashboard::parameter_values(link_views(status_facts()), r.names, r.id);
+    };
     hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
-    const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", nlohmann::json::array()}};
+    const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", {"parameters"}}};
     metrics_server_ = std::make_unique<DashboardServer>(io_, o, info, std::move(hooks));
     spdlog::info("the relayed topics' links: http://127.0.0.1:{}/metrics, Foxglove ws://127.0.0.1:{}/",
                  metrics_server_->port(), metrics_server_->port());

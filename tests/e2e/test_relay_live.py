@@ -29,6 +29,7 @@ require_netns()
 FROM, TO = 109, 110
 COUNT, LOSS = 400, 0.3
 COUNT2 = 100  # after the link is made lossless
+COUNT3 = 30   # after a Foxglove client makes it drop everything
 CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
 READER = os.environ.get("NETKF_CYCLONE_READER", "")
 if not all(p and os.access(p, os.X_OK) for p in (CHATTER, READER)):
@@ -131,6 +132,16 @@ try:
     # An independent Foxglove client (@foxglove/ws-protocol) on the relay's WebSocket.
     fox = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%s/" % port, "--seconds", 2.5,
                "--topic", "netkf/link/status")
+    # The same client changes the topic's link with a setParameters (as the dashboard's cards do).
+    link_id = before["sensor_id"]
+    fox_set = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%s/" % port, "--seconds", 2, "--set-after", 0.3,
+                   "--set", "link.%d.loss=1" % link_id)
+    talker3 = run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT3), "--first", "2001",
+                   "--rate-hz", "200"])
+    check(talker3.returncode == 0, "a third talker wrote %d samples" % COUNT3)
+    check(wait_for(lambda: sum(1 for _ in open(record)) == COUNT + COUNT2 + COUNT3 + 1, 20), "the recording has them")
+    time.sleep(2.5)
+    last_status = status_of_topic()
 finally:
     rc_relay = stop(relay)
     rc_reader = stop(reader)
@@ -141,7 +152,7 @@ check(rc_relay == 0 and rc_reader == 0 and rc_listener == 0,
 
 with open(record) as f:
     rows = list(csv.DictReader(f))
-first, second = rows[:COUNT], rows[COUNT:]
+first, second, third = rows[:COUNT], rows[COUNT:COUNT + COUNT2], rows[COUNT + COUNT2:]
 delivered = sum(r["fate"] == "delivered" for r in first)
 dropped = sum(r["fate"] == "dropped" for r in first)
 print("recording: %d samples, %d delivered, %d dropped; then %d" % (len(first), delivered, dropped, len(second)))
@@ -182,13 +193,17 @@ check(statuses and all(s["sensor_id"] == before["sensor_id"] for s in statuses),
       "the Cyclone reader got the topic's status under the same link id (%d statuses)" % len(statuses))
 last = statuses[-1] if statuses else {}
 check((last.get("samples_total"), last.get("delivered_total"), last.get("dropped_total"))
-      == (COUNT + COUNT2, delivered + COUNT2, dropped), "its last status's lifetime counts equal the recording's")
+      == (COUNT + COUNT2 + COUNT3, delivered + COUNT2, dropped + COUNT3),
+      "its last status's lifetime counts equal the recording's")
 changes = [l for l in lines if l.get("topic") == "netkf/link/change"]
 print("journal:", changes)
-check(len(changes) == 1 and changes[0]["link_topic"] == "rt/chatter" and changes[0]["origin"] == "request"
+check(len(changes) == 2 and changes[0]["link_topic"] == "rt/chatter" and changes[0]["origin"] == "request"
       and changes[0]["request_id"] == request_id and changes[0]["model"] == "bernoulli" and changes[0]["loss"] == 0
       and changes[0]["sensor_id"] == before["sensor_id"],
-      "the journal has the one change, of rt/chatter, by the request, to bernoulli 0")
+      "the journal has the change of rt/chatter by the ctl request, to bernoulli 0")
+check(len(changes) == 2 and changes[1]["link_topic"] == "rt/chatter" and changes[1]["loss"] == 1
+      and changes[1]["at_period"] == COUNT + COUNT2 and changes[1]["request_id"] == 0,
+      "and the Foxglove client's change to loss 1, from the topic's sample %d on" % (COUNT + COUNT2))
 check(changes and changes[0]["at_period"] == int(second[0]["index"]) == COUNT,
       "the change applies from the topic's sample %s, the first the recording shows under it" % (
           changes[0]["at_period"] if changes else None))
@@ -210,4 +225,13 @@ check(fox_last and fox_last[-1].get("samples_total") == COUNT + COUNT2
       and fox_last[-1].get("model") == "bernoulli" and fox_last[-1].get("loss") == 0,
       "a Foxglove client of the relay's WebSocket gets rt/chatter's link status with the recording's counts (%s)"
       % (fox_last[-1] if fox_last else fox))
+# The change made from the WebSocket.
+values = {p["name"]: p["value"] for m in fox_set.get("parameter_values", []) for p in m.get("parameters", [])}
+check(values.get("link.%d.loss" % before["sensor_id"]) == 1 and values.get("link.%d.model" % before["sensor_id"])
+      == "bernoulli", "the Foxglove client's setParameters is answered with the link's new parameters (%s)" % values)
+check(len(third) == COUNT3 and all(r["fate"] == "dropped" for r in third),
+      "after it, the recording drops each of the third talker's %d samples" % COUNT3)
+check(last_status["model"] == "bernoulli" and last_status["loss"] == 1
+      and (last_status["samples_in"], last_status["dropped"]) == (COUNT3, COUNT3)
+      and last_status["dropped_total"] == dropped + COUNT3, "ctl status shows the new link and its counts since")
 finish()
