@@ -29,6 +29,7 @@ struct RelayCommandOptions {
   std::optional<std::string> seed;
   std::optional<int> depth;
   std::optional<std::string> record;
+  std::optional<unsigned short> metrics_port;
   std::optional<std::string> profile;
   double duration = 0.0;
 };
@@ -91,6 +92,7 @@ int run_relay(const RelayCommandOptions& o) {
   const int from = options.from_domain, to = options.to_domain;
   if (o.profile) options.profile = *o.profile;
   if (o.record) options.record = *o.record;
+  if (o.metrics_port) options.metrics_port = *o.metrics_port;
   std::unique_ptr<RelayApp> app;
   try {
     app = std::make_unique<RelayApp>(std::move(options));
@@ -136,6 +138,10 @@ void add_relay_command(CLI::App& app) {
   cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
   cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
+  cmd->add_option("--dashboard", o->metrics_port,
+                  "Serve the topics' links on 127.0.0.1:PORT (0: a free port, logged): GET /metrics (Prometheus) and a "
+                  "Foxglove WebSocket (netkf/link/status; parameters link.ID.KEY set a topic's link); no page yet")
+      ->check(CLI::Range(0, 65535));
   cmd->callback([o] { run_command([&] { return run_relay(*o); }); });
 }
 

@@ -1,5 +1,6 @@
 #include "dashboard_protocol.hpp"
 
+#include <limits>
 #include <cmath>
 #include <map>
 
@@ -63,12 +64,15 @@ std::optional<std::pair<int, std::string>> split_parameter_name(const std::strin
   if (dot == std::string::npos || dot == 5 || dot + 1 >= name.size()) return std::nullopt;
   const std::string id_text = name.substr(5, dot - 5);
   if (id_text == kControlLinkName) return std::make_pair(kControlLinkId, name.substr(dot + 1));  // the actuation link
-  if (id_text.size() > 9) return std::nullopt;
+  // A relayed topic's link id (relay_topic_link_id) has up to 10 digits after its sign.
+  if (id_text.size() > (id_text[0] == '-' ? 11u : 9u)) return std::nullopt;
   std::size_t i = id_text[0] == '-' ? 1 : 0;
   if (i == id_text.size()) return std::nullopt;
   for (; i < id_text.size(); ++i)
     if (id_text[i] < '0' || id_text[i] > '9') return std::nullopt;
-  return std::make_pair(std::stoi(id_text), name.substr(dot + 1));
+  const long long id = std::stoll(id_text);
+  if (id < std::numeric_limits<int>::min()) return std::nullopt;
+  return std::make_pair(static_cast<int>(id), name.substr(dot + 1));
 }
 
 }  // namespace
@@ -229,7 +233,7 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
         problem = e.what();
       }
     }
-    if (!problem.empty()) change.refusal = "link " + link_name(sensor_id) + ": " + problem;
+    if (!problem.empty()) change.refusal = "link " + link->name() + ": " + problem;
     out.push_back(std::move(change));
   }
   out.insert(out.end(), refused.begin(), refused.end());

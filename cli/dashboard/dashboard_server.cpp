@@ -388,7 +388,10 @@ void DashboardServer::Impl::listen() {
   policy.emplace(options.token,
                  dashboard::own_origins(options.bind, address.is_v6(), address.is_unspecified(),
                                         acceptor.local_endpoint().port(), options.allowed_origins),
-                 dashboard::find_asset);
+                 options.serve_page ? dashboard::RequestPolicy::FindAsset(dashboard::find_asset)
+                                    : dashboard::RequestPolicy::FindAsset([](std::string_view) -> const dashboard::Asset* {
+                                        return nullptr;
+                                      }));
   accept_next();
   schedule_flush();
 }

@@ -27,6 +27,8 @@ namespace netkf::cli {
 inline constexpr std::size_t kDefaultMaxConnections = 256;
 
 struct DashboardOptions {
+  /// false: no page, only /metrics (and the WebSocket) — `netkf relay --dashboard`.
+  bool serve_page = true;
   std::string bind = "127.0.0.1";
   unsigned short port = 8470;                 // 0: any free port (tests)
   std::vector<std::string> allowed_origins;   // besides the dashboard's own

@@ -91,12 +91,16 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
   if (recording.journals_changes() || console) {
     h.link_change = [&recording, console](LinkChangeRecord&& c) {
+      // A netkf relay's topic on the same domain is not one of the scenario's links: its
+      // journal counts samples of a topic, not periods (ctl status shows it; docs/relay.md).
+      if (!c.topic.empty()) return;
       recording.link_change(c);
       if (console) console->link_change(c);
     };
   }
   if (console || summary || recording.wants_link_status()) {
     h.link_status = [&recording, console, summary](LinkStatusRecord&& l) {
+      if (!l.topic.empty()) return;  // a netkf relay's topic (above)
       recording.link_status(l);
       if (summary) summary->add_link_status(l);
       if (console) console->link_status(l);

@@ -78,6 +78,7 @@ json link_status_schema_properties(json status_props) {
   status_props["observed_arrival_rate_window"] = nullable_number();
   status_props["observed_window_samples"] = {{"type", "integer"}};
   status_props["last_request_rejected"] = {{"type", "boolean"}};
+  status_props["topic"] = {{"type", "string"}};  // only a link of netkf relay: the topic it relays
   status_props["recent_fit"] = {{"type", json::array({"object", "null"})},
                                 {"properties",
                                  {{"family", {{"type", "string"}}},
@@ -195,6 +196,7 @@ std::vector<Channel> make_recording_channels() {
   change_props["at_period"] = {{"type", "integer"}};
   change_props["origin"] = {{"type", "string"}, {"enum", {"request", "timeline"}}};
   change_props["request_id"] = {{"type", "integer"}};
+  change_props["topic"] = {{"type", "string"}};  // only a link of netkf relay
   c.push_back({ChannelId::link_change, "netkf/link/change", "netkf.wire.LinkChange",
                schema_object(change_props, {"sensor_id", "at_period", "origin", "model"})});
   // foxglove.Log (docs.foxglove.dev, "Log" message schema): the name Foxglove recognises.
@@ -360,6 +362,7 @@ json link_status_json(const LinkStatusRecord& l) {
   j["last_request_rejected"] = !l.rejection_reason.empty();
   j["reject_reason"] = l.rejection_reason;
   j["recent_fit"] = l.recent_fit ? recent_fit_json(*l.recent_fit) : json(nullptr);
+  if (!l.topic.empty()) j["topic"] = l.topic;  // a link of netkf relay
   return j;
 }
 
@@ -403,6 +406,7 @@ json link_change_message(const LinkChangeRecord& c) {
   j["at_period"] = c.at_period;
   j["origin"] = c.origin;
   j["request_id"] = c.request_id;
+  if (!c.topic.empty()) j["topic"] = c.topic;
   return j;
 }
 

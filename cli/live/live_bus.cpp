@@ -31,6 +31,7 @@ LinkStatusRecord to_record(const wire::LinkStatus& w) {
   r.held = w.held();
   r.past_deadline = w.past_deadline();
   r.recent_fit = dds::recent_fit_of(w);
+  r.topic = dds::relayed_topic_of(w.sensor_id(), w.topic());
   return r;
 }
 
@@ -42,6 +43,7 @@ LinkChangeRecord to_record(const wire::LinkChange& w) {
   r.origin = w.origin();
   r.request_id = w.request_id();
   r.link = dds::from_wire(w.link());
+  r.topic = dds::relayed_topic_of(w.sensor_id(), w.topic());
   return r;
 }
 
@@ -107,6 +109,8 @@ std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
 }
 
 }  // namespace
+
+LinkStatusRecord link_status_record(const wire::LinkStatus& status) { return to_record(status); }
 
 struct LiveBus::Impl {
   dds::Participant participant;

@@ -19,6 +19,10 @@
 #include "netkf/dds/security.hpp"
 #include "netkf/scenario.hpp"
 
+namespace netkf::wire {
+class LinkStatus;
+}  // namespace netkf::wire
+
 namespace netkf::cli {
 
 struct BusOptions {
@@ -64,6 +68,10 @@ struct NetworkSettings {
     return b;
   }
 };
+
+/// A link status from the wire (throws dds::ConversionError when it is not valid): the one
+/// conversion every reader of link statuses uses (`netkf relay --dashboard` too).
+LinkStatusRecord link_status_record(const wire::LinkStatus& status);
 
 struct BusHandlers {
   std::function<void(TruthRecord&&)> truth;

@@ -19,10 +19,11 @@ namespace {
 std::string window_label() { return "last_" + std::to_string(kWindowSamples) + "_samples"; }
 }  // namespace
 
-LiveMetrics::LiveMetrics() : registry_(std::make_shared<prometheus::Registry>()) {
+LiveMetrics::LiveMetrics(Scope scope) : registry_(std::make_shared<prometheus::Registry>()) {
   using namespace prometheus;
   auto& r = *registry_;
   register_link_metrics();
+  if (scope == Scope::links) return;
   restarts_ = &BuildCounter()
                    .Name("netkf_process_restarts_total")
                    .Help("Restarts of a node process by the launch's supervisor")
@@ -129,7 +130,7 @@ void LiveMetrics::advance(prometheus::Counter& counter, std::uint64_t total, std
 
 void LiveMetrics::update(const LiveSnapshot& s) {
   for (const auto& l : s.links) {
-    const prometheus::Labels labels{{"link", link_name(l.sensor_id)}};
+    const prometheus::Labels labels{{"link", l.name()}};  // a relayed link: its topic
     auto& totals = link_totals_[l.sensor_id];
     advance(link_samples_->Add(labels), l.samples_total, totals.samples);
     advance(link_delivered_->Add(labels), l.delivered_total, totals.delivered);
@@ -143,6 +144,7 @@ void LiveMetrics::update(const LiveSnapshot& s) {
     link_observed_loss_->Add(labels).Set(l.observed_loss);
     set_observed_rates(l);
   }
+  if (!period_) return;  // Scope::links
   if (s.period) {
     const Estimate& e = s.period->estimate;
     period_->Set(static_cast<double>(e.k));
@@ -156,7 +158,7 @@ void LiveMetrics::update(const LiveSnapshot& s) {
 }
 
 void LiveMetrics::set_observed_rates(const LinkView& l) {
-  const std::string link = link_name(l.sensor_id);
+  const std::string link = l.name();
   // A rate not known (no sample since the change) is no series rather than a made-up 0.
   const auto set = [&](prometheus::Family<prometheus::Gauge>& family, const prometheus::Labels& labels,
                        std::optional<double> value) {
@@ -171,7 +173,7 @@ void LiveMetrics::set_observed_rates(const LinkView& l) {
 }
 
 void LiveMetrics::observe_pipeline_latency(double seconds) {
-  if (std::isfinite(seconds) && seconds >= 0.0) latency_->Observe(seconds);
+  if (latency_ && std::isfinite(seconds) && seconds >= 0.0) latency_->Observe(seconds);
 }
 
 void LiveMetrics::update_dashboard(const DashboardStats& d) {
@@ -208,7 +210,9 @@ void LiveMetrics::update_dashboard(const DashboardStats& d) {
   advance(dashboard_refused_->Add({{"what", "message"}}), d.refused_messages, t.refused_messages);
 }
 
-void LiveMetrics::count_restart(const std::string& process) { restarts_->Add({{"process", process}}).Increment(); }
+void LiveMetrics::count_restart(const std::string& process) {
+  if (restarts_) restarts_->Add({{"process", process}}).Increment();
+}
 
 std::string LiveMetrics::serialize() const {
   std::ostringstream out;

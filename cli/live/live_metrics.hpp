@@ -36,7 +36,10 @@ struct DashboardStats {
 
 class LiveMetrics {
  public:
-  LiveMetrics();
+  /// launch: the links, the estimator, the processes; links: the links only (`netkf relay`,
+  /// whose links are its topics', labelled by topic).
+  enum class Scope { launch, links };
+  explicit LiveMetrics(Scope scope = Scope::launch);
   ~LiveMetrics();
   LiveMetrics(const LiveMetrics&) = delete;
   LiveMetrics& operator=(const LiveMetrics&) = delete;
@@ -72,14 +75,15 @@ class LiveMetrics {
   prometheus::Family<prometheus::Gauge>* link_observed_loss_;
   prometheus::Family<prometheus::Gauge>* link_observed_rate_;
   prometheus::Family<prometheus::Gauge>* link_window_samples_;
-  prometheus::Family<prometheus::Counter>* restarts_;
-  prometheus::Gauge* period_;
-  prometheus::Gauge* trace_P_;
-  prometheus::Gauge* diverging_;
-  prometheus::Gauge* fused_sensors_;
-  prometheus::Counter* late_;
-  prometheus::Counter* rejected_;
-  prometheus::Histogram* latency_;
+  // The launch's own (nullptr for Scope::links).
+  prometheus::Family<prometheus::Counter>* restarts_ = nullptr;
+  prometheus::Gauge* period_ = nullptr;
+  prometheus::Gauge* trace_P_ = nullptr;
+  prometheus::Gauge* diverging_ = nullptr;
+  prometheus::Gauge* fused_sensors_ = nullptr;
+  prometheus::Counter* late_ = nullptr;
+  prometheus::Counter* rejected_ = nullptr;
+  prometheus::Histogram* latency_ = nullptr;
   prometheus::Family<prometheus::Gauge>* dashboard_connections_ = nullptr;  // registered on first use
   prometheus::Family<prometheus::Counter>* dashboard_closed_ = nullptr;
   prometheus::Family<prometheus::Counter>* dashboard_refused_ = nullptr;

@@ -54,6 +54,12 @@ struct LinkStatusRecord {
   std::string rejection_reason;  // empty when the last request was applied
   /// The model the link's last samples show (recent_loss_fit.hpp; none before its first sample).
   std::optional<analysis::RecentLossFit> recent_fit;
+  /// A link of `netkf relay` (docs/relay.md): the topic it relays (sensor_id is then the topic's
+  /// own negative id); empty for a channel's link.
+  std::string topic;
+
+  /// The link's name for people: its topic, "control", or its sensor id.
+  std::string name() const { return topic.empty() ? link_name(sensor_id) : topic; }
 
   /// λ = (1 − stationary loss) · P(in time): the rate at which the link's samples reach the
   /// estimator before the deadline (docs/scenario-format.md, "Delay"), the rate the theory uses.
@@ -68,6 +74,7 @@ struct LinkChangeRecord {
   std::string origin;            // "request" | "timeline"
   std::uint64_t request_id = 0;
   LinkSpec link;
+  std::string topic;  // a relayed topic's link (at_period: the index of its first sample changed)
 };
 
 /// The channel's answer to one link change request.

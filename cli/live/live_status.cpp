@@ -106,7 +106,7 @@ void render_links(std::ostringstream& out, const LiveSnapshot& s) {
     out << "   (" << shown.size() << " of " << s.links.size() << " links: those furthest below their rate)";
   out << "\n";
   for (const LinkView* l : shown) {
-    char line[320];
+    char line[512];
     const std::string late = late_share_text(l->late_total, l->delivered_total);
     std::snprintf(line, sizeof line, "  %-5s %6.3f  %-32s  %-20s %6s  %s\n", link_name(l->sensor_id).c_str(), l->arrival_rate(),
                   since_change_text(*l).c_str(), window_text(*l).c_str(), late.c_str(), describe_link(l->link).c_str());
@@ -132,9 +132,12 @@ std::string describe_recent_fit(const analysis::RecentLossFit& f) {
 
 std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
   std::ostringstream out;
-  char line[320];
+  char line[512];
   // printf pads bytes, not glyphs: a header with "λ" (2 bytes) gets one more byte of width.
-  std::snprintf(line, sizeof line, "%-6s %10s %8s %17s %10s %10s %10s %10s %9s %7s %7s %6s  %s\n", "link", "P(in time)",
+  // A relayed topic's name is wider than a sensor id: the first column takes the widest.
+  int name_width = 6;
+  for (const auto& l : links) name_width = std::max(name_width, static_cast<int>(std::min<std::size_t>(l.name().size(), 64)));
+  std::snprintf(line, sizeof line, "%-*s %10s %8s %17s %10s %10s %10s %10s %9s %7s %7s %6s  %s\n", name_width, "link", "P(in time)",
                 "λ cfg", "λ since change", "samples", "delivered", "in time", "dropped", "obs loss", "burst", "late",
                 "held", "link");
   out << line;
@@ -142,8 +145,8 @@ std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
     // late: the share of delivered samples the channel delayed beyond the estimator's deadline.
     const double late = l.delivered > 0 ? static_cast<double>(l.past_deadline) / static_cast<double>(l.delivered) : 0.0;
     const auto since_change = observed_rate_since_change(l);
-    std::snprintf(line, sizeof line, "%-6s %10.4f %7.4f %16s %10llu %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n",
-                  link_name(l.sensor_id).c_str(), l.in_time, l.arrival_rate(), since_change ? rate4(*since_change).c_str() : "-",
+    std::snprintf(line, sizeof line, "%-*s %10.4f %7.4f %16s %10llu %10llu %10llu %10llu %9.4f %7.3f %7.4f %6llu  %s\n",
+                  name_width, l.name().c_str(), l.in_time, l.arrival_rate(), since_change ? rate4(*since_change).c_str() : "-",
                   static_cast<unsigned long long>(l.samples_in), static_cast<unsigned long long>(l.delivered),
                   static_cast<unsigned long long>(delivered_in_time(l)), static_cast<unsigned long long>(l.dropped),
                   l.observed_loss, l.mean_burst_length, late, static_cast<unsigned long long>(l.held),

@@ -6,6 +6,7 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -20,6 +21,10 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "channel_catalogue.hpp"
+#include "dashboard_server.hpp"
+#include "live_bus.hpp"
+#include "live_metrics.hpp"
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
 #include "netkf/release_queue.hpp"
@@ -55,6 +60,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     destination_prefix_ = destination_->get()->guid().guidPrefix;
     // Link changes (`netkf ctl set-link TOPIC ... --domain TO`) on the readers' domain.
     reply_.emplace(*destination_, dds::topics::link_control_reply);
+    // Each topic's link as a channel's links report themselves (`netkf ctl status --domain TO`),
+    // and its journal of changes.
+    status_.emplace(*destination_, dds::topics::link_status);
+    journal_.emplace(*destination_, dds::topics::link_change);
     control_.emplace(*destination_, dds::topics::link_control,
                      dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) { on_control(c); }));
     dds::ParticipantOptions from;
@@ -63,9 +72,15 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     from.profile_file = options_.profile;
     from.discovery_listener = this;  // from its creation on: no writer is discovered unseen
     source_ = std::make_unique<dds::Participant>(from);
+    if (options_.metrics_port) serve_metrics(*options_.metrics_port);
+  }
+
+  std::optional<unsigned short> metrics_port() const {
+    return metrics_server_ ? std::optional<unsigned short>(metrics_server_->port()) : std::nullopt;
   }
 
   ~Impl() override {
+    if (metrics_server_) metrics_server_->stop();
     // The readers first: no sample callback may run into what follows. Taken out under the lock,
     // deleted outside it (deleting a reader waits for its callback, which may wait for the lock).
     control_.reset();
@@ -80,7 +95,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                    options_.from_domain);
     source_.reset();
     write_record();  // the lines of the last samples
+    publish_status();  // the final counts, for a reader still there
     relayed_.clear();
+    journal_.reset();
+    status_.reset();
     reply_.reset();
     destination_.reset();
   }
@@ -90,6 +108,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
 
   void run() {
     work_.emplace(io_.get_executor());
+    publish_status();  // every topic's link from the start, before its first writer is found
     schedule_flush();
     io_.run();
   }
@@ -117,6 +136,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     dds::DiscoveredWriter writer;
     std::unique_ptr<dds::RawWriter> out;
     std::unique_ptr<dds::RawReader> in;
+    std::atomic<bool> warned_no_key{false};
   };
 
   // Fast DDS's discovery thread: only the topics asked for; the endpoints are made on the
@@ -169,6 +189,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     spdlog::info("relaying {} (type {}, {}, {}) from domain {} to domain {}", writer.topic, writer.type,
                  writer.reliable ? "reliable" : "best effort", writer.transient_local ? "transient local" : "volatile",
                  options_.from_domain, options_.to_domain);
+    // Discovery announces reliability and durability, not history: the relay's own (--depth).
+    spdlog::info("{}: history keep-last {}{} (--depth; a writer's history is not announced in discovery)",
+                 writer.topic, options_.depth, writer.keyed ? " per instance" : "");
+    for (const auto& what : writer.not_mirrored)
+      spdlog::warn("{}: the relay does not mirror {}", writer.topic, what);
     const std::lock_guard lock(mutex_);
     counts_[writer.topic].type = writer.type;
     relayed_.emplace(writer.topic, std::move(relayed));
@@ -184,6 +209,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       own_samples_.fetch_add(1);
       return;
     }
+    // A keyed sample without its key hash (a writer that sends none, e.g. Cyclone DDS by default):
+    // the relay cannot compute the key from a payload it does not understand.
+    if (r.writer.keyed && !sample.key.isDefined() && !r.warned_no_key.exchange(true))
+      spdlog::warn("a writer of keyed topic {} sends no key hash: its instances are relayed as one (docs/relay.md)",
+                   r.writer.topic);
     RelayFate fate;
     bool rearm = false;  // a new earliest held sample: the release timer must move
     {
@@ -247,17 +277,130 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     std::string reason;
     try {
       // Outside the lock: a trace named here is read now, never on the sample path.
-      const LinkSpec next = apply_link_keys(*current, keys);
-      {
-        const std::lock_guard lock(mutex_);
-        links_.set_link(topic, next);
-      }
-      spdlog::info("request {}: {} now has a {} link (from its next sample on)", c.request_id(), topic, link_kind(next));
+      apply_change(topic, apply_link_keys(*current, keys), c.request_id());
     } catch (const std::exception& e) {
       reason = e.what();
+      {
+        const std::lock_guard lock(mutex_);
+        links_.note_request(topic, c.request_id(), reason);
+      }
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
     }
     reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
+    publish_status();  // acknowledges the request
+  }
+
+  // Relay thread: a valid link for a topic, from its next sample on, and its journal entry (the
+  // sample it applies from: the link decides under the lock, so no sample of the topic falls
+  // between the change and this index). request_id 0: a change from the WebSocket.
+  void apply_change(const std::string& topic, const LinkSpec& next, std::uint64_t request_id) {
+    std::uint64_t at_sample = 0;
+    {
+      const std::lock_guard lock(mutex_);
+      links_.set_link(topic, next);  // throws on an invalid model (nothing changes)
+      links_.note_request(topic, request_id, "");
+      at_sample = links_.report(topic)->next_sample;
+    }
+    spdlog::info("request {}: {} now has a {} link (from its sample {} on)", request_id, topic, link_kind(next),
+                 at_sample);
+    journal_->write(dds::make_link_change(relay_topic_link_id(topic), at_sample, "request", request_id, next,
+                                          dds::steady_now_ns(), topic));
+  }
+
+  // Relay thread: a WebSocket client's setParameters (link.ID.KEY, ID a topic's link id), checked
+  // as the launch's dashboard checks them; the answer is the link's parameters after it.
+  void on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
+    const auto views = link_views(status_facts());
+    for (const auto& change : dashboard::link_changes(request, views)) {
+      const auto view = std::find_if(views.begin(), views.end(), [&](const LinkView& v) { return v.sensor_id == change.sensor_id; });
+      if (change.keys && view != views.end()) {
+        try {
+          apply_change(view->topic, change.link, 0);
+        } catch (const std::exception& e) {
+          metrics_server_->send_to(client, dashboard::status_message(LiveEvent::Level::error, e.what()));
+        }
+      } else {
+        metrics_server_->send_to(client, dashboard::status_message(LiveEvent::Level::error, change.refusal));
+      }
+    }
+    publish_status();
+    for (const auto& v : link_views(status_facts()))
+      if (request.id) metrics_server_->send_to(client, dashboard::link_parameter_values(v, request.id));
+  }
+
+  // GET /metrics and the Foxglove WebSocket (netkf/link/status) on 127.0.0.1,
+  // no page (a launch's page shows a scenario's links), served on the relay's thread; the
+  // topics' links as a launch's links are (netkf_link_*{link="TOPIC"}).
+  void serve_metrics(unsigned short port) {
+    DashboardOptions o;
+    o.serve_page = false;
+    o.port = port;
+    o.max_connections = 16;
+    DashboardServer::Hooks hooks;
+    hooks.metrics = [this] { return metrics_text(); };
+    hooks.set_parameters = [this](DashboardServer::ClientId c, const dashboard::SetParameters& r) {
+      on_set_parameters(c, r);
+    };
+    hooks.get_parameters = [this](const dashboard::GetParameters& r) {
+      return dashboard::parameter_values(link_views(status_facts()), r.names, r.id);
+    };
+    hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
+    const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", {"parameters"}}};
+    metrics_server_ = std::make_unique<DashboardServer>(io_, o, info, std::move(hooks));
+    spdlog::info("the relayed topics' links: http://127.0.0.1:{}/metrics, Foxglove ws://127.0.0.1:{}/",
+                 metrics_server_->port(), metrics_server_->port());
+  }
+
+  std::string metrics_text() {
+    LiveSnapshot snapshot;
+    snapshot.links = link_views(status_facts());
+    metrics_.update(snapshot);
+    return metrics_.serialize();
+  }
+
+  // The links as the launch's live views hold them (through the wire's conversion: one place).
+  static std::vector<LinkView> link_views(const std::vector<dds::LinkStatusFacts>& facts) {
+    std::vector<LinkView> views;
+    for (const auto& f : facts) {
+      LinkView view;
+      static_cast<LinkStatusRecord&>(view) = link_status_record(dds::make_link_status(f, 0));
+      view.observed_rate_since_change = observed_rate_since_change(view);
+      views.push_back(std::move(view));
+    }
+    return views;
+  }
+
+  static std::uint64_t wall_ns() {
+    return static_cast<std::uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
+  }
+
+  // Relay thread (and the end): every topic's link as a LinkStatus, keyed by its topic's id.
+  // There is no estimator's deadline here: P(in time) is 1 and nothing is past a deadline.
+  void publish_status() {
+    const auto facts = status_facts();
+    const auto now = dds::steady_now_ns();
+    for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
+    // The same on the Foxglove WebSocket (--dashboard), latched per link.
+    if (metrics_server_)
+      for (const auto& v : link_views(facts))
+        metrics_server_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(v), wall_ns(),
+                                 v.sensor_id);
+  }
+
+  std::vector<dds::LinkStatusFacts> status_facts() const {
+    std::vector<dds::LinkStatusFacts> facts;
+    {
+      const std::lock_guard lock(mutex_);
+      for (auto& r : links_.reports()) {
+        const auto relayed = relayed_.find(r.topic);
+        const std::uint64_t held = relayed == relayed_.end() ? 0 : held_.held(relayed->second->index);
+        facts.push_back({relay_topic_link_id(r.topic), r.link, 1.0, r.stats, r.lifetime, r.last_request_id,
+                         !r.reject_reason.empty(), r.reject_reason, held, 0, std::move(r.recent_fit), r.topic});
+      }
+    }
+    return facts;
   }
 
   void send(Relayed& r, dds::RawSample& sample) {
@@ -271,6 +414,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     flush_timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
       write_record();
+      publish_status();
       schedule_flush();
     });
   }
@@ -308,6 +452,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   eprosima::fastrtps::rtps::GuidPrefix_t destination_prefix_;
   std::optional<dds::Writer<wire::LinkControlReply>> reply_;
   std::optional<dds::Reader<wire::LinkControl>> control_;
+  std::optional<dds::Writer<wire::LinkStatus>> status_;
+  std::optional<dds::Writer<wire::LinkChange>> journal_;
+  LiveMetrics metrics_{LiveMetrics::Scope::links};
+  std::unique_ptr<DashboardServer> metrics_server_;
   std::atomic<std::uint64_t> own_samples_{0};  // its own samples that came back, not relayed
   std::map<std::string, std::unique_ptr<Relayed>> relayed_;
   std::unique_ptr<dds::Participant> source_;  // last made, first gone: its discovery uses all of the above
@@ -317,6 +465,7 @@ RelayApp::RelayApp(RelayOptions options) : impl_(std::make_unique<Impl>(std::mov
 RelayApp::~RelayApp() = default;
 void RelayApp::run() { impl_->run(); }
 void RelayApp::stop() { impl_->stop(); }
+std::optional<unsigned short> RelayApp::metrics_port() const { return impl_->metrics_port(); }
 std::vector<RelayTopicCounts> RelayApp::counts() const { return impl_->counts(); }
 
 }  // namespace netkf::cli

@@ -26,6 +26,9 @@ struct RelayOptions {
   std::optional<std::filesystem::path> profile;
   /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay.
   std::optional<std::filesystem::path> record;
+  /// Serve the topics' links on 127.0.0.1:PORT (0: any free port): GET /metrics (Prometheus) and
+  /// the Foxglove WebSocket with netkf/link/status (`--dashboard`).
+  std::optional<unsigned short> metrics_port;
 };
 
 /// What each topic's link did.
@@ -46,6 +49,8 @@ class RelayApp {
   /// Runs the relay's thread (discovery's follow-up, delayed samples) until stop().
   void run();
   void stop();
+  /// The port /metrics is served on (nullopt: none).
+  std::optional<unsigned short> metrics_port() const;
   std::vector<RelayTopicCounts> counts() const;
 
  private:

@@ -333,6 +333,7 @@ wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_n
     s.fit_aic_gain(fit.aic_gain.value_or(0.0));
   }
   s.stamp_ns(stamp_ns);
+  s.topic(f.topic);
   return s;
 }
 
@@ -369,8 +370,15 @@ wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sen
 
 LinkSpec link_of(const wire::LinkStatus& status) { return from_wire(status.link()); }
 
+std::string relayed_topic_of(int sensor_id, const std::string& topic) {
+  if (topic.empty() ? is_relay_topic_link_id(sensor_id) : sensor_id != relay_topic_link_id(topic))
+    throw ConversionError("link " + std::to_string(sensor_id) + " does not name relayed topic '" + topic + "'");
+  return topic;
+}
+
 wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
-                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns) {
+                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns,
+                                  const std::string& topic) {
   wire::LinkChange c;
   c.sensor_id(sensor_id);
   c.at_period(at_period);
@@ -378,6 +386,7 @@ wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const 
   c.request_id(request_id);
   c.link(to_wire(link));
   c.stamp_ns(stamp_ns);
+  c.topic(topic);
   return c;
 }
 

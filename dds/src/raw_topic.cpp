@@ -119,7 +119,17 @@ DiscoveredWriter discovered_writer(const eprosima::fastrtps::rtps::WriterDiscove
   w.type = info.info.typeName().to_string();
   w.keyed = info.info.topicKind() == eprosima::fastrtps::rtps::WITH_KEY;
   w.reliable = info.info.m_qos.m_reliability.kind == fdds::RELIABLE_RELIABILITY_QOS;
-  w.transient_local = info.info.m_qos.m_durability.kind != fdds::VOLATILE_DURABILITY_QOS;
+  const auto& qos = info.info.m_qos;
+  w.transient_local = qos.m_durability.kind != fdds::VOLATILE_DURABILITY_QOS;
+  if (qos.m_durability.kind == fdds::TRANSIENT_DURABILITY_QOS || qos.m_durability.kind == fdds::PERSISTENT_DURABILITY_QOS)
+    w.not_mirrored.push_back("its transient or persistent durability (relayed as transient local: the relay keeps no "
+                             "samples beyond its history)");
+  if (qos.m_ownership.kind == fdds::EXCLUSIVE_OWNERSHIP_QOS)
+    w.not_mirrored.push_back("its exclusive ownership (the relay writes with shared ownership: a reader asking for "
+                             "exclusive ownership does not match)");
+  if (!qos.m_partition.empty())
+    w.not_mirrored.push_back("its partitions (the relay reads and writes the default partition: it does not match "
+                             "this writer)");
   return w;
 }
 

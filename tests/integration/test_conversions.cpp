@@ -10,6 +10,7 @@
 
 #include "netkf/dds/conversions.hpp"
 #include "netkf/dds/topics.hpp"
+#include "netkf/relay_links.hpp"
 
 namespace {
 
@@ -153,6 +154,21 @@ TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
 
 // The recent-samples fit travels whole (recent_loss_fit.hpp): a window's fit, written and read
 // back, is the same fit; none before the first sample; a malformed one is refused.
+TEST(Conversions, ARelayedTopicsStatusAndJournalNameTheTopicOfTheirLinkId) {
+  const int id = netkf::relay_topic_link_id("rt/scan");
+  dds::LinkStatusFacts facts{id, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0};
+  facts.topic = "rt/scan";
+  const auto s = dds::make_link_status(facts, 0);
+  EXPECT_EQ(s.topic(), "rt/scan");
+  EXPECT_EQ(dds::relayed_topic_of(s.sensor_id(), s.topic()), "rt/scan");
+  const auto c = dds::make_link_change(id, 12, "request", 3, netkf::BernoulliLink{0.0}, 0, "rt/scan");
+  EXPECT_EQ(dds::relayed_topic_of(c.sensor_id(), c.topic()), "rt/scan");
+  EXPECT_EQ(dds::relayed_topic_of(2, ""), "") << "a channel's link";
+  EXPECT_THROW(dds::relayed_topic_of(2, "rt/scan"), dds::ConversionError) << "a sensor's id with a topic";
+  EXPECT_THROW(dds::relayed_topic_of(id, "rt/other"), dds::ConversionError) << "another topic's id";
+  EXPECT_THROW(dds::relayed_topic_of(id, ""), dds::ConversionError) << "a topic's id without its topic";
+}
+
 TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
   netkf::analysis::RecentArrivals bursty(50), one(5);
   for (int i = 0; i < 80; ++i) bursty.record(i % 10 < 4);  // runs of 4 drops, 6 deliveries

@@ -14,6 +14,12 @@
  *     "samples N bytes B first_s F last_s L" (monotonic clock seconds of the first and last arrival).
  *   talk --bytes B pads each text with 'x' to B bytes; --keep-all (either mode) keeps every sample
  *   instead of the last 1000, so a fast writer waits for its reader (bench/bench_relay.sh).
+ *   Either mode (tests/e2e/test_relay_qos.py): --depth D keeps the last D samples (per instance)
+ *   instead of 1000; --transient-local makes the endpoint transient-local (a talker's samples
+ *   reach a listener that starts later); --best-effort makes it best effort; --keyed K uses
+ *   the keyed type netkf_test::msg::dds_::Keyed_ (@key long id; string data), the talker
+ *   writing sample i to instance (i - 1) mod K, the listener printing "ID DATA" per sample;
+ *   listen --digest prints "LENGTH FNV1A64-HEX" of each sample's data instead of the data.
  * The Cyclone configuration comes from CYCLONEDDS_URI. */
 #include <math.h>
 #include <signal.h>
@@ -55,8 +61,35 @@ static void sleep_s(double s) {
   nanosleep(&t, NULL);
 }
 
-static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double count, double first,
-                double rate_hz, double settle, double bytes) {
+struct options {
+  double count, first, rate_hz, settle, duration, bytes, keyed;
+  bool count_only, digest;
+};
+
+/* FNV-1a 64 of a text: a 1 MB sample checked without printing it. */
+static unsigned long long fnv1a(const char *text) {
+  unsigned long long h = 14695981039346656037ull;
+  for (; *text; ++text) {
+    h ^= (unsigned char)*text;
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+static dds_return_t write_one(dds_entity_t writer, const struct options *o, long i, char *text) {
+  if (o->keyed > 0) {
+    netkf_test_msg_dds__Keyed_ msg;
+    msg.id = (int32_t)((i - 1) % (long)o->keyed);
+    msg.data = text;
+    return dds_write(writer, &msg);
+  }
+  std_msgs_msg_dds__String_ msg;
+  msg.data = text;
+  return dds_write(writer, &msg);
+}
+
+static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, const struct options *o) {
+  const double count = o->count, first = o->first, rate_hz = o->rate_hz, settle = o->settle, bytes = o->bytes;
   const dds_entity_t writer = dds_create_writer(participant, topic, qos, NULL);
   if (writer < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the writer: %s\n", dds_strretcode(-writer));
@@ -84,9 +117,7 @@ static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, do
       memset(text + n, 'x', (size_t)bytes - (size_t)n);
       text[(size_t)bytes] = '\0';
     }
-    std_msgs_msg_dds__String_ msg;
-    msg.data = text;
-    const dds_return_t rc = dds_write(writer, &msg);
+    const dds_return_t rc = write_one(writer, o, i, text);
     if (rc != DDS_RETCODE_OK) fprintf(stderr, "netkf_cyclone_chatter: write %ld failed: %s\n", i, dds_strretcode(-rc));
     if (rate_hz < 1e5) sleep_s(1.0 / rate_hz);  /* 1e5: as fast as the writer takes them */
   }
@@ -96,7 +127,19 @@ static int talk(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, do
   return 0;
 }
 
-static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, double duration, bool count_only) {
+static void print_sample(const struct options *o, const void *sample) {
+  const char *data = o->keyed > 0 ? ((const netkf_test_msg_dds__Keyed_ *)sample)->data
+                                  : ((const std_msgs_msg_dds__String_ *)sample)->data;
+  if (o->keyed > 0) printf("%d ", (int)((const netkf_test_msg_dds__Keyed_ *)sample)->id);
+  if (o->digest)
+    printf("%zu %016llx\n", strlen(data), fnv1a(data));
+  else
+    printf("%s\n", data);
+}
+
+static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *qos, const struct options *o) {
+  const double duration = o->duration;
+  const bool count_only = o->count_only;
   const dds_entity_t reader = dds_create_reader(participant, topic, qos, NULL);
   if (reader < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the reader: %s\n", dds_strretcode(-reader));
@@ -116,13 +159,14 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
     }
     for (dds_return_t i = 0; i < n; ++i) {
       if (!infos[i].valid_data) continue;
-      const std_msgs_msg_dds__String_ *msg = samples[i];
       if (count_only) {
         last_s = now_s();
         if (received == 0) first_s = last_s;
-        total_bytes += (double)strlen(msg->data);
+        const char *data = o->keyed > 0 ? ((const netkf_test_msg_dds__Keyed_ *)samples[i])->data
+                                        : ((const std_msgs_msg_dds__String_ *)samples[i])->data;
+        total_bytes += (double)strlen(data);
       } else {
-        printf("%s\n", msg->data);
+        print_sample(o, samples[i]);
       }
       ++received;
     }
@@ -141,21 +185,25 @@ static int listen_for(dds_entity_t participant, dds_entity_t topic, dds_qos_t *q
 
 int main(int argc, char **argv) {
   if (argc < 2 || (strcmp(argv[1], "talk") != 0 && strcmp(argv[1], "listen") != 0)) {
-    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--first F] [--rate-hz R] [--settle S] [--duration S] [--topic T] [--count-only] [--keep-all]\n",
+    fprintf(stderr, "usage: %s talk|listen --domain N [--count C] [--first F] [--rate-hz R] [--settle S] [--duration S] [--topic T] [--count-only] [--keep-all] [--depth D] [--transient-local] [--best-effort] [--keyed K] [--digest]\n",
             argv[0]);
     return 2;
   }
   const bool talker = strcmp(argv[1], "talk") == 0;
-  double domain = 0, count = 100, first = 1, rate_hz = 100, settle = 2, duration = 60, bytes = 0;
-  bool count_only = false, keep_all = false;
+  double domain = 0, count = 100, first = 1, rate_hz = 100, settle = 2, duration = 60, bytes = 0, depth = 1000,
+         keyed = 0;
+  bool count_only = false, keep_all = false, transient_local = false, best_effort = false, digest = false;
   const char *topic_name = "rt/chatter";
   for (int i = 2; i < argc; i += 2) {
     const char *a = argv[i];
-    if (strcmp(a, "--count-only") == 0 || strcmp(a, "--keep-all") == 0) {
-      if (a[2] == 'c')
-        count_only = true;
-      else
-        keep_all = true;
+    bool *flag = strcmp(a, "--count-only") == 0      ? &count_only
+                 : strcmp(a, "--keep-all") == 0      ? &keep_all
+                 : strcmp(a, "--transient-local") == 0 ? &transient_local
+                 : strcmp(a, "--best-effort") == 0   ? &best_effort
+                 : strcmp(a, "--digest") == 0        ? &digest
+                                                     : NULL;
+    if (flag) {
+      *flag = true;
       --i;
       continue;
     }
@@ -175,6 +223,10 @@ int main(int argc, char **argv) {
       ok = parse_number(v, 0, 60, &settle);
     else if (ok && strcmp(a, "--duration") == 0)
       ok = parse_number(v, 0, 1e6, &duration);
+    else if (ok && strcmp(a, "--depth") == 0)
+      ok = parse_number(v, 1, 1e6, &depth) && depth == floor(depth);
+    else if (ok && strcmp(a, "--keyed") == 0)
+      ok = parse_number(v, 1, 1e6, &keyed) && keyed == floor(keyed);
     else if (ok && strcmp(a, "--topic") == 0)
       topic_name = v;
     else
@@ -196,21 +248,23 @@ int main(int argc, char **argv) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the participant: %s\n", dds_strretcode(-participant));
     return 1;
   }
-  const dds_entity_t topic = dds_create_topic(participant, &std_msgs_msg_dds__String__desc, topic_name, NULL, NULL);
+  const dds_entity_t topic =
+      dds_create_topic(participant, keyed > 0 ? &netkf_test_msg_dds__Keyed__desc : &std_msgs_msg_dds__String__desc,
+                       topic_name, NULL, NULL);
   if (topic < 0) {
     fprintf(stderr, "netkf_cyclone_chatter: cannot create the topic: %s\n", dds_strretcode(-topic));
     dds_delete(participant);
     return 1;
   }
   dds_qos_t *qos = dds_create_qos();
-  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
+  dds_qset_reliability(qos, best_effort ? DDS_RELIABILITY_BEST_EFFORT : DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(qos, transient_local ? DDS_DURABILITY_TRANSIENT_LOCAL : DDS_DURABILITY_VOLATILE);
   if (keep_all)
     dds_qset_history(qos, DDS_HISTORY_KEEP_ALL, 0);
   else
-    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 1000);
-  const int rc = talker ? talk(participant, topic, qos, count, first, rate_hz, settle, bytes)
-                         : listen_for(participant, topic, qos, duration, count_only);
+    dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, (int32_t)depth);
+  const struct options o = {count, first, rate_hz, settle, duration, bytes, keyed, count_only, digest};
+  const int rc = talker ? talk(participant, topic, qos, &o) : listen_for(participant, topic, qos, &o);
   dds_delete_qos(qos);
   dds_delete(participant);
   return rc;

@@ -1,5 +1,6 @@
 /* netkf_cyclone_reader: a subscriber of another DDS vendor (Eclipse Cyclone DDS, its C API)
- * that reads a live netkf network: netkf/estimate and netkf/link/status (docs/interop.md).
+ * that reads a live netkf network: netkf/estimate, netkf/link/status and the journal netkf/link/change
+ * (docs/interop.md).
  *
  * Its types come from idl/netkf.idl through Cyclone's own IDL compiler (idlc, at build time),
  * never from netkf's code: it shares only the IDL, the topic names and compatible QoS with
@@ -9,7 +10,9 @@
  * precision of netkf's --record CSV, so a value equal to the recording prints the same text):
  *   {"topic":"netkf/estimate","k":..,"t":..,"x_hat":[..],"P":[..],"fused":[..],"late":..,
  *    "state":"ok","trace_P":..,"trace_P_pred":..,"restarts":..,"run":..}
- *   {"topic":"netkf/link/status","sensor_id":..,"model":"bernoulli","loss":.., ...}
+ *   {"topic":"netkf/link/status","sensor_id":..,"model":"bernoulli","loss":.., ...,"link_topic":".."}
+ *   {"topic":"netkf/link/change","sensor_id":..,"at_period":..,"origin":"..","request_id":..,"model":..,
+ *    "loss":..,"link_topic":".."}   (link_topic: the topic a netkf relay's link relays, "" for a channel's)
  * and a last line {"summary":{...}} with the counts and the writers matched.
  * stderr: what it runs with (domain, CYCLONEDDS_URI) and "ready" once both readers exist.
  *
@@ -41,8 +44,10 @@
 typedef netkf_msgs_msg_dds__Estimate_ estimate_t;
 typedef netkf_msgs_msg_dds__LinkStatus_ link_status_t;
 typedef netkf_msgs_msg_dds__LinkSpec_ link_spec_t;
+typedef netkf_msgs_msg_dds__LinkChange_ link_change_t;
 #define ESTIMATE_DESC netkf_msgs_msg_dds__Estimate__desc
 #define LINK_STATUS_DESC netkf_msgs_msg_dds__LinkStatus__desc
+#define LINK_CHANGE_DESC netkf_msgs_msg_dds__LinkChange__desc
 #define TOPIC_PREFIX "rt/"
 #define FIELD_P p
 #define FIELD_TRACE_P trace_p
@@ -53,8 +58,10 @@ typedef netkf_msgs_msg_dds__LinkSpec_ link_spec_t;
 typedef netkf_wire_Estimate estimate_t;
 typedef netkf_wire_LinkStatus link_status_t;
 typedef netkf_wire_LinkSpec link_spec_t;
+typedef netkf_wire_LinkChange link_change_t;
 #define ESTIMATE_DESC netkf_wire_Estimate_desc
 #define LINK_STATUS_DESC netkf_wire_LinkStatus_desc
+#define LINK_CHANGE_DESC netkf_wire_LinkChange_desc
 #define TOPIC_PREFIX ""
 #define FIELD_P P
 #define FIELD_TRACE_P trace_P
@@ -64,6 +71,7 @@ typedef netkf_wire_LinkSpec link_spec_t;
 #endif
 #define ESTIMATE_TOPIC TOPIC_PREFIX "netkf/estimate"
 #define LINK_STATUS_TOPIC TOPIC_PREFIX "netkf/link/status"
+#define LINK_CHANGE_TOPIC TOPIC_PREFIX "netkf/link/change"
 
 static volatile sig_atomic_t stop_requested = 0;
 
@@ -140,7 +148,9 @@ static void print_estimate(const estimate_t *e) {
 
 static void print_link_status(const link_status_t *s) {
   const link_spec_t *l = &s->link;
-  printf("{\"topic\":\"" LINK_STATUS_TOPIC "\",\"sensor_id\":%" PRId32 ",\"model\":", s->sensor_id);
+  printf("{\"topic\":\"" LINK_STATUS_TOPIC "\",\"sensor_id\":%" PRId32 ",\"link_topic\":", s->sensor_id);
+  print_string(s->topic);
+  printf(",\"model\":");
   print_string(l->model);
   printf(",\"loss\":");
   print_double(l->loss);
@@ -176,6 +186,18 @@ static void print_link_status(const link_status_t *s) {
   print_string(s->reject_reason);
   printf(",\"held\":%" PRIu64 ",\"past_deadline\":%" PRIu64 ",\"stamp_ns\":%" PRId64 "}\n", s->held,
          s->past_deadline, s->stamp_ns);
+}
+
+static void print_link_change(const link_change_t *c) {
+  printf("{\"topic\":\"" LINK_CHANGE_TOPIC "\",\"sensor_id\":%" PRId32 ",\"link_topic\":", c->sensor_id);
+  print_string(c->topic);
+  printf(",\"at_period\":%" PRIu64 ",\"origin\":", c->at_period);
+  print_string(c->origin);
+  printf(",\"request_id\":%" PRIu64 ",\"model\":", c->request_id);
+  print_string(c->link.model);
+  printf(",\"loss\":");
+  print_double(c->link.loss);
+  printf(",\"stamp_ns\":%" PRId64 "}\n", c->stamp_ns);
 }
 
 static void usage(const char *self) {
@@ -215,6 +237,7 @@ static uint64_t take_all(dds_entity_t reader, void (*print)(const void *)) {
 
 static void print_estimate_any(const void *s) { print_estimate((const estimate_t *)s); }
 static void print_link_status_any(const void *s) { print_link_status((const link_status_t *)s); }
+static void print_link_change_any(const void *c) { print_link_change((const link_change_t *)c); }
 
 static uint32_t matched_writers(dds_entity_t reader) {
   dds_subscription_matched_status_t st;
@@ -268,7 +291,8 @@ int main(int argc, char **argv) {
    * --naming ros2, rosidl's "netkf_msgs::msg::dds_::Estimate_"). */
   const dds_entity_t estimate_topic = dds_create_topic(participant, &ESTIMATE_DESC, ESTIMATE_TOPIC, NULL, NULL);
   const dds_entity_t status_topic = dds_create_topic(participant, &LINK_STATUS_DESC, LINK_STATUS_TOPIC, NULL, NULL);
-  if (estimate_topic < 0 || status_topic < 0) {
+  const dds_entity_t change_topic = dds_create_topic(participant, &LINK_CHANGE_DESC, LINK_CHANGE_TOPIC, NULL, NULL);
+  if (estimate_topic < 0 || status_topic < 0 || change_topic < 0) {
     fprintf(stderr, "netkf_cyclone_reader: cannot create the topics\n");
     dds_delete(participant);
     return 1;
@@ -288,9 +312,16 @@ int main(int argc, char **argv) {
   dds_qset_history(status_qos, DDS_HISTORY_KEEP_LAST, 256);
   const dds_entity_t estimate_reader = dds_create_reader(participant, estimate_topic, estimate_qos, NULL);
   const dds_entity_t status_reader = dds_create_reader(participant, status_topic, status_qos, NULL);
+  /* The journal: reliable, transient-local (a late joiner gets the changes made before it). */
+  dds_qos_t *change_qos = dds_create_qos();
+  dds_qset_reliability(change_qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_durability(change_qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  dds_qset_history(change_qos, DDS_HISTORY_KEEP_LAST, 1024);
+  const dds_entity_t change_reader = dds_create_reader(participant, change_topic, change_qos, NULL);
   dds_delete_qos(estimate_qos);
   dds_delete_qos(status_qos);
-  if (estimate_reader < 0 || status_reader < 0) {
+  dds_delete_qos(change_qos);
+  if (estimate_reader < 0 || status_reader < 0 || change_reader < 0) {
     fprintf(stderr, "netkf_cyclone_reader: cannot create the readers\n");
     dds_delete(participant);
     return 1;
@@ -301,11 +332,13 @@ int main(int argc, char **argv) {
   const dds_entity_t status_cond = dds_create_readcondition(status_reader, DDS_ANY_STATE);
   dds_waitset_attach(waitset, estimate_cond, estimate_reader);
   dds_waitset_attach(waitset, status_cond, status_reader);
+  const dds_entity_t change_cond = dds_create_readcondition(change_reader, DDS_ANY_STATE);
+  dds_waitset_attach(waitset, change_cond, change_reader);
   fprintf(stderr, "netkf_cyclone_reader: ready\n");
 
   struct timespec start;
   clock_gettime(CLOCK_MONOTONIC, &start);
-  uint64_t estimates = 0, statuses = 0;
+  uint64_t estimates = 0, statuses = 0, changes = 0;
   while (!stop_requested) {
     struct timespec now;
     clock_gettime(CLOCK_MONOTONIC, &now);
@@ -322,14 +355,16 @@ int main(int argc, char **argv) {
     }
     estimates += take_all(estimate_reader, print_estimate_any);
     statuses += take_all(status_reader, print_link_status_any);
+    changes += take_all(change_reader, print_link_change_any);
   }
   /* What arrived in the meantime. */
   estimates += take_all(estimate_reader, print_estimate_any);
   statuses += take_all(status_reader, print_link_status_any);
+  changes += take_all(change_reader, print_link_change_any);
 
-  printf("{\"summary\":{\"estimates\":%" PRIu64 ",\"link_status\":%" PRIu64
+  printf("{\"summary\":{\"estimates\":%" PRIu64 ",\"link_status\":%" PRIu64 ",\"link_change\":%" PRIu64
          ",\"estimate_writers_matched\":%" PRIu32 ",\"link_status_writers_matched\":%" PRIu32 "}}\n",
-         estimates, statuses, matched_writers(estimate_reader), matched_writers(status_reader));
+         estimates, statuses, changes, matched_writers(estimate_reader), matched_writers(status_reader));
   fflush(stdout);
   fprintf(stderr, "netkf_cyclone_reader: %" PRIu64 " estimates, %" PRIu64 " link statuses\n", estimates, statuses);
   dds_delete(participant);

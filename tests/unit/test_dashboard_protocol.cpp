@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "netkf/relay_links.hpp"
 #include "dashboard_protocol.hpp"
 #include "live_model.hpp"
 
@@ -171,6 +172,28 @@ TEST(DashboardProtocol, ALinksParametersBecomeOneChange) {
   ASSERT_EQ(changes.size(), 2u);
   EXPECT_TRUE(changes[0].keys);
   EXPECT_FALSE(changes[1].keys);
+}
+
+TEST(DashboardProtocol, ARelayedTopicsLinkIsNamedByItsLinkIdAndItsRefusalsByItsTopic) {
+  std::vector<LinkView> links(1);
+  links[0].sensor_id = netkf::relay_topic_link_id("rt/scan");
+  links[0].topic = "rt/scan";
+  links[0].link = netkf::BernoulliLink{0.2};
+  const std::string prefix = "link." + std::to_string(links[0].sensor_id) + ".";
+  auto changes = link_changes(set({{prefix + "loss", 0.5}}), links);
+  ASSERT_EQ(changes.size(), 1u);
+  ASSERT_TRUE(changes[0].keys) << changes[0].refusal;
+  EXPECT_EQ(changes[0].sensor_id, links[0].sensor_id);
+  EXPECT_EQ(std::get<netkf::BernoulliLink>(changes[0].link.loss).loss, 0.5);
+  changes = link_changes(set({{prefix + "loss", 1.5}}), links);
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_NE(changes[0].refusal.find("link rt/scan: loss must be a probability"), std::string::npos) << changes[0].refusal;
+  // An id below the int range is no link id.
+  changes = link_changes(set({{"link.-9999999999.loss", 0.5}}), links);
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_NE(changes[0].refusal.find("unknown parameter"), std::string::npos) << changes[0].refusal;
+  const json values = link_parameter_values(links[0], std::string("r2"));
+  EXPECT_EQ(values["parameters"][0]["name"].get<std::string>().rfind(prefix, 0), 0u) << values.dump();
 }
 
 TEST(DashboardProtocol, RefusedValuesChangeNothingAndSayWhy) {

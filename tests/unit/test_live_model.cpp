@@ -8,6 +8,7 @@
 
 #include "live_metrics.hpp"
 #include "live_model.hpp"
+#include "netkf/relay_links.hpp"
 #include "live_status.hpp"
 #include "netkf/analysis/operating_point.hpp"
 #include "test_paths.hpp"
@@ -365,6 +366,25 @@ double metric(const std::string& text, const std::string& series) {
   const auto at = text.find("\n" + series + " ");
   if (at == std::string::npos) return std::nan("");
   return std::stod(text.substr(at + series.size() + 2));
+}
+
+TEST(LiveMetrics, ARelaysLinksAreLabelledByTopicAndOnlyLinksAreServed) {
+  LiveMetrics metrics(LiveMetrics::Scope::links);
+  LiveSnapshot snapshot;
+  LinkView view;
+  static_cast<LinkStatusRecord&>(view) = link_status(netkf::relay_topic_link_id("rt/scan"), BernoulliLink{0.3}, 50, 40);
+  view.topic = "rt/scan";
+  snapshot.links.push_back(view);
+  metrics.update(snapshot);
+  metrics.observe_pipeline_latency(0.001);  // no histogram: ignored
+  metrics.count_restart("sensors");         // no processes: ignored
+  const std::string text = metrics.serialize();
+  EXPECT_EQ(metric(text, "netkf_link_samples_total{link=\"rt/scan\"}"), 50.0) << text;
+  EXPECT_EQ(metric(text, "netkf_link_dropped_total{link=\"rt/scan\"}"), 10.0);
+  EXPECT_EQ(text.find("netkf_estimator"), std::string::npos) << "a relay has no estimator";
+  EXPECT_EQ(text.find("netkf_pipeline_latency"), std::string::npos);
+  EXPECT_EQ(text.find("netkf_process_restarts"), std::string::npos);
+  EXPECT_NE(render_link_table({view}).find("\nrt/scan "), std::string::npos) << "the table names the link by its topic";
 }
 
 TEST(LiveMetrics, CountersFollowTheTotalsAndNeverGoBack) {

@@ -10,6 +10,7 @@
 #include "netkf/link_trace.hpp"
 #include "netkf/random.hpp"
 #include "netkf/relay_links.hpp"
+#include "netkf/scenario.hpp"
 
 namespace {
 
@@ -99,6 +100,55 @@ TEST(RelayLinks, ADelayedLinkHoldsDeliveredSamplesOnly) {
       EXPECT_EQ(f->delay_ms, 0.0);
     }
   }
+}
+
+TEST(RelayLinks, ReportsLifetimeCountsTheRecentFitAndTheLastRequestAsAChannelLinkDoes) {
+  RelayLinks links({{"rt/a", BernoulliLink{0.3}}}, 4);
+  std::uint64_t dropped = 0;
+  netkf::analysis::RecentArrivals independent;  // the channel's window, fed by hand from the fates
+  for (int i = 0; i < 300; ++i) {
+    const bool d = !links.on_sample("rt/a")->delivered;
+    dropped += d ? 1 : 0;
+    independent.record(d);
+  }
+  auto r = *links.report("rt/a");
+  EXPECT_EQ(r.stats.samples(), 300u);
+  EXPECT_EQ(r.stats.dropped(), dropped);
+  EXPECT_EQ(r.lifetime.dropped(), dropped);
+  EXPECT_EQ(r.next_sample, 300u);
+  ASSERT_TRUE(r.recent_fit.has_value());
+  EXPECT_EQ(r.recent_fit->samples, 300u);
+  EXPECT_EQ(r.recent_fit->dropped, dropped);
+  EXPECT_EQ(r.recent_fit->family, independent.fit()->family);
+  EXPECT_EQ(r.last_request_id, 0u);
+
+  ASSERT_TRUE(links.set_link("rt/a", LinkSpec(BernoulliLink{0.0})));
+  links.note_request("rt/a", 77, "");
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(links.on_sample("rt/a")->delivered);
+  r = *links.report("rt/a");
+  EXPECT_EQ(r.stats.samples(), 10u) << "since the change";
+  EXPECT_EQ(r.lifetime.samples(), 310u) << "not reset by a change";
+  EXPECT_EQ(r.lifetime.dropped(), dropped);
+  EXPECT_EQ(r.recent_fit->samples, 10u) << "the window restarts with the model";
+  EXPECT_EQ(r.last_request_id, 77u);
+  EXPECT_TRUE(r.reject_reason.empty());
+  links.note_request("rt/a", 78, "bad key");
+  EXPECT_EQ(links.report("rt/a")->reject_reason, "bad key");
+  EXPECT_FALSE(links.report("rt/unknown").has_value());
+}
+
+TEST(RelayLinks, ATopicsLinkIdIsItsOwnStableNegativeId) {
+  const int a = netkf::relay_topic_link_id("rt/chatter");
+  EXPECT_EQ(a, netkf::relay_topic_link_id("rt/chatter"));
+  EXPECT_NE(a, netkf::relay_topic_link_id("rt/scan"));
+  for (const char* topic : {"rt/chatter", "rt/scan", "", "x"}) {
+    const int id = netkf::relay_topic_link_id(topic);
+    EXPECT_LE(id, -1000);
+    EXPECT_TRUE(netkf::is_relay_topic_link_id(id));
+  }
+  EXPECT_FALSE(netkf::is_relay_topic_link_id(netkf::kControlLinkId));
+  EXPECT_FALSE(netkf::is_relay_topic_link_id(netkf::kRelayTopicLinkId));
+  EXPECT_FALSE(netkf::is_relay_topic_link_id(0));
 }
 
 }  // namespace

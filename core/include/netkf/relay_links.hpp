@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/link.hpp"
 #include "netkf/loss_model.hpp"
 
@@ -21,6 +22,13 @@ namespace netkf {
 /// the link's own keys; the channel emulator ignores it, a relay answers for its own topics.
 inline constexpr int kRelayTopicLinkId = -2;
 inline constexpr const char* kRelayTopicKey = "topic";
+
+/// The link id a relayed topic's status and journal carry (wire::LinkStatus is keyed by it):
+/// below kRelayTopicLinkId, from a hash of the topic's name, so every relay and every reader
+/// gives a topic the same id; the topic itself travels beside it (`topic`).
+int relay_topic_link_id(const std::string& topic);
+/// Whether a link id is one relay_topic_link_id makes.
+inline bool is_relay_topic_link_id(int link_id) { return link_id < kRelayTopicLinkId; }
 
 /// A topic to relay and its link.
 struct RelayTopic {
@@ -50,9 +58,11 @@ class RelayLinks {
   /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed.
   std::optional<RelayFate> on_sample(const std::string& topic);
 
-  /// Replace a topic's link from its next sample on (statistics restart); false for an unknown
-  /// topic. Throws LinkError on an invalid link (nothing changes).
+  /// Replace a topic's link from its next sample on (statistics since the change restart); false
+  /// for an unknown topic. Throws LinkError on an invalid link (nothing changes).
   bool set_link(const std::string& topic, const LinkSpec& link);
+  /// The answer to a change request, as the channel's links keep it (the status shows it).
+  void note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason);
 
   /// A topic's current link; nullopt for a topic that is not relayed.
   std::optional<LinkSpec> link(const std::string& topic) const;
@@ -60,16 +70,29 @@ class RelayLinks {
   struct Report {
     std::string topic;
     LinkSpec link;
-    LinkStatistics stats;  // since the link was set
+    LinkStatistics stats;     // since the link was set
+    LinkStatistics lifetime;  // since the relay started (not reset by a change)
+    std::uint64_t next_sample = 0;  // the index the topic's next sample gets (where a change applies)
+    std::uint64_t last_request_id = 0;
+    std::string reject_reason;  // of the last request (empty: applied)
+    std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the link was set
   };
   std::vector<Report> reports() const;
+  /// One topic's report; nullopt for a topic that is not relayed.
+  std::optional<Report> report(const std::string& topic) const;
 
  private:
   struct Link {
+    Link(LinkSpec link, LinkLossProcess loss_process, LinkDelayProcess delay_process)
+        : spec(std::move(link)), loss(std::move(loss_process)), delay(std::move(delay_process)) {}
     LinkSpec spec;
     LinkLossProcess loss;
     LinkDelayProcess delay;
     LinkStatistics stats;
+    LinkStatistics lifetime;
+    analysis::RecentArrivals recent;  // emptied with `stats`
+    std::uint64_t last_request_id = 0;
+    std::string reject_reason;
     std::uint64_t samples = 0;      // every sample of the topic (the trace's row index)
     std::uint64_t trace_start = 0;  // the sample a trace link took effect at
   };

@@ -89,7 +89,8 @@ struct LinkStatusFacts {
   std::string reject_reason;
   std::uint64_t held = 0;
   std::uint64_t past_deadline = 0;
-  std::optional<analysis::RecentLossFit> recent_fit;  // the link's recent samples' model (none: no sample yet)
+  std::optional<analysis::RecentLossFit> recent_fit = {};  // the link's recent samples' model (none: no sample yet)
+  std::string topic = {};  // a link of `netkf relay`: its topic (sensor_id is relay_topic_link_id of it)
 };
 wire::LinkStatus make_link_status(const LinkStatusFacts& facts, std::int64_t stamp_ns);
 /// The recent samples' model a status carries; none before the link's first sample, and
@@ -102,7 +103,12 @@ LinkSpec link_of(const wire::LinkStatus& status);
 wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
                                                const std::string& reason);
 /// One entry of the link journal.
+/// `topic`: a relayed topic's link (at_period is then the index of its first sample changed).
 wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
-                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns);
+                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns,
+                                  const std::string& topic = {});
+/// The topic a relayed link's status or journal entry names ("" for a channel's link); throws
+/// ConversionError when the link id is not that topic's (relay_topic_link_id).
+std::string relayed_topic_of(int sensor_id, const std::string& topic);
 
 }  // namespace netkf::dds

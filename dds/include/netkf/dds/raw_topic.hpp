@@ -38,6 +38,10 @@ struct DiscoveredWriter {
   bool keyed = false;
   bool reliable = true;
   bool transient_local = false;
+  /// What of the writer's QoS the relay's endpoints do not reproduce, in words (logged): e.g.
+  /// transient or persistent durability (relayed as transient local), exclusive ownership,
+  /// partitions. A writer's history kind and depth are not in discovery at all (RawReader).
+  std::vector<std::string> not_mirrored;
 };
 
 /// The largest payload a raw topic takes (bytes, header included): larger samples are refused
