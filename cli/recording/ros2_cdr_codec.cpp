@@ -89,6 +89,7 @@ class FastCdrCodec final : public Ros2Codec {
     f.held = l.held;
     f.past_deadline = l.past_deadline;
     f.recent_fit = l.recent_fit;
+    f.topic = l.topic;
     wire::LinkStatus s = dds::make_link_status(f, 0);
     // The record keeps the counts, not the running statistics they came from.
     s.samples_in(l.samples_in);
@@ -104,7 +105,7 @@ class FastCdrCodec final : public Ros2Codec {
 
   std::string link_change(const LinkChangeRecord& c) const override {
     return serialize(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), c.origin,
-                                           c.request_id, c.link, 0));
+                                           c.request_id, c.link, 0, c.topic));
   }
 
   // rcl_interfaces/msg/Log has no wire type in idl/netkf.idl: its fields are serialized one by

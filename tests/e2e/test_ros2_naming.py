@@ -11,14 +11,17 @@ Independent expectations:
   CSV row of its period in the CSV's own text (x_hat, Tr P and the trace of P, fused set, late,
   state, t) — the .msg files describe the bytes netkf sends.
 - At the same time the same reader built from idl/netkf.idl (netkf's names) matches nothing.
-- `netkf ctl set-link --naming ros2` changes link 1 (the control topic under its ROS 2 name),
-  and the ROS 2 reader's link status shows the new loss.
+- `netkf ctl set-link --naming ros2` changes link 1 (the control topic under its ROS 2 name):
+  the ROS 2 reader's journal (rt/netkf/link/change) has that change with ctl's request id, and
+  `ctl status --naming ros2` shows it; the keyed link status does not match the reader of the
+  unkeyed .msg type (docs/ros2.md, "Keyed topics").
 - A closed loop under `--naming ros2` (the flag, not the key): the plant applies the inputs the
   estimator sends over rt/netkf/control (each applied input is -L x_hat of the recorded estimate
   of the period before) and the run ends 0.
 - `--standby` with the ros2 naming is refused (exclusive ownership, which ROS 2 readers lack)."""
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -87,11 +90,11 @@ ros2 = Reader("ros2", READER_ROS2)
 netkf_named = Reader("netkf-named", READER)
 try:
     check(wait_for(lambda: "ready" in ros2.log() and "ready" in netkf_named.log(), 20), "both Cyclone readers are up")
-    with Launch(scenario_path, 8, out, extra=("--domain", str(DOMAIN), "--dashboard", "off")) as run:
+    with Launch(scenario_path, 12, out, extra=("--domain", str(DOMAIN), "--dashboard", "off")) as run:
         check(wait_for(lambda: last_period(run.record) >= 150, 30), "the launch is past period 150")
         changed = netkf("ctl", "set-link", "1", "--bernoulli", "0.5", "--domain", DOMAIN, "--naming", "ros2")
-        unnamed = netkf("ctl", "set-link", "2", "--bernoulli", "0.5", "--domain", DOMAIN, "--timeout", "3")
         status = netkf("ctl", "status", "--json", "--domain", DOMAIN, "--timeout", "10", "--naming", "ros2")
+        unnamed = netkf("ctl", "set-link", "2", "--bernoulli", "0.5", "--domain", DOMAIN, "--timeout", "3")
         rc = run.wait(60)
     time.sleep(1.5)  # the channel's final status is written as the launch stops
 finally:
@@ -148,6 +151,13 @@ check(not bad, "each of the %d estimates decoded with the .msg types equals its 
 check(summary.get("link_status_writers_matched") == 0 and summary.get("link_status") == 0,
       "the reader of the unkeyed LinkStatus .msg type does not match the channel's keyed writer, as docs/ros2.md "
       "says (%s)" % summary)
+# The journal is unkeyed: the ROS 2 reader gets ctl's change, with the request id ctl printed.
+journal = [l for l in lines if l.get("topic") == "rt/netkf/link/change"]
+request = re.search(r"request (\d+)", changed.stdout)
+check(len(journal) == 1 and journal[0]["sensor_id"] == 1 and journal[0]["loss"] == "0.5"
+      and journal[0]["origin"] == "request" and request and journal[0]["request_id"] == int(request.group(1)),
+      "the ROS 2 reader of rt/netkf/link/change got the one change: link 1 to loss 0.5 by ctl's request %s (%s)"
+      % (request.group(1) if request else None, journal))
 links = {l["sensor_id"]: l for l in json.loads(status.stdout)["links"]} if status.returncode == 0 else {}
 check(links.get(1, {}).get("loss") == 0.5 and links.get(2, {}).get("loss") == 0.4,
       "netkf ctl status --naming ros2 shows link 1 changed to loss 0.5 and link 2 at the scenario's 0.4 (%s)"

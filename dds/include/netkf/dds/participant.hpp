@@ -158,9 +158,9 @@ class Participant {
   /// on first use).
   template <class T>
   eprosima::fastdds::dds::Topic* topic(const Topic<T>& spec) {
-    auto* type = new typename PubSubTypeOf<T>::type();
+    eprosima::fastdds::dds::TypeSupport type(new typename PubSubTypeOf<T>::type());
     type->setName(dds_type_name(type->getName(), naming_).c_str());
-    return topic(dds_topic_name(spec.name, naming_), eprosima::fastdds::dds::TypeSupport(type));
+    return topic(dds_topic_name(spec.name, naming_), type);
   }
   /// The DDS topic `name` of any type (registered under its own name on first use).
   eprosima::fastdds::dds::Topic* topic(const std::string& name, eprosima::fastdds::dds::TypeSupport type);
