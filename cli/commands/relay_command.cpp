@@ -13,6 +13,7 @@
 #include "commands.hpp"
 #include "exit_code.hpp"
 #include "netkf/scenario.hpp"
+#include "netkf/dds/participant.hpp"  // resolve_naming
 #include "netkf/relay_config.hpp"
 #include "relay_app.hpp"
 #include "serve_loop.hpp"
@@ -31,6 +32,7 @@ struct RelayCommandOptions {
   std::optional<std::string> record;
   std::optional<unsigned short> metrics_port;
   std::optional<std::string> profile;
+  std::optional<std::string> naming;
   double duration = 0.0;
 };
 
@@ -91,6 +93,11 @@ int run_relay(const RelayCommandOptions& o) {
   const std::size_t topics = options.topics.size();
   const int from = options.from_domain, to = options.to_domain;
   if (o.profile) options.profile = *o.profile;
+  try {
+    options.naming = dds::resolve_naming(o.naming, TopicNaming::netkf);
+  } catch (const std::exception& e) {
+    fail(ExitCode::bad_usage, e.what());
+  }
   if (o.record) options.record = *o.record;
   if (o.metrics_port) options.metrics_port = *o.metrics_port;
   std::unique_ptr<RelayApp> app;
@@ -137,6 +144,11 @@ void add_relay_command(CLI::App& app) {
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
   cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");
+  cmd->add_option("--naming", o->naming,
+                  "Names of netkf's own topics the relay answers and reports on (link control, status, journal): netkf "
+                  "or ros2, as the `netkf ctl` that talks to it (default: $NETKF_NAMING, else netkf; the relayed "
+                  "topics keep their names)")
+      ->check(CLI::IsMember({"netkf", "ros2"}));
   cmd->add_option("--duration", o->duration, "Stop after S seconds (default: until Ctrl-C)")->check(duration_seconds());
   cmd->add_option("--dashboard", o->metrics_port,
                   "Serve the topics' links on 127.0.0.1:PORT (0: a free port, logged): GET /metrics (Prometheus) and a "

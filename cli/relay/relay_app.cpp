@@ -56,6 +56,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     to.domain = options_.to_domain;
     to.name = "netkf-relay-out";
     to.profile_file = options_.profile;
+    to.naming = options_.naming;
     destination_ = std::make_unique<dds::Participant>(to);
     destination_prefix_ = destination_->get()->guid().guidPrefix;
     // Link changes (`netkf ctl set-link TOPIC ... --domain TO`) on the readers' domain.

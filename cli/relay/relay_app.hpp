@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "netkf/relay_links.hpp"
+#include "netkf/scenario.hpp"  // TopicNaming
 
 namespace netkf::cli {
 
@@ -24,6 +25,9 @@ struct RelayOptions {
   int depth = 100;
   /// Fast DDS XML profile of both participants (nullopt: the built-in localhost-only one).
   std::optional<std::filesystem::path> profile;
+  /// The names of netkf's own topics it uses (link control, reply, status, journal: docs/ros2.md);
+  /// the relayed topics keep theirs.
+  TopicNaming naming = TopicNaming::netkf;
   /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay.
   std::optional<std::filesystem::path> record;
   /// Serve the topics' links on 127.0.0.1:PORT (0: any free port): GET /metrics (Prometheus) and

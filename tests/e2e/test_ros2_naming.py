@@ -18,7 +18,8 @@ Independent expectations:
 - A closed loop under `--naming ros2` (the flag, not the key): the plant applies the inputs the
   estimator sends over rt/netkf/control (each applied input is -L x_hat of the recorded estimate
   of the period before) and the run ends 0.
-- `--standby` with the ros2 naming is refused (exclusive ownership, which ROS 2 readers lack)."""
+- `--standby` with the ros2 naming is refused (exclusive ownership, which ROS 2 readers lack).
+- `netkf relay --naming ros2` answers `ctl --naming ros2` and lists its topic's link there."""
 import json
 import os
 import re
@@ -29,7 +30,7 @@ import time
 
 import yaml
 
-from e2e_common import (DATA, REPO, Launch, check, finish, inputs_missing, last_period, netkf, read_periods,
+from e2e_common import (DATA, NETKF, REPO, Launch, check, finish, inputs_missing, last_period, netkf, read_periods,
                         require_netns, wait_for, workdir)
 
 require_netns()
@@ -187,4 +188,20 @@ refused = netkf("launch", os.path.join(DATA, "closed_loop.yaml"), "--duration", 
                 "--domain", DOMAIN, "--dashboard", "off")
 check(refused.returncode == 2 and "--standby needs exclusive ownership" in refused.stderr,
       "--standby with the ros2 naming is refused with exit 2 (rc=%d): %s" % (refused.returncode, refused.stderr[-300:]))
+# ---- a relay answers and reports under the naming its ctl uses (its relayed topics keep theirs)
+relay = subprocess.Popen([NETKF, "relay", "--from-domain", "116",
+                          "--to-domain", str(DOMAIN), "--topic", "rt/chatter", "--bernoulli", "0.3", "--naming", "ros2",
+                          "--duration", "30"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+try:
+    relay_status = netkf("ctl", "status", "--json", "--domain", DOMAIN, "--timeout", "10", "--naming", "ros2")
+    relay_change = netkf("ctl", "set-link", "rt/chatter", "--bernoulli", "0.1", "--domain", DOMAIN, "--naming", "ros2")
+    relay_unnamed = netkf("ctl", "status", "--json", "--domain", DOMAIN, "--timeout", "3")
+finally:
+    relay.send_signal(signal.SIGINT)
+    relay_log = relay.communicate(timeout=30)[0]
+topics = [l.get("topic") for l in json.loads(relay_status.stdout)["links"]] if relay_status.returncode == 0 else []
+check(topics == ["rt/chatter"] and relay_change.returncode == 0 and relay_unnamed.returncode != 0,
+      "a relay with --naming ros2: ctl status --naming ros2 lists its topic's link %s, set-link changes it (rc=%d), "
+      "ctl with netkf's names finds nothing (rc=%d)\n%s" % (topics, relay_change.returncode, relay_unnamed.returncode,
+                                                           relay_log[-1500:]))
 finish()
