@@ -132,12 +132,13 @@ def test_nested_types_and_strings():
     put(b"\x00")                           # loop
     put(struct.pack("<Q", 0), 8)           # offset
     put(struct.pack("<q", -3), 8)          # stamp_ns
+    put(s("rt/chatter"), 4)                # topic (a relayed topic's link)
     m = ros2msg.decode(types, "netkf_msgs/LinkChange", b"\x00\x01\x00\x00" + bytes(out))
     assert m == {"sensor_id": -1, "at_period": 40, "origin": "request", "request_id": 5,
                  "link": {"model": "bernoulli", "loss": 0.2, "p": 0.0, "r": 0.0, "loss_good": 0.0, "loss_bad": 0.0,
                           "delay_ms": 10.0, "jitter_ms": 2.0, "delay_distribution": "uniform", "trace": "",
                           "loop": False, "offset": 0},
-                 "stamp_ns": -3}
+                 "stamp_ns": -3, "topic": "rt/chatter"}
 
 
 # ROS 2's rcl_interfaces/msg/Log and builtin_interfaces/msg/Time, written here from ROS 2's
