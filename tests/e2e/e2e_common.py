@@ -166,6 +166,46 @@ class Launch:
         return False
 
 
+class CycloneReader:
+    """tests/interop/netkf_cyclone_reader (or its ROS 2 build) in the background: JSON lines on
+    stdout, its log on stderr; CYCLONEDDS_URI set to `config_uri`, or unset (Cyclone's defaults)."""
+
+    def __init__(self, exe, domain, outdir, name, config_uri):
+        self.out_path = os.path.join(outdir, name + ".jsonl")
+        self.err_path = os.path.join(outdir, name + ".log")
+        env = dict(os.environ)
+        env.pop("CYCLONEDDS_URI", None)
+        if config_uri:
+            env["CYCLONEDDS_URI"] = config_uri
+        cmd = [exe, "--domain", str(domain), "--duration", "120"]
+        print("$", ("CYCLONEDDS_URI=%s " % config_uri if config_uri else ""), " ".join(cmd), flush=True)
+        self.out = open(self.out_path, "w")
+        self.err = open(self.err_path, "w")
+        self.proc = subprocess.Popen(cmd, stdout=self.out, stderr=self.err, env=env)
+
+    def log(self):
+        with open(self.err_path) as f:
+            return f.read()
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+        try:
+            rc = self.proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            rc = self.proc.wait()
+        self.out.close()
+        self.err.close()
+        return rc
+
+    def lines(self):
+        """Each line as a dict; doubles kept as the text the reader printed (%.17g; a whole
+        number such as "0" parses as an int, whose str() is that text again)."""
+        with open(self.out_path) as f:
+            return [json.loads(l, parse_float=str) for l in f if l.strip()]
+
+
 def wait_for(predicate, seconds):
     """Poll `predicate` until it holds (True) or `seconds` pass (False)."""
     end = time.monotonic() + seconds

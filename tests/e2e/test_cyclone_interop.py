@@ -14,15 +14,14 @@ Cyclone's default configuration, running at the same time, listens on random por
 nothing: the first one found the network through the shipped configuration, not by default."""
 import json
 import os
-import signal
 import subprocess
 import sys
 import time
 
 import yaml
 
-from e2e_common import (DATA, REPO, Launch, check, finish, last_period, netkf, read_periods, require_netns, wait_for,
-                        workdir)
+from e2e_common import (DATA, REPO, CycloneReader, Launch, check, finish, last_period, netkf, read_periods,
+                        require_netns, wait_for, workdir)
 
 require_netns()
 DOMAIN = 83
@@ -38,43 +37,8 @@ CONFIGURED_LINKS = {1: 0.25, 2: 0.4}
 out = workdir("cyclone")
 
 
-class Reader:
-    """netkf_cyclone_reader in the background: JSON lines on stdout, its log on stderr."""
-
-    def __init__(self, name, env_uri):
-        self.out_path = os.path.join(out, name + ".jsonl")
-        self.err_path = os.path.join(out, name + ".log")
-        env = dict(os.environ)
-        env.pop("CYCLONEDDS_URI", None)
-        if env_uri:
-            env["CYCLONEDDS_URI"] = env_uri
-        cmd = [READER, "--domain", str(DOMAIN), "--duration", "120"]
-        print("$", ("CYCLONEDDS_URI=%s " % env_uri if env_uri else ""), " ".join(cmd), flush=True)
-        self.out = open(self.out_path, "w")
-        self.err = open(self.err_path, "w")
-        self.proc = subprocess.Popen(cmd, stdout=self.out, stderr=self.err, env=env)
-
-    def log(self):
-        with open(self.err_path) as f:
-            return f.read()
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            rc = self.proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self.out.close()
-        self.err.close()
-        return rc
-
-    def lines(self):
-        """Each line as a dict; doubles kept as the text the reader printed (%.17g; a whole
-        number such as "0" parses as an int, whose str() is that text again)."""
-        with open(self.out_path) as f:
-            return [json.loads(l, parse_float=str) for l in f if l.strip()]
+def Reader(name, env_uri):
+    return CycloneReader(READER, DOMAIN, out, name, env_uri)
 
 
 # lo multicast-capable, as a host's network interface is: Cyclone's default configuration then

@@ -30,7 +30,7 @@ import time
 
 import yaml
 
-from e2e_common import (DATA, NETKF, REPO, Launch, check, finish, inputs_missing, last_period, netkf, read_periods,
+from e2e_common import (DATA, NETKF, REPO, CycloneReader, Launch, check, finish, inputs_missing, last_period, netkf, read_periods,
                         require_netns, wait_for, workdir)
 
 require_netns()
@@ -46,37 +46,8 @@ CONFIG = "file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.x
 out = workdir("ros2_naming")
 
 
-class Reader:
-    """A Cyclone reader in the background: JSON lines on stdout, its log on stderr."""
-
-    def __init__(self, name, exe):
-        self.out_path = os.path.join(out, name + ".jsonl")
-        self.err_path = os.path.join(out, name + ".log")
-        env = dict(os.environ, CYCLONEDDS_URI=CONFIG)
-        cmd = [exe, "--domain", str(DOMAIN), "--duration", "120"]
-        print("$", " ".join(cmd), flush=True)
-        self.out, self.err = open(self.out_path, "w"), open(self.err_path, "w")
-        self.proc = subprocess.Popen(cmd, stdout=self.out, stderr=self.err, env=env)
-
-    def log(self):
-        with open(self.err_path) as f:
-            return f.read()
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            rc = self.proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self.out.close()
-        self.err.close()
-        return rc
-
-    def lines(self):
-        with open(self.out_path) as f:
-            return [json.loads(l, parse_float=str) for l in f if l.strip()]
+def Reader(name, exe):
+    return CycloneReader(exe, DOMAIN, out, name, CONFIG)
 
 
 # ---- the key: exact.yaml (open loop, links 1 and 2) with `naming: ros2`
