@@ -41,6 +41,7 @@ function modelText(s) {
 
 const FIELDS = [
   ['topic', 'topic'], ['type', 'type'], ['link id', 'sensor_id'], ['model', 'model'],
+  // Since the link's last change (the relay's counts restart then); "since start" goes on.
   ['samples in', 'samples_in'], ['delivered', 'delivered'], ['dropped', 'dropped'],
   ['observed loss', 'observed_loss'], ['stationary loss', 'stationary_loss'],
   ['mean burst', 'mean_burst_length'], ['since start', 'lifetime'], ['last request', 'last_request'],
@@ -59,7 +60,7 @@ class Card {
       dl.append(el('dt', {}, label), dd);
       this.values[key] = dd;
     }
-    this.root.append(dl, this.makeForm());
+    this.root.append(el('div', { class: 'subhead' }, 'counts since the link\'s last change'), dl, this.makeForm());
     $('topics').append(this.root);
   }
 
