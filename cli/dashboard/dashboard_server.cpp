@@ -59,6 +59,27 @@ http::response<http::string_body> make_response(const dashboard::RequestDecision
   return res;
 }
 
+// The embedded files one page may serve: each page its own files and the shared style, so the
+// launch does not serve the relay's page nor the relay the launch's. The policy asks for
+// /index.html on GET /: the relay answers with relay.html.
+dashboard::RequestPolicy::FindAsset page_assets(DashboardPage page) {
+  using dashboard::Asset;
+  switch (page) {
+    case DashboardPage::launch:
+      return [](std::string_view path) -> const Asset* {
+        return path == "/relay.html" || path == "/relay.js" ? nullptr : dashboard::find_asset(path);
+      };
+    case DashboardPage::relay:
+      return [](std::string_view path) -> const Asset* {
+        if (path == "/index.html") path = "/relay.html";
+        return path == "/relay.html" || path == "/relay.js" || path == "/style.css" ? dashboard::find_asset(path)
+                                                                                     : nullptr;
+      };
+    case DashboardPage::none: break;
+  }
+  return [](std::string_view) -> const Asset* { return nullptr; };
+}
+
 }  // namespace
 
 class WsSession;
@@ -388,10 +409,7 @@ void DashboardServer::Impl::listen() {
   policy.emplace(options.token,
                  dashboard::own_origins(options.bind, address.is_v6(), address.is_unspecified(),
                                         acceptor.local_endpoint().port(), options.allowed_origins),
-                 options.serve_page ? dashboard::RequestPolicy::FindAsset(dashboard::find_asset)
-                                    : dashboard::RequestPolicy::FindAsset([](std::string_view) -> const dashboard::Asset* {
-                                        return nullptr;
-                                      }));
+                 page_assets(options.page));
   accept_next();
   schedule_flush();
 }

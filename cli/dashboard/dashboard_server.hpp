@@ -26,9 +26,12 @@ namespace netkf::cli {
 /// Connections the dashboard holds at once by default (HTTP and WebSocket together).
 inline constexpr std::size_t kDefaultMaxConnections = 256;
 
+/// Which page GET / serves: `netkf launch`'s (index.html: a scenario's sensors), `netkf relay`'s
+/// (relay.html: a card per relayed topic), or none (only /metrics and the WebSocket).
+enum class DashboardPage { launch, relay, none };
+
 struct DashboardOptions {
-  /// false: no page, only /metrics (and the WebSocket) — `netkf relay --dashboard`.
-  bool serve_page = true;
+  DashboardPage page = DashboardPage::launch;
   std::string bind = "127.0.0.1";
   unsigned short port = 8470;                 // 0: any free port (tests)
   std::vector<std::string> allowed_origins;   // besides the dashboard's own

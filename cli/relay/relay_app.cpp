@@ -329,12 +329,12 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       if (request.id) metrics_server_->send_to(client, dashboard::link_parameter_values(v, request.id));
   }
 
-  // GET /metrics and the Foxglove WebSocket (netkf/link/status) on 127.0.0.1,
-  // no page (a launch's page shows a scenario's links), served on the relay's thread; the
+  // GET /metrics, the Foxglove WebSocket (netkf/link/status) and the relay's page (a card per
+  // relayed topic: dashboard/web/relay.html) on 127.0.0.1, served on the relay's thread; the
   // topics' links as a launch's links are (netkf_link_*{link="TOPIC"}).
   void serve_metrics(unsigned short port) {
     DashboardOptions o;
-    o.serve_page = false;
+    o.page = DashboardPage::relay;
     o.port = port;
     o.max_connections = 16;
     DashboardServer::Hooks hooks;
@@ -348,8 +348,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
     const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", {"parameters"}}};
     metrics_server_ = std::make_unique<DashboardServer>(io_, o, info, std::move(hooks));
-    spdlog::info("the relayed topics' links: http://127.0.0.1:{}/metrics, Foxglove ws://127.0.0.1:{}/",
-                 metrics_server_->port(), metrics_server_->port());
+    spdlog::info("the relayed topics' links: page http://127.0.0.1:{}/, http://127.0.0.1:{}/metrics, Foxglove "
+                 "ws://127.0.0.1:{}/",
+                 metrics_server_->port(), metrics_server_->port(), metrics_server_->port());
   }
 
   std::string metrics_text() {

@@ -11,7 +11,8 @@ equal to the recording's; the text table names the topic; the Cyclone reader's l
 the topic says the same; after `netkf ctl set-link rt/chatter --bernoulli 0` the journal entry
 (seen by the Cyclone reader) names the topic, the request and the index of the first sample the
 recording shows under the new link, and every sample after it is delivered; the relay's
-/metrics (--metrics) counts per topic what the recording shows, and serves no page."""
+/metrics (--metrics) counts per topic what the recording shows, and GET / serves the relay's own
+page (test_relay_page.py drives it), not the launch's."""
 import csv
 import json
 import os
@@ -96,12 +97,12 @@ def metrics():
     return port, values
 
 
-def page_status(port):
+def page_status(port, path="/"):
     try:
-        with urllib.request.urlopen("http://127.0.0.1:%s/" % port, timeout=10) as r:
-            return r.status
+        with urllib.request.urlopen("http://127.0.0.1:%s%s" % (port, path), timeout=10) as r:
+            return r.status, r.read().decode()
     except urllib.error.HTTPError as e:
-        return e.code
+        return e.code, ""
 try:
     check(wait_for(lambda: "ready" in text("listener", ".log") and "ready" in text("reader", ".log"), 20),
           "the listener and the Cyclone reader are up")
@@ -114,6 +115,7 @@ try:
     port, served = metrics()
     print("metrics:", served, flush=True)
     root = page_status(port)
+    launch_page = page_status(port, "/app.js")
     table = run([NETKF, "ctl", "status", "--domain", str(TO)])
     check(table.returncode == 0 and any(l.startswith("rt/chatter ") for l in table.stdout.splitlines()),
           "the status table names the relayed topic's link")
@@ -218,7 +220,8 @@ check(served_after.get("netkf_link_samples_total") == COUNT + COUNT2
       and served_after.get("netkf_link_delivered_total") == delivered + COUNT2
       and served_after.get("netkf_link_dropped_total") == dropped and served_after.get("netkf_link_configured_loss") == 0,
       "/metrics after the change: counters go on, the configured loss is 0 (%s)" % served_after)
-check(root == 404, "the relay serves no page (GET / -> %s)" % root)
+check(root[0] == 200 and "/relay.js" in root[1] and launch_page[0] == 404,
+      "GET / serves the relay's page, not the launch's (GET / -> %s, /app.js -> %s)" % (root[0], launch_page[0]))
 fox_last = [m for m in fox.get("estimates", []) if m.get("topic") == "rt/chatter"]
 check(fox_last and fox_last[-1].get("samples_total") == COUNT + COUNT2
       and fox_last[-1].get("delivered_total") == delivered + COUNT2 and fox_last[-1].get("dropped_total") == dropped

@@ -194,6 +194,36 @@ TEST(DashboardServer, ServesThePageItsAssetsAndMetrics) {
   EXPECT_EQ(metrics[http::field::content_type], "text/plain; version=0.0.4; charset=utf-8");
 }
 
+TEST(DashboardServer, EachPageServesItsOwnFilesOnly) {
+  // The launch's dashboard does not serve the relay's page; the relay's serves relay.html at /
+  // and none of the launch's files; --dashboard without a page serves only /metrics.
+  ServerFixture launch;
+  EXPECT_EQ(get(launch.port(), "/relay.html").result(), http::status::not_found);
+  EXPECT_EQ(get(launch.port(), "/relay.js").result(), http::status::not_found);
+  DashboardOptions relay_options;
+  relay_options.page = DashboardPage::relay;
+  ServerFixture relay(relay_options);
+  auto page = get(relay.port(), "/");
+  EXPECT_EQ(page.result(), http::status::ok);
+  EXPECT_NE(page.body().find("/relay.js"), std::string::npos);
+  EXPECT_EQ(page.body().find("/app.js"), std::string::npos);
+  EXPECT_EQ(get(relay.port(), "/relay.js").result(), http::status::ok);
+  EXPECT_EQ(get(relay.port(), "/style.css").result(), http::status::ok);
+  for (const char* path : {"/index.html", "/app.js", "/uPlot.iife.min.js"}) {
+    auto res = get(relay.port(), path);
+    if (std::string(path) == "/index.html") {
+      EXPECT_EQ(res.body(), page.body()) << "the policy's name for GET /";
+    } else {
+      EXPECT_EQ(res.result(), http::status::not_found) << path;
+    }
+  }
+  DashboardOptions none_options;
+  none_options.page = DashboardPage::none;
+  ServerFixture none(none_options);
+  EXPECT_EQ(get(none.port(), "/").result(), http::status::not_found);
+  EXPECT_EQ(get(none.port(), "/metrics").result(), http::status::ok);
+}
+
 TEST(DashboardServer, SpeaksFoxgloveAndStreamsSubscribedChannels) {
   ServerFixture f;
   Client c(f.port());  // no Origin: a desktop app or a script

@@ -1,0 +1,153 @@
+"""`netkf relay --dashboard`'s page (docs/relay.md, "The page") in a real browser: a Cyclone DDS
+talker writes rt/chatter on domain 117; `netkf relay` passes it to 118 through a Bernoulli link of
+loss 0.3, recording each sample's fate, and serves its page. Debian's Chromium, driven by
+playwright-core (relay_page_browser.mjs), opens the page as a user does.
+
+Independent expectations: the relay's recording (a CSV line per sample), `netkf ctl status`
+(DDS, not the page's WebSocket) and a Cyclone DDS listener of another vendor. Checked: the page
+shows a card for rt/chatter whose samples, delivered and dropped equal the recording's, with the
+model and its stationary loss; a loss of 1.5 typed into its form is refused and the card shows
+the reason; a loss of 0 typed and submitted is applied: ctl status shows loss 0 for rt/chatter,
+and a second talker's samples are all delivered per the recording and all reach the listener."""
+import csv
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+from e2e_common import NETKF, REPO, check, finish, node, require_netns, wait_for, workdir
+
+require_netns()
+FROM, TO = 117, 118
+COUNT, LOSS = 300, 0.3
+COUNT2 = 100  # after the page made the link lossless
+CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
+if not (CHATTER and os.access(CHATTER, os.X_OK)):
+    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
+    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
+          "scripts/deps.sh)", flush=True)
+    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+if not os.access("/usr/bin/chromium", os.X_OK):
+    print("Debian's chromium is not installed (scripts/deps.sh)", flush=True)
+    sys.exit(1 if os.environ.get("CI") == "true" else 77)
+out = workdir("relay_page")
+env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
+record = os.path.join(out, "fates.csv")
+
+
+def start(name, cmd):
+    print("$", " ".join(cmd), flush=True)
+    return subprocess.Popen(cmd, stdout=open(os.path.join(out, name + ".out"), "w"),
+                            stderr=open(os.path.join(out, name + ".log"), "w"), env=env)
+
+
+def text(name, ext):
+    with open(os.path.join(out, name + ext)) as f:
+        return f.read()
+
+
+def stop(proc, timeout=20):
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.wait()
+
+
+def run(cmd):
+    print("$", " ".join(cmd), flush=True)
+    r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=90)
+    print(r.stdout[-3000:], r.stderr[-2000:], end="", flush=True)
+    return r
+
+
+def rows():
+    with open(record) as f:
+        return list(csv.DictReader(f))
+
+
+def port_of_relay():
+    m = re.search(r"http://127\.0\.0\.1:(\d+)/metrics", text("relay", ".out") + text("relay", ".log"))
+    return m.group(1) if m else None
+
+
+def browse(port, *args):
+    return node("relay_page_browser.mjs", "--url", "http://127.0.0.1:%s/" % port, "--topic", "rt/chatter",
+                "--timeout", 60, *args, timeout=90)
+
+
+listener = start("listener", [CHATTER, "listen", "--domain", str(TO), "--duration", "150"])
+relay = start("relay", [NETKF, "relay", "--from-domain", str(FROM), "--to-domain", str(TO), "--topic", "rt/chatter",
+                        "--bernoulli", str(LOSS), "--seed", "31", "--record", record, "--dashboard", "0"])
+try:
+    check(wait_for(lambda: "ready" in text("listener", ".log") and port_of_relay(), 20),
+          "the listener is up and the relay logged its dashboard's port")
+    port = port_of_relay()
+    talker = run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT), "--rate-hz", "200"])
+    check(talker.returncode == 0, "the talker wrote %d samples through the relay" % COUNT)
+    check(wait_for(lambda: len(rows()) == COUNT, 20), "the recording has a line per sample")
+    # The page, as a user opens it: the card, then a refused change.
+    refused = browse(port, "--samples", COUNT, "--loss", "1.5")
+    # Then a change to a lossless link, typed into the card's form.
+    applied = browse(port, "--samples", COUNT, "--loss", "0", "--screenshot", os.path.join(out, "relay_page.png"))
+    time.sleep(1.5)
+    status = run([NETKF, "ctl", "status", "--json", "--domain", str(TO)])
+    talker2 = run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT2), "--first", "1001",
+                   "--rate-hz", "200"])
+    check(talker2.returncode == 0, "a second talker wrote %d samples" % COUNT2)
+    check(wait_for(lambda: len(rows()) == COUNT + COUNT2, 20), "the recording has them too")
+    time.sleep(2.5)  # the listener's last samples
+finally:
+    rc_relay = stop(relay)
+    rc_listener = stop(listener)
+print("---- relay ----\n" + text("relay", ".out") + text("relay", ".log")[-3000:], flush=True)
+check(rc_relay == 0 and rc_listener == 0, "relay and listener exit 0 (%s, %s)" % (rc_relay, rc_listener))
+
+fates = rows()
+first, second = fates[:COUNT], fates[COUNT:]
+delivered = sum(r["fate"] == "delivered" for r in first)
+dropped = sum(r["fate"] == "dropped" for r in first)
+print("recording: %d samples, %d delivered, %d dropped; then %d" % (len(first), delivered, dropped, len(second)))
+print("page (refused):", json.dumps(refused), flush=True)
+print("page (applied):", json.dumps(applied), flush=True)
+card = refused.get("card_before") or {}
+check(refused.get("error") is None and refused.get("cards") == ["rt/chatter"],
+      "the page shows one card, rt/chatter's (%s, %s)" % (refused.get("cards"), refused.get("error")))
+check((card.get("samples_in"), card.get("delivered"), card.get("dropped")) == (str(COUNT), str(delivered), str(dropped)),
+      "the card's samples, delivered, dropped (%s, %s, %s) equal the recording's (%d, %d, %d)"
+      % (card.get("samples_in"), card.get("delivered"), card.get("dropped"), COUNT, delivered, dropped))
+check(card.get("model") == "bernoulli loss=0.3" and card.get("stationary_loss") == "0.3"
+      and abs(float(card.get("observed_loss", "nan")) - dropped / COUNT) < 1e-4,
+      "the card shows the model, its stationary loss and the observed loss %.4f (%s)" % (dropped / COUNT, card))
+check(int(card.get("link_id", "0")) < -2, "the card is the topic's link id (%s)" % card.get("link_id"))
+check(refused.get("answer_state") == "refused" and "loss" in (refused.get("answer") or ""),
+      "a loss of 1.5 is refused and the card shows why (%r)" % refused.get("answer"))
+sent = [p for m in applied.get("set_requests_sent", []) for p in m.get("parameters", [])]
+check({p["name"]: p["value"] for p in sent} == {"link.%s.model" % card.get("link_id"): "bernoulli",
+                                                "link.%s.loss" % card.get("link_id"): 0},
+      "the page sent setParameters link.ID.model/loss of rt/chatter's link id (%s)" % sent)
+check(applied.get("error") is None and applied.get("answer_state") == "applied",
+      "a loss of 0 typed into the card's form is applied (%r, %s)" % (applied.get("answer"), applied.get("error")))
+check((applied.get("card_after") or {}).get("model") == "bernoulli loss=0", "the card shows the new model then")
+check(status.returncode == 0, "`netkf ctl status --json --domain %d` answers" % TO)
+links = [l for l in json.loads(status.stdout or "{}").get("links", []) if l.get("topic") == "rt/chatter"]
+check(len(links) == 1 and links[0]["model"] == "bernoulli" and links[0]["loss"] == 0,
+      "ctl status shows rt/chatter's link at loss 0 (%s)" % links)
+check(len(second) == COUNT2 and all(r["fate"] == "delivered" for r in second),
+      "the recording delivers each of the second talker's %d samples (%d rows)" % (COUNT2, len(second)))
+got = [l.strip() for l in text("listener", ".out").splitlines() if l.startswith("hello ")]
+numbers = [int(l.split()[1]) for l in got]
+print("listener: %d samples, last %s" % (len(got), got[-3:]), flush=True)
+check(sum(1 for n in numbers if n <= COUNT) == delivered,
+      "the listener got as many of the first talker's samples as the recording delivered (%d)" % delivered)
+check(sorted(n for n in numbers if n > 1000) == list(range(1001, 1001 + COUNT2)),
+      "and every one of the second talker's %d samples, once" % COUNT2)
+check(applied.get("page_errors") == [] and applied.get("console_errors") == [] and applied.get("request_failures") == [],
+      "the page ran without errors (%s %s %s)" % (applied.get("page_errors"), applied.get("console_errors"),
+                                                  applied.get("request_failures")))
+finish()
