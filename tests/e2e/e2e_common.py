@@ -166,6 +166,35 @@ class Launch:
         return False
 
 
+class LoggedProcesses:
+    """Processes a test starts in the background (Cyclone talkers and listeners, `netkf relay`),
+    each with its stdout in OUTDIR/NAME.out and its stderr in OUTDIR/NAME.log."""
+
+    def __init__(self, outdir, env):
+        self.outdir, self.env = outdir, env
+
+    def start(self, name, cmd, environment=None):
+        print("$", " ".join(cmd), flush=True)
+        return subprocess.Popen(cmd, stdout=open(os.path.join(self.outdir, name + ".out"), "w"),
+                                stderr=open(os.path.join(self.outdir, name + ".log"), "w"),
+                                env=self.env if environment is None else environment)
+
+    def text(self, name, ext):
+        with open(os.path.join(self.outdir, name + ext)) as f:
+            return f.read()
+
+
+def stop_process(proc, timeout=20):
+    """SIGINT, then SIGKILL after `timeout` s; the exit status."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.wait()
+
+
 class CycloneReader:
     """tests/interop/netkf_cyclone_reader (or its ROS 2 build) in the background: JSON lines on
     stdout, its log on stderr; CYCLONEDDS_URI set to `config_uri`, or unset (Cyclone's defaults)."""

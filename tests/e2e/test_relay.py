@@ -20,7 +20,7 @@ import subprocess
 import sys
 import time
 
-from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, workdir
+from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, require_netns, wait_for, workdir
 
 require_netns()
 FROM, TO = 107, 108
@@ -40,25 +40,11 @@ relay_file = os.path.join(out, "relay.yaml")
 relay2, rc_relay2 = None, None
 
 
-def start(name, cmd):
-    print("$", " ".join(cmd), flush=True)
-    return subprocess.Popen(cmd, stdout=open(os.path.join(out, name + ".out"), "w"),
-                            stderr=open(os.path.join(out, name + ".log"), "w"), env=env)
+processes = LoggedProcesses(out, env)
+start, text = processes.start, processes.text
 
 
-def text(name, ext):
-    with open(os.path.join(out, name + ext)) as f:
-        return f.read()
-
-
-def stop(proc, timeout=20):
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-    try:
-        return proc.wait(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        return proc.wait()
+stop = stop_process
 
 
 listener = start("listener", [CHATTER, "listen", "--domain", str(TO), "--duration", "120"])

@@ -24,7 +24,7 @@ import time
 import urllib.error
 import urllib.request
 
-from e2e_common import NETKF, REPO, check, finish, node, require_netns, wait_for, workdir
+from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, node, require_netns, wait_for, workdir
 
 require_netns()
 FROM, TO = 109, 110
@@ -43,25 +43,11 @@ env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "
 record = os.path.join(out, "fates.csv")
 
 
-def start(name, cmd):
-    print("$", " ".join(cmd), flush=True)
-    return subprocess.Popen(cmd, stdout=open(os.path.join(out, name + ".out"), "w"),
-                            stderr=open(os.path.join(out, name + ".log"), "w"), env=env)
+processes = LoggedProcesses(out, env)
+start, text = processes.start, processes.text
 
 
-def text(name, ext):
-    with open(os.path.join(out, name + ext)) as f:
-        return f.read()
-
-
-def stop(proc, timeout=20):
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-    try:
-        return proc.wait(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        return proc.wait()
+stop = stop_process
 
 
 def run(cmd, **kw):

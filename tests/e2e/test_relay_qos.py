@@ -22,7 +22,7 @@ import subprocess
 import sys
 import time
 
-from e2e_common import NETKF, REPO, check, finish, require_netns, wait_for, workdir
+from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, require_netns, wait_for, workdir
 
 require_netns()
 FROM, TO = 111, 112
@@ -41,29 +41,15 @@ keyhash_env = dict(env, CYCLONEDDS_URI="file://" + localhost +
                    ",<Internal><GenerateKeyhash>true</GenerateKeyhash></Internal>")
 
 
-def start(name, cmd, environment=env):
-    print("$", " ".join(cmd), flush=True)
-    return subprocess.Popen(cmd, stdout=open(os.path.join(out, name + ".out"), "w"),
-                            stderr=open(os.path.join(out, name + ".log"), "w"), env=environment)
-
-
-def text(name, ext):
-    with open(os.path.join(out, name + ext)) as f:
-        return f.read()
+processes = LoggedProcesses(out, env)
+start, text = processes.start, processes.text
 
 
 def lines(name):
     return [l for l in text(name, ".out").splitlines() if l]
 
 
-def stop(proc, timeout=20):
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-    try:
-        return proc.wait(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        return proc.wait()
+stop = stop_process
 
 
 def talk(args, environment=env):
