@@ -35,6 +35,11 @@ Wire deserialize(std::string_view cdr, const char* what) {
   return w;
 }
 
+// A record's numbers as the conversions of dds/ take them (the one place records become wire samples).
+Vector as_vector(const std::vector<double>& v) {
+  return Eigen::Map<const Vector>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
 Qos qos_of(const dds::TopicQos& q) { return {q.reliable, q.transient_local, q.depth}; }
 
 class FastCdrCodec final : public Ros2Codec {
@@ -58,24 +63,16 @@ class FastCdrCodec final : public Ros2Codec {
   }
 
   std::string truth(const TruthRecord& t) const override {
-    wire::Truth w;
-    w.k(static_cast<std::uint64_t>(t.k));
-    w.t(t.t);
-    w.x(t.x);
-    w.applied_input(t.u);
-    w.input_arrived(t.input_arrived);
-    return serialize(w);
+    return serialize(dds::make_truth(static_cast<std::uint64_t>(t.k), t.t, as_vector(t.x), as_vector(t.u),
+                                     t.input_arrived));
   }
 
   std::string estimate(const Estimate& e) const override { return serialize(dds::to_wire(e)); }
 
   std::string delivered(const DeliveredRecord& d) const override {
-    wire::Measurement w;
-    w.sensor_id(d.sensor_id);
-    w.k(static_cast<std::uint64_t>(d.k));
-    w.stamp_ns(static_cast<std::int64_t>(std::llround(d.stamp * 1e9)));  // the record keeps seconds
-    w.y(d.y);
-    return serialize(w);
+    // The record keeps the stamp in seconds.
+    return serialize(dds::make_measurement(d.sensor_id, static_cast<std::uint64_t>(d.k),
+                                           static_cast<std::int64_t>(std::llround(d.stamp * 1e9)), as_vector(d.y)));
   }
 
   std::string link_status(const LinkStatusRecord& l) const override {
