@@ -18,7 +18,7 @@ ChannelLinks::ChannelLinks(const Scenario& scenario) {
     r.sensor_id = id;
     r.link = spec;
     r.deadline_ms = deadline_ms;
-    Link link{.loss = LinkLossProcess(spec.loss, loss_seed), .delay = LinkDelayProcess(delay_seed), .report = std::move(r)};
+    Link link(LinkLossProcess(spec.loss, loss_seed), LinkDelayProcess(delay_seed), std::move(r));
     link.deadline_ms = deadline_ms;
     links_.emplace(id, std::move(link));
   };

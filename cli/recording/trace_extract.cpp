@@ -1,7 +1,10 @@
 // The trace a link had in a recording (trace_extract.hpp).
 #include "trace_extract.hpp"
 
+#include <array>
 #include <charconv>
+#include <cmath>
+#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -296,6 +299,102 @@ LinkTrace extract_link_trace(const DeliveredSamples& samples, int sensor_id, std
   t.delivered.assign(static_cast<std::size_t>(to - from + 1), 0);
   for (auto k = it->second.lower_bound(from); k != it->second.end() && *k <= to; ++k)
     t.delivered[static_cast<std::size_t>(*k - from)] = 1;
+  return t;
+}
+
+namespace {
+
+constexpr std::string_view kRelayRecordHeader = "topic,index,sequence,bytes,fate,delay_ms";
+
+// One row of a relay record: the topic is everything before the last five fields (a topic name
+// may hold a comma; the numbers and the fate cannot).
+void add_relay_row(RelayFates& fates, std::string_view line, const std::string& where) {
+  std::array<std::string_view, 5> f;
+  std::size_t end = line.size();
+  for (std::size_t i = f.size(); i-- > 0;) {
+    const std::size_t comma = line.rfind(',', end == 0 ? 0 : end - 1);
+    if (comma == line.npos || end == 0) refuse(where, "a row of fewer than 6 fields");
+    f[i] = line.substr(comma + 1, end - comma - 1);
+    end = comma;
+  }
+  const std::string topic(line.substr(0, end));
+  if (topic.empty()) refuse(where, "a row without a topic");
+  const auto index = integer_field<std::uint64_t>(f[0], where, "index");
+  integer_field<std::int64_t>(f[1], where, "sequence");
+  integer_field<std::uint64_t>(f[2], where, "bytes");
+  if (f[3] != "delivered" && f[3] != "dropped") refuse(where, "fate must be delivered or dropped, got " + shown(f[3]));
+  double delay = 0.0;
+  const auto [ptr, ec] = std::from_chars(f[4].data(), f[4].data() + f[4].size(), delay);
+  if (f[4].empty() || ec != std::errc() || ptr != f[4].data() + f[4].size() || !std::isfinite(delay) || delay < 0.0)
+    refuse(where, "delay_ms must be a number >= 0, got " + shown(f[4]));
+  auto& topic_fates = fates.by_topic[topic];
+  if (!topic_fates.emplace(index, RelayFates::Fate{f[3] == "delivered", delay}).second)
+    refuse(where, "index " + std::to_string(index) + " of " + topic + " a second time");
+  if (topic_fates.size() > max_trace_samples) refuse(where, "more samples of " + topic + " than a trace may have");
+}
+
+}  // namespace
+
+bool is_relay_record(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string first;
+  if (!in || !std::getline(in, first)) return false;
+  if (!first.empty() && first.back() == '\r') first.pop_back();
+  return first == kRelayRecordHeader;
+}
+
+RelayFates read_relay_fates(const std::string& path) {
+  InputFile file(path, "recording", std::numeric_limits<std::uintmax_t>::max());
+  auto& buf = *file.stream().rdbuf();
+  RelayFates fates;
+  std::string line;
+  std::size_t line_no = 0;
+  bool ended = false;
+  while (next_line(buf, line, ended, path + ":" + std::to_string(line_no + 1))) {
+    ++line_no;
+    const std::string where = path + ":" + std::to_string(line_no);
+    if (line_no == 1) {
+      if (line != kRelayRecordHeader)
+        refuse(where, "not a relay's record (its header is '" + std::string(kRelayRecordHeader) +
+                          "'; it is written by netkf relay --record)");
+      continue;
+    }
+    if (!ended) refuse(where, "the last row is cut (no end of line): the file is truncated");
+    if (!line.empty()) add_relay_row(fates, line, where);
+  }
+  if (line_no == 0) throw std::runtime_error(path + ": empty file (a relay's record starts with its header)");
+  return fates;
+}
+
+LinkTrace extract_topic_trace(const RelayFates& fates, const std::string& topic, std::optional<std::int64_t> first,
+                              std::optional<std::int64_t> last) {
+  const auto it = fates.by_topic.find(topic);
+  if (it == fates.by_topic.end() || it->second.empty()) {
+    std::string topics;
+    for (const auto& [name, f] : fates.by_topic) topics += (topics.empty() ? "" : ", ") + name;
+    throw std::runtime_error("topic " + topic + " has no sample in the record (topics: " +
+                             (topics.empty() ? std::string("none") : topics) + ")");
+  }
+  const auto& by_index = it->second;
+  const std::int64_t from = first.value_or(static_cast<std::int64_t>(by_index.begin()->first));
+  const std::int64_t to = last.value_or(static_cast<std::int64_t>(by_index.rbegin()->first));
+  if (from < 0 || to < from)
+    throw std::runtime_error("no samples to extract (" + std::to_string(from) + ".." + std::to_string(to) + ")");
+  if (static_cast<std::uint64_t>(to - from) >= max_trace_samples)
+    throw std::runtime_error("indexes " + std::to_string(from) + ".." + std::to_string(to) +
+                             " are more than a trace may have (" + std::to_string(max_trace_samples) + ")");
+  LinkTrace t;
+  t.first_k = static_cast<std::uint64_t>(from);
+  for (auto k = static_cast<std::uint64_t>(from); k <= static_cast<std::uint64_t>(to); ++k) {
+    const auto fate = by_index.find(k);
+    if (fate == by_index.end())
+      throw std::runtime_error("sample " + std::to_string(k) + " of " + topic +
+                               " is not in the record (it is cut, or give --first/--last within it)");
+    t.delivered.push_back(fate->second.delivered ? 1 : 0);
+    t.delay_ms.push_back(fate->second.delivered ? fate->second.delay_ms : std::nan(""));
+    t.has_delay = t.has_delay || (fate->second.delivered && fate->second.delay_ms > 0.0);
+  }
+  if (!t.has_delay) t.delay_ms.clear();
   return t;
 }
 

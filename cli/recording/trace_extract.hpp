@@ -36,4 +36,27 @@ DeliveredSamples read_input_arrivals(const std::string& path, const ros2::Ros2Co
 LinkTrace extract_link_trace(const DeliveredSamples& samples, int sensor_id, std::optional<std::int64_t> first = {},
                              std::optional<std::int64_t> last = {});
 
+/// A `netkf relay --record` file (docs/relay.md): each relayed sample's fate by topic and index.
+/// Unlike a launch's recordings it lists the dropped samples too, and the delay of each delivered one.
+struct RelayFates {
+  struct Fate {
+    bool delivered = false;
+    double delay_ms = 0.0;
+  };
+  std::map<std::string, std::map<std::uint64_t, Fate>> by_topic;  // topic -> index -> fate
+};
+/// Whether a file starts with the relay record's header (`topic,index,...`), so `trace extract`
+/// can say what to give for it.
+bool is_relay_record(const std::string& path);
+/// Reads a relay's record, checked as the relay writes it (the header, five fields after the
+/// topic, an index once per topic, fate `delivered` or `dropped`, a delay >= 0). Throws
+/// std::runtime_error naming FILE:LINE.
+RelayFates read_relay_fates(const std::string& path);
+/// Topic `topic`'s trace over its indexes first..last (default: the first and last the record has):
+/// k is the topic's sample index; a delay_ms column when a delivered sample of the range was
+/// delayed. Throws std::runtime_error for a topic not in the record, an index of the range missing
+/// from it (a cut record), an empty range or one above max_trace_samples.
+LinkTrace extract_topic_trace(const RelayFates& fates, const std::string& topic, std::optional<std::int64_t> first = {},
+                              std::optional<std::int64_t> last = {});
+
 }  // namespace netkf::cli

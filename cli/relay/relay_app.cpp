@@ -384,11 +384,21 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     const auto facts = status_facts();
     const auto now = dds::steady_now_ns();
     for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
-    // The same on the Foxglove WebSocket (--dashboard), latched per link.
+    // The same on the Foxglove WebSocket (--dashboard), latched per link, with the topic's type
+    // as discovered (the page shows it; the DDS status has no field for it).
     if (metrics_server_)
-      for (const auto& v : link_views(facts))
-        metrics_server_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(v), wall_ns(),
-                                 v.sensor_id);
+      for (const auto& v : link_views(facts)) {
+        auto message = catalogue::link_status_message(v);
+        if (auto type = discovered_type(v.topic); !type.empty()) message["type"] = std::move(type);
+        metrics_server_->publish(catalogue::ChannelId::link_status, message, wall_ns(), v.sensor_id);
+      }
+  }
+
+  // The type name of the topic's first discovered writer ("" while none was seen).
+  std::string discovered_type(const std::string& topic) const {
+    const std::lock_guard lock(mutex_);
+    const auto c = counts_.find(topic);
+    return c == counts_.end() ? std::string() : c->second.type;
   }
 
   std::vector<dds::LinkStatusFacts> status_facts() const {

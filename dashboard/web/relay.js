@@ -1,10 +1,12 @@
 // netkf relay's page (docs/relay.md, "The page"): a card per relayed topic from the relay's
-// netkf/link/status channel (foxglove.websocket.v1 on this page's own host), and a form that
-// changes the topic's link with a setParameters of link.ID.KEY (ID the topic's negative link
-// id). Every string from the network goes into the page as text (textContent), never as HTML.
+// netkf/link/status channel (foxglove.websocket.v1 on this page's own host), a plot of its loss
+// over time (uPlot, loaded before this module as the global uPlot), and a form that changes the
+// topic's link with a setParameters of link.ID.KEY (ID the topic's negative link id). Every
+// string from the network goes into the page as text (textContent), never as HTML.
 const SUBPROTOCOL = 'foxglove.websocket.v1';
 const STATUS_TOPIC = 'netkf/link/status';
 const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
+const PLOT_POINTS = 600;  // the statuses a plot keeps (one a second, and one after each change)
 
 const $ = (id) => document.getElementById(id);
 const cards = new Map();  // link id (sensor_id) -> Card
@@ -39,13 +41,64 @@ function modelText(s) {
   return model + (model === 'bernoulli' ? ' loss=' + number(s.loss) : '');
 }
 
+// The delay a delivered sample is held for: fixed, or with jitter and its distribution.
+function delayText(s) {
+  if (!(s.delay_ms > 0) && !(s.jitter_ms > 0)) return 'none';
+  const jitter = s.jitter_ms > 0 ? ' ± ' + number(s.jitter_ms, 3) + ' ms' +
+    (typeof s.delay_distribution === 'string' ? ' (' + s.delay_distribution + ')' : '') : '';
+  return number(s.delay_ms, 3) + ' ms' + jitter;
+}
+
 const FIELDS = [
-  ['topic', 'topic'], ['type', 'type'], ['link id', 'sensor_id'], ['model', 'model'],
+  ['topic', 'topic'], ['type', 'type'], ['link id', 'sensor_id'], ['model', 'model'], ['delay', 'delay'],
   // Since the link's last change (the relay's counts restart then); "since start" goes on.
   ['samples in', 'samples_in'], ['delivered', 'delivered'], ['dropped', 'dropped'],
   ['observed loss', 'observed_loss'], ['stationary loss', 'stationary_loss'],
-  ['mean burst', 'mean_burst_length'], ['since start', 'lifetime'], ['last request', 'last_request'],
+  ['mean burst', 'mean_burst_length'], ['since start', 'lifetime'], ['held now', 'held'],
+  ['last request', 'last_request'],
 ];
+
+// The loss of a topic's link over time: per interval between two statuses (the samples in
+// that interval), since the link's last change, and the model's stationary loss.
+class LossPlot {
+  constructor(parent) {
+    this.data = [[], [], [], []];  // seconds, interval loss, observed loss, stationary loss
+    this.last = null;  // the previous status's lifetime counts
+    this.root = el('div', { class: 'relay-plot', 'data-points': '0' });
+    parent.append(this.root);
+    if (typeof uPlot !== 'function') {
+      this.root.textContent = 'plot unavailable (uPlot did not load)';
+      return;
+    }
+    const line = (label, stroke, dash) => ({ label, stroke, width: 1.5, dash, spanGaps: false, value: (u, v) => number(v) });
+    this.plot = new uPlot({
+      width: 360, height: 150,
+      scales: { x: { time: true }, y: { range: [0, 1] } },
+      series: [{}, line('loss per interval', '#d9534f'), line('observed since change', '#337ab7'),
+        line('stationary (model)', '#555', [4, 4])],
+      axes: [{}, { size: 40 }],
+      legend: { live: false },
+    }, this.data, this.root);
+  }
+
+  // One status: an interval's loss needs the counts of the status before it (null before that
+  // and when no sample came in the interval).
+  add(s) {
+    const total = s.samples_total, dropped = s.dropped_total;
+    let interval = null;
+    if (this.last && Number.isInteger(total) && total > this.last.total) {
+      interval = (dropped - this.last.dropped) / (total - this.last.total);
+    }
+    if (Number.isInteger(total) && Number.isInteger(dropped)) this.last = { total, dropped };
+    const finite = (v) => (typeof v === 'number' && Number.isFinite(v) ? v : null);
+    const row = [Date.now() / 1000, interval, finite(s.observed_loss), finite(s.stationary_loss)];
+    row.forEach((v, i) => this.data[i].push(v));
+    if (this.data[0].length > PLOT_POINTS) this.data.forEach((series) => series.shift());
+    this.root.dataset.points = String(this.data[0].length);
+    if (interval !== null) this.root.dataset.lastIntervalLoss = String(interval);  // the latest with samples
+    if (this.plot) this.plot.setData(this.data);
+  }
+}
 
 class Card {
   constructor(id) {
@@ -60,21 +113,25 @@ class Card {
       dl.append(el('dt', {}, label), dd);
       this.values[key] = dd;
     }
-    this.root.append(el('div', { class: 'subhead' }, 'counts since the link\'s last change'), dl, this.makeForm());
+    this.root.append(el('div', { class: 'subhead' }, 'counts since the link\'s last change'), dl);
+    this.plot = new LossPlot(this.root);
+    this.root.append(this.makeForm());
     $('topics').append(this.root);
   }
 
   makeForm() {
     // novalidate: the relay judges the values and the card shows its reason for a refusal.
     const form = el('form', { class: 'relay-form', novalidate: '' });
-    const input = (name, title) => {
-      const i = el('input', { name, type: 'number', min: '0', max: '1', step: 'any', title });
+    const input = (name, title, max = '1') => {
+      const i = el('input', { name, type: 'number', min: '0', max, step: 'any', title });
       form.append(el('label', {}, name + ' '), i);
       return i;
     };
     this.loss = input('loss', 'Bernoulli loss (each sample dropped with this probability)');
     this.p = input('p', 'Gilbert-Elliott: P(good -> bad), optional');
     this.r = input('r', 'Gilbert-Elliott: P(bad -> good), optional');
+    this.delay = input('delay_ms', 'hold each delivered sample this long (ms), optional', '');
+    this.jitter = input('jitter_ms', 'plus a random delay of up to this (ms, the link\'s distribution), optional', '');
     form.append(el('button', { type: 'submit' }, 'set link'));
     this.answer = el('span', { class: 'relay-answer', role: 'status', 'data-state': 'none' });
     form.append(this.answer);
@@ -86,10 +143,12 @@ class Card {
   }
 
   // p and r given: a Gilbert-Elliott link (with the loss, if given, as its bad state's loss);
-  // otherwise a Bernoulli link of the given loss. The relay judges the values.
+  // otherwise a Bernoulli link of the given loss; a delay or jitter alone keeps the loss model.
+  // The relay judges the values.
   submit() {
     const read = (i) => (i.value.trim() === '' ? null : Number(i.value));
     const loss = read(this.loss), p = read(this.p), r = read(this.r);
+    const delay = read(this.delay), jitter = read(this.jitter);
     const values = {};
     if (p !== null || r !== null) {
       Object.assign(values, { model: 'gilbert_elliott' });
@@ -98,9 +157,10 @@ class Card {
       if (loss !== null) values.loss_bad = loss;
     } else if (loss !== null) {
       Object.assign(values, { model: 'bernoulli', loss });
-    } else {
-      return this.show('refused', 'give a loss (or p and r)');
     }
+    if (delay !== null) values.delay_ms = delay;
+    if (jitter !== null) values.jitter_ms = jitter;
+    if (!Object.keys(values).length) return this.show('refused', 'give a loss (or p and r), a delay or a jitter');
     const id = 'netkf-relay-page-' + (conn.nextRequest++);
     const parameters = Object.entries(values).map(([key, value]) => (typeof value === 'number'
       ? { name: 'link.' + this.id + '.' + key, value, type: 'float64' }
@@ -127,6 +187,8 @@ class Card {
     v.type.textContent = typeof s.type === 'string' ? s.type : 'not reported';
     v.sensor_id.textContent = String(this.id);
     v.model.textContent = modelText(s);
+    v.delay.textContent = delayText(s);
+    v.held.textContent = String(s.held ?? '—');
     v.samples_in.textContent = String(s.samples_in ?? '—');
     v.delivered.textContent = String(s.delivered ?? '—');
     v.dropped.textContent = String(s.dropped ?? '—');
@@ -137,6 +199,7 @@ class Card {
       ' delivered, ' + String(s.dropped_total ?? '—') + ' dropped';
     v.last_request.textContent = !s.last_request_id ? 'none'
       : String(s.last_request_id) + (s.last_request_rejected ? ' refused: ' + String(s.reject_reason ?? '') : '');
+    this.plot.add(s);
   }
 }
 

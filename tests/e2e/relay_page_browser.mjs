@@ -3,12 +3,15 @@
 // (test_relay_page.py) does the assertions.
 //
 //   node tests/e2e/relay_page_browser.mjs --url http://127.0.0.1:PORT/ --topic rt/chatter
-//        --samples N [--loss 0] [--p P --r R] [--screenshot out.png] [--timeout 60]
+//        --samples N [--loss 0] [--p P --r R] [--delay-ms D] [--jitter-ms J] [--then-samples M]
+//        [--screenshot out.png] [--timeout 60]
 //        [--chromium /usr/bin/chromium]
 //
-// Waits for the topic's card to show N samples in, reads the card, then (with --loss, or
-// --p/--r) fills the card's form as a user would, submits it and waits for the answer shown
-// on the card ("applied" or "refused: ..."), and reads the card again.
+// Waits for the topic's card to show N samples in, reads the card (and its plot's point count
+// and last interval's loss), then (with --loss, --p/--r, --delay-ms, --jitter-ms) fills the
+// card's form as a user would, submits it and waits for the answer shown
+// on the card ("applied" or "refused: ..."), and reads the card again (with --then-samples,
+// once the card shows M samples in since the change: the page kept open meanwhile).
 // Exit status: 0 when it ran (whatever it observed); 2 usage error; 1 harness error (no
 // browser, page not reachable, overall timeout), with "error" set in the JSON.
 import fs from 'node:fs';
@@ -24,7 +27,8 @@ const CHROMIUM_ARGS = [
 
 function usage(message) {
   process.stderr.write(`${message}\nusage: node relay_page_browser.mjs --url URL --topic TOPIC --samples N ` +
-    '[--loss V] [--p P] [--r R] [--screenshot PNG] [--timeout S] [--chromium PATH]\n');
+    '[--loss V] [--p P] [--r R] [--delay-ms D] [--jitter-ms J] [--then-samples M] [--screenshot PNG] [--timeout S] ' +
+    '[--chromium PATH]\n');
   process.exit(2);
 }
 
@@ -38,6 +42,9 @@ try {
       loss: { type: 'string' },
       p: { type: 'string' },
       r: { type: 'string' },
+      'delay-ms': { type: 'string' },
+      'jitter-ms': { type: 'string' },
+      'then-samples': { type: 'string' },
       screenshot: { type: 'string' },
       timeout: { type: 'string', default: '60' },
       chromium: { type: 'string', default: '/usr/bin/chromium' },
@@ -52,7 +59,9 @@ if (!options.url || !options.topic || !Number.isInteger(samples) || !(timeoutSec
   usage('--url, --topic and an integer --samples are required; --timeout > 0');
 }
 const form = {};
-for (const key of ['loss', 'p', 'r']) if (options[key] !== undefined) form[key] = options[key];
+for (const key of ['loss', 'p', 'r', 'delay-ms', 'jitter-ms']) {
+  if (options[key] !== undefined) form[key.replace('-', '_')] = options[key];  // the input's name
+}
 
 const result = {
   url: options.url, topic: options.topic, card_before: null, cards: [], set: form, set_requests_sent: [],
@@ -87,6 +96,10 @@ function readCard(page, topic) {
     if (!card) return null;
     const fields = { link_id: card.dataset.linkId, title: card.querySelector('h2')?.textContent ?? null };
     for (const dd of card.querySelectorAll('dd[data-field]')) fields[dd.dataset.field] = dd.textContent;
+    const plot = card.querySelector('.relay-plot');
+    fields.plot_points = plot?.dataset.points ?? null;
+    fields.plot_last_interval_loss = plot?.dataset.lastIntervalLoss ?? null;
+    fields.plot_canvas = Boolean(plot?.querySelector('canvas'));
     return fields;
   }, topic);
 }
@@ -141,8 +154,14 @@ async function main() {
   } catch (err) {
     result.error = `could not use the card's form: ${err.message.split('\n')[0]}`;
   }
-  // The next report shows the new model.
-  await page.waitForTimeout(Math.min(1500, remaining(1500)));
+  // The next report shows the new model (with --then-samples: the report with M samples since).
+  if (options['then-samples'] !== undefined) {
+    await page.waitForFunction(({ s, n }) => document.querySelector(s)?.textContent === String(n),
+      { s: sel('samples_in'), n: Number(options['then-samples']) }, { timeout: remaining(60000), polling: 100 })
+      .catch(() => { result.error = result.error || `the card never showed ${options['then-samples']} samples in`; });
+  } else {
+    await page.waitForTimeout(Math.min(1500, remaining(1500)));
+  }
   result.card_after = await readCard(page, options.topic);
   if (options.screenshot) await page.screenshot({ path: options.screenshot, fullPage: true }).catch(() => {});
   return 0;

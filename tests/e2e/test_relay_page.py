@@ -6,9 +6,11 @@ playwright-core (relay_page_browser.mjs), opens the page as a user does.
 Independent expectations: the relay's recording (a CSV line per sample), `netkf ctl status`
 (DDS, not the page's WebSocket) and a Cyclone DDS listener of another vendor. Checked: the page
 shows a card for rt/chatter whose samples, delivered and dropped equal the recording's, with the
-model and its stationary loss; a loss of 1.5 typed into its form is refused and the card shows
-the reason; a loss of 0 typed and submitted is applied: ctl status shows loss 0 for rt/chatter,
-and a second talker's samples are all delivered per the recording and all reach the listener."""
+model and its stationary loss, the type the talker registered and a plot of the loss; a loss of
+1.5 typed into its form is refused and the card shows the reason; a loss of 0 and a delay of 5 ms
+typed and submitted are applied: ctl status shows loss 0 and delay 5 ms for rt/chatter, a second
+talker's samples are all delivered 5 ms late per the recording and all reach the listener, and
+the plot's loss over the last interval with samples is then 0."""
 import csv
 import json
 import os
@@ -16,6 +18,7 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, node, require_netns, wait_for, workdir
@@ -24,6 +27,8 @@ require_netns()
 FROM, TO = 117, 118
 COUNT, LOSS = 300, 0.3
 COUNT2 = 100  # after the page made the link lossless
+DELAY_MS = 5  # and set this delay
+TYPE = "std_msgs::msg::dds_::String_"  # the type name the Cyclone talker registers
 CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
 if not (CHATTER and os.access(CHATTER, os.X_OK)):
     required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
@@ -80,14 +85,25 @@ try:
     # The page, as a user opens it: the card, then a refused change.
     refused = browse(port, "--samples", COUNT, "--loss", "1.5")
     # Then a change to a lossless link, typed into the card's form.
-    applied = browse(port, "--samples", COUNT, "--loss", "0", "--screenshot", os.path.join(out, "relay_page.png"))
-    time.sleep(1.5)
-    status = run([NETKF, "ctl", "status", "--json", "--domain", str(TO)])
+    # Then a lossless link with a delay, typed into the card's form; the page stays open while a
+    # second talker writes (its plot then has the intervals of those samples).
+    applied = {}
+    applying = threading.Thread(target=lambda: applied.update(browse(
+        port, "--samples", COUNT, "--loss", "0", "--delay-ms", DELAY_MS, "--then-samples", COUNT2,
+        "--screenshot", os.path.join(out, "relay_page.png"))))
+    applying.start()
+    status = None
+    for _ in range(60):  # the change applied, as DDS (not the page) says
+        status = run([NETKF, "ctl", "status", "--json", "--domain", str(TO)])
+        if any(l.get("topic") == "rt/chatter" and l.get("loss") == 0 for l in json.loads(status.stdout or "{}").get("links", [])):
+            break
+        time.sleep(0.5)
     talker2 = run([CHATTER, "talk", "--domain", str(FROM), "--count", str(COUNT2), "--first", "1001",
                    "--rate-hz", "200"])
     check(talker2.returncode == 0, "a second talker wrote %d samples" % COUNT2)
     check(wait_for(lambda: len(rows()) == COUNT + COUNT2, 20), "the recording has them too")
-    time.sleep(2.5)  # the listener's last samples
+    applying.join(timeout=100)
+    time.sleep(1.0)  # the listener's last samples
 finally:
     rc_relay = stop(relay)
     rc_listener = stop(listener)
@@ -111,21 +127,35 @@ check(card.get("model") == "bernoulli loss=0.3" and card.get("stationary_loss") 
       and abs(float(card.get("observed_loss", "nan")) - dropped / COUNT) < 1e-4,
       "the card shows the model, its stationary loss and the observed loss %.4f (%s)" % (dropped / COUNT, card))
 check(int(card.get("link_id", "0")) < -2, "the card is the topic's link id (%s)" % card.get("link_id"))
+check(card.get("type") == TYPE and card.get("delay") == "none",
+      "the card shows the type the talker registered and no delay (%s, %s)" % (card.get("type"), card.get("delay")))
+plotted = refused.get("card_after") or {}  # the page open a few statuses long
+check(plotted.get("plot_canvas") and int(plotted.get("plot_points") or 0) >= 2,
+      "the card plots its loss (%s points)" % plotted.get("plot_points"))
 check(refused.get("answer_state") == "refused" and "loss" in (refused.get("answer") or ""),
       "a loss of 1.5 is refused and the card shows why (%r)" % refused.get("answer"))
 sent = [p for m in applied.get("set_requests_sent", []) for p in m.get("parameters", [])]
 check({p["name"]: p["value"] for p in sent} == {"link.%s.model" % card.get("link_id"): "bernoulli",
-                                                "link.%s.loss" % card.get("link_id"): 0},
-      "the page sent setParameters link.ID.model/loss of rt/chatter's link id (%s)" % sent)
+                                                "link.%s.loss" % card.get("link_id"): 0,
+                                                "link.%s.delay_ms" % card.get("link_id"): DELAY_MS},
+      "the page sent setParameters link.ID.model/loss/delay_ms of rt/chatter's link id (%s)" % sent)
 check(applied.get("error") is None and applied.get("answer_state") == "applied",
       "a loss of 0 typed into the card's form is applied (%r, %s)" % (applied.get("answer"), applied.get("error")))
-check((applied.get("card_after") or {}).get("model") == "bernoulli loss=0", "the card shows the new model then")
+check((applied.get("card_after") or {}).get("model") == "bernoulli loss=0"
+      and (applied.get("card_after") or {}).get("delay") == "%d ms" % DELAY_MS,
+      "the card shows the new model and delay then (%s)" % applied.get("card_after"))
 check(status.returncode == 0, "`netkf ctl status --json --domain %d` answers" % TO)
 links = [l for l in json.loads(status.stdout or "{}").get("links", []) if l.get("topic") == "rt/chatter"]
-check(len(links) == 1 and links[0]["model"] == "bernoulli" and links[0]["loss"] == 0,
-      "ctl status shows rt/chatter's link at loss 0 (%s)" % links)
-check(len(second) == COUNT2 and all(r["fate"] == "delivered" for r in second),
-      "the recording delivers each of the second talker's %d samples (%d rows)" % (COUNT2, len(second)))
+check(len(links) == 1 and links[0]["model"] == "bernoulli" and links[0]["loss"] == 0
+      and links[0]["delay_ms"] == DELAY_MS,
+      "ctl status shows rt/chatter's link at loss 0, delay %d ms (%s)" % (DELAY_MS, links))
+check(len(second) == COUNT2 and all(r["fate"] == "delivered" and float(r["delay_ms"]) == DELAY_MS for r in second),
+      "the recording delivers each of the second talker's %d samples %d ms late (%d rows)"
+      % (COUNT2, DELAY_MS, len(second)))
+card3 = applied.get("card_after") or {}
+check(card3.get("samples_in") == str(COUNT2) and card3.get("plot_last_interval_loss") == "0",
+      "the open page's plot: loss 0 over its last interval with samples, once the lossless link had the second "
+      "talker's %d samples (%s, %s points)" % (COUNT2, card3.get("plot_last_interval_loss"), card3.get("plot_points")))
 got = [l.strip() for l in text("listener", ".out").splitlines() if l.startswith("hello ")]
 numbers = [int(l.split()[1]) for l in got]
 print("listener: %d samples, last %s" % (len(got), got[-3:]), flush=True)

@@ -196,7 +196,7 @@ TEST(DashboardServer, ServesThePageItsAssetsAndMetrics) {
 
 TEST(DashboardServer, EachPageServesItsOwnFilesOnly) {
   // The launch's dashboard does not serve the relay's page; the relay's serves relay.html at /
-  // and none of the launch's files; --dashboard without a page serves only /metrics.
+  // and none of the launch's own files (uPlot and the style are shared); --dashboard without a page serves only /metrics.
   ServerFixture launch;
   EXPECT_EQ(get(launch.port(), "/relay.html").result(), http::status::not_found);
   EXPECT_EQ(get(launch.port(), "/relay.js").result(), http::status::not_found);
@@ -209,7 +209,10 @@ TEST(DashboardServer, EachPageServesItsOwnFilesOnly) {
   EXPECT_EQ(page.body().find("/app.js"), std::string::npos);
   EXPECT_EQ(get(relay.port(), "/relay.js").result(), http::status::ok);
   EXPECT_EQ(get(relay.port(), "/style.css").result(), http::status::ok);
-  for (const char* path : {"/index.html", "/app.js", "/uPlot.iife.min.js"}) {
+  // The relay's page plots with the same uPlot.
+  EXPECT_EQ(get(relay.port(), "/uPlot.iife.min.js").result(), http::status::ok);
+  EXPECT_EQ(get(relay.port(), "/uPlot.min.css").result(), http::status::ok);
+  for (const char* path : {"/index.html", "/app.js"}) {
     auto res = get(relay.port(), path);
     if (std::string(path) == "/index.html") {
       EXPECT_EQ(res.body(), page.body()) << "the policy's name for GET /";

@@ -54,6 +54,14 @@ std::vector<SupervisorEvent> poll_until(Supervisor& s, Pred pred) {
   return all;
 }
 
+/// A process's command line (its arguments, each ended by '\0'); "" once it is gone.
+std::string command_line_of(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/cmdline");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
 int count(const std::vector<SupervisorEvent>& ev, SupervisorEvent::Kind kind) {
   int n = 0;
   for (const auto& e : ev) n += e.kind == kind;
@@ -174,10 +182,9 @@ TEST(Supervisor, AWarmSpareTakesOverAtOnceAndIsReplaced) {
   EXPECT_NE(spare_of(), spare);
   // The activated spare got SIGUSR1: it went on to be the node (here: exec sleep 31).
   std::string cmdline;
-  for (int i = 0; i < 200 && cmdline.find("sleep\0" "31") == std::string::npos; ++i) {
+  for (int i = 0; i < 200 && cmdline.find(std::string("sleep\0" "31", 8)) == std::string::npos; ++i) {
     std::this_thread::sleep_for(10ms);
-    std::ifstream in("/proc/" + std::to_string(spare) + "/cmdline");
-    cmdline.assign(std::istreambuf_iterator<char>(in), {});
+    cmdline = command_line_of(spare);
   }
   EXPECT_NE(cmdline.find(std::string("sleep\0" "31", 8)), std::string::npos);
   EXPECT_FALSE(s.failed());
@@ -200,12 +207,10 @@ TEST(Supervisor, AWarmSpareRunsItsOwnArgs) {
   std::string cmdline;
   for (int i = 0; i < 200 && cmdline.find(std::string("sleep\0" "33", 8)) == std::string::npos; ++i) {
     std::this_thread::sleep_for(10ms);
-    std::ifstream in("/proc/" + std::to_string(*spare) + "/cmdline");
-    cmdline.assign(std::istreambuf_iterator<char>(in), {});
+    cmdline = command_line_of(*spare);
   }
   EXPECT_NE(cmdline.find(std::string("sleep\0" "33", 8)), std::string::npos);  // spare_args, then --spare
-  std::ifstream in("/proc/" + std::to_string(*s.pid_of("estimator")) + "/cmdline");
-  const std::string child_cmdline(std::istreambuf_iterator<char>(in), {});
+  const std::string child_cmdline = command_line_of(*s.pid_of("estimator"));
   EXPECT_NE(child_cmdline.find(std::string("sleep\0" "30", 8)), std::string::npos);  // the child: args
   s.stop_all();
 }
@@ -428,13 +433,13 @@ TEST(PeriodCsv, ExactHeaderAndJoinedRows) {
   r.add_estimate(e);
   std::ostringstream out;
   EXPECT_EQ(r.flush(out), 0u);  // no truth for k = 5 yet
-  r.add_truth({5, 0.05, {1.0, -2.0}});
+  r.add_truth({5, 0.05, {1.0, -2.0}, {}});
   EXPECT_EQ(r.flush(out), 1u);
   EXPECT_EQ(out.str(), "5,0.050000000000000003,1,-2,0.10000000000000001,0.33333333333333331,2.5,1;3,2,ok,3:1;4:1\n");
   // 17 significant digits give back the exact double.
   EXPECT_EQ(std::strtod("0.33333333333333331", nullptr), 1.0 / 3.0);
   // Wrong sizes are counted, not written.
-  r.add_truth({6, 0.06, {1.0}});
+  r.add_truth({6, 0.06, {1.0}, {}});
   EXPECT_EQ(r.rejected(), 1u);
 }
 
@@ -453,12 +458,12 @@ TEST(PeriodCsv, TruthWithoutEstimateIsARowInOrder) {
     e.fused = {1};
     return e;
   };
-  r.add_truth({0, 0.0, {1.0}});
+  r.add_truth({0, 0.0, {1.0}, {}});
   r.add_estimate(estimate(0, 0.5));
-  r.add_truth({1, 0.01, {2.0}});  // its estimate never comes
-  r.add_truth({2, 0.02, {3.0}});
+  r.add_truth({1, 0.01, {2.0}, {}});  // its estimate never comes
+  r.add_truth({2, 0.02, {3.0}, {}});
   EXPECT_EQ(r.flush(out), 1u);  // period 1 waits for its estimate
-  r.add_truth({3, 0.03, {4.0}});
+  r.add_truth({3, 0.03, {4.0}, {}});
   r.add_estimate(estimate(3, 3.5));  // a later period's: period 1's and 2's will not come
   EXPECT_EQ(r.flush(out), 3u);
   r.add_estimate(estimate(2, 2.5));  // too late: its row is written
@@ -474,7 +479,7 @@ TEST(PeriodCsv, TruthWithoutEstimateIsARowInOrder) {
 TEST(PeriodCsv, GivesUpOnAnEstimateAfterAWindowOfPeriods) {
   PeriodCsvRecorder r(1);
   std::ostringstream out;
-  for (std::int64_t k = 0; k <= PeriodCsvRecorder::kGiveUpPeriods; ++k) r.add_truth({k, 0.01 * k, {1.0}});
+  for (std::int64_t k = 0; k <= PeriodCsvRecorder::kGiveUpPeriods; ++k) r.add_truth({k, 0.01 * k, {1.0}, {}});
   EXPECT_EQ(r.flush(out), 1u);  // period 0, without its estimate
   Estimate e;
   e.k = 0;
@@ -515,7 +520,7 @@ TEST(PeriodCsv, ClosedLoopRowsCarryTheAppliedInput) {
 
 TEST(PeriodCsv, EmptyFusedSetIsAnEmptyCell) {
   PeriodCsvRecorder r(1);
-  r.add_truth({0, 0.0, {1.0}});
+  r.add_truth({0, 0.0, {1.0}, {}});
   Estimate e;
   e.k = 0;
   e.x_hat = Vector{{0.5}};
@@ -666,8 +671,8 @@ TEST(PeriodCsv, FuseWithinKeepsFirstAndFinalEstimate) {
   EXPECT_EQ(PeriodCsvRecorder::header(1, 1), "k,t,x0,xhat0,trace_P,fused,late,state,late_samples,revisions,xhat_final0,trace_P_final,fused_final");
   PeriodCsvRecorder r(1, 1);
   std::ostringstream out;
-  r.add_truth({0, 0.0, {1.0}});
-  r.add_truth({1, 0.01, {2.0}});
+  r.add_truth({0, 0.0, {1.0}, {}});
+  r.add_truth({1, 0.01, {2.0}, {}});
   r.add_estimate(revision_of(0, 0, 0.5, {1}));
   r.add_estimate(revision_of(0, 1, 0.75, {1, 2}));
   EXPECT_EQ(r.flush(out), 0u);  // k = 0 may still be revised

@@ -126,10 +126,10 @@ TEST(LiveModel, WarnsWhenMoreSamplesArriveLateThanTheLinksExplain) {
 
 TEST(LiveModel, JoinsTruthAndEstimateWhicheverComesFirst) {
   LiveModel model(default_scenario());
-  model.add_truth({3, 0.03, {1.0, 2.0}});
+  model.add_truth({3, 0.03, {1.0, 2.0}, {}});
   model.add_estimate(estimate(3, {1.0, 5.0}, 0.5, 0.9));  // error 3
   model.add_estimate(estimate(4, {0.0, 0.0}, 0.7, 1.1));
-  model.add_truth({4, 0.04, {3.0, 4.0}});  // error 5, truth after the estimate
+  model.add_truth({4, 0.04, {3.0, 4.0}, {}});  // error 5, truth after the estimate
   const auto& s = model.snapshot();
   ASSERT_TRUE(s.period);
   EXPECT_EQ(s.period->estimate.k, 4u);
@@ -290,7 +290,7 @@ TEST(TheoryWorker, DestructionDoesNotWaitForAComputation) {
 
 TEST(LiveStatusText, ShowsBothCovariancesAndTheBoundsOnThePrediction) {
   LiveModel model(default_scenario());
-  model.add_truth({3, 0.03, {1.0, 2.0}});
+  model.add_truth({3, 0.03, {1.0, 2.0}, {}});
   model.add_estimate(estimate(3, {1.0, 5.0}, 0.5, 0.9));
   model.add_link_status(link_status(2, BernoulliLink{1.0}, 100, 0));
   std::string text = render_status(model.snapshot(), false);

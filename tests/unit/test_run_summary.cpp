@@ -44,7 +44,7 @@ std::string parse_error(const std::string& text, const std::vector<int>& ids = {
   return "";
 }
 
-TruthRecord truth(std::int64_t k, std::vector<double> x) { return TruthRecord{k, 0.01 * static_cast<double>(k), x}; }
+TruthRecord truth(std::int64_t k, std::vector<double> x) { return TruthRecord{k, 0.01 * static_cast<double>(k), x, {}}; }
 
 Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trace_P, std::vector<int> fused,
                   std::vector<int> late_sensors, const std::string& state, double latency_ms) {

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -334,6 +335,84 @@ TEST_F(TraceFiles, ExtractRefusesAMalformedSamplesCsvAtItsLine) {
     }
     return std::string();
   }(), ::testing::HasSubstr("is a character device"));
+}
+
+// A relay's record (docs/relay.md, `--record`) lists every sample of every topic with its fate
+// and delay: the trace of a topic has a row per sample index, and a delay column when a
+// delivered sample was held. A topic name may hold commas (the five fields after it cannot).
+TEST_F(TraceFiles, ExtractGivesATopicsTraceFromARelayRecord) {
+  const std::string record =
+      "topic,index,sequence,bytes,fate,delay_ms\n"
+      "rt/a,0,1,40,delivered,0\n"
+      "rt/b,0,1,8,dropped,0\n"
+      "rt/a,1,2,40,dropped,0\n"
+      "rt/b,1,2,8,delivered,2.5\n"
+      "rt/a,2,3,40,delivered,0\n"
+      "rt/b,2,3,8,delivered,0\n"
+      "odd,name,0,1,8,dropped,0\n";
+  const std::string path = write("fates.csv", record);
+  EXPECT_TRUE(netkf::cli::is_relay_record(path));
+  EXPECT_FALSE(netkf::cli::is_relay_record(write("samples.csv", "k,sensor_id,stamp,fused,y0\n")));
+  const auto fates = netkf::cli::read_relay_fates(path);
+  const netkf::LinkTrace a = netkf::cli::extract_topic_trace(fates, "rt/a");
+  EXPECT_EQ(a.first_k, 0u);
+  EXPECT_EQ(a.delivered, (std::vector<std::uint8_t>{1, 0, 1}));
+  EXPECT_FALSE(a.has_delay);  // nothing was held: no delay column
+  const netkf::LinkTrace b = netkf::cli::extract_topic_trace(fates, "rt/b", 1, 2);
+  EXPECT_EQ(b.first_k, 1u);
+  EXPECT_EQ(b.delivered, (std::vector<std::uint8_t>{1, 1}));
+  ASSERT_TRUE(b.has_delay);
+  EXPECT_EQ(b.delay_ms[0], 2.5);
+  EXPECT_EQ(b.delay_ms[1], 0.0);
+  EXPECT_EQ(netkf::cli::extract_topic_trace(fates, "odd,name").delivered, (std::vector<std::uint8_t>{0}));
+  // Read back as a `model: trace` link reads it: the same rows and delays.
+  std::ostringstream text;
+  netkf::write_link_trace(text, b, "extracted");
+  std::istringstream in(text.str());
+  const netkf::LinkTrace again = netkf::read_link_trace(in, "again.csv");
+  EXPECT_EQ(again.delivered, b.delivered);
+  EXPECT_EQ(again.delay_ms, b.delay_ms);
+  // A topic not relayed, and an index range beyond the record (a cut record), are named.
+  const auto extract_error = [&](const std::string& topic, std::optional<std::int64_t> first,
+                                 std::optional<std::int64_t> last) {
+    try {
+      netkf::cli::extract_topic_trace(fates, topic, first, last);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("<accepted>");
+  };
+  EXPECT_THAT(extract_error("rt/c", {}, {}), HasSubstr("topic rt/c has no sample in the record (topics: odd,name, rt/a, rt/b)"));
+  EXPECT_THAT(extract_error("rt/a", 0, 3), HasSubstr("sample 3 of rt/a is not in the record"));
+  EXPECT_THAT(extract_error("rt/a", 2, 1), HasSubstr("no samples to extract (2..1)"));
+}
+
+// A malformed relay record is refused at FILE:LINE with what is wrong.
+TEST_F(TraceFiles, ExtractRefusesAMalformedRelayRecordAtItsLine) {
+  const std::string header = "topic,index,sequence,bytes,fate,delay_ms\n";
+  const std::string good = header + "rt/a,0,1,40,delivered,0\n";
+  const auto error_of = [&](const std::string& text) {
+    try {
+      netkf::cli::read_relay_fates(write("bad.csv", text));
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("<accepted>");
+  };
+  const std::string bad = (dir_ / "bad.csv").string();
+  EXPECT_EQ(error_of(good), "<accepted>");
+  EXPECT_EQ(error_of(good + "rt/a,1,2,40,lost,0\n"), bad + ":3: fate must be delivered or dropped, got 'lost'");
+  EXPECT_EQ(error_of(good + "rt/a,1,2,40,delivered,-1\n"), bad + ":3: delay_ms must be a number >= 0, got '-1'");
+  EXPECT_EQ(error_of(good + "rt/a,1,2,40,delivered,nan\n"), bad + ":3: delay_ms must be a number >= 0, got 'nan'");
+  EXPECT_EQ(error_of(good + "rt/a,x,2,40,delivered,0\n"), bad + ":3: index must be an integer, got 'x'");
+  EXPECT_EQ(error_of(good + "rt/a,0,2,40,delivered,0\n"), bad + ":3: index 0 of rt/a a second time");
+  EXPECT_EQ(error_of(good + "1,2,40,delivered,0\n"), bad + ":3: a row of fewer than 6 fields");
+  EXPECT_EQ(error_of(good + ",1,2,40,delivered,0\n"), bad + ":3: a row without a topic");
+  EXPECT_EQ(error_of(good + "rt/a,1,2,40,deliv"), bad + ":3: the last row is cut (no end of line): the file is truncated");
+  EXPECT_EQ(error_of("k,sensor_id,stamp,fused,y0\n"),
+            bad + ":1: not a relay's record (its header is 'topic,index,sequence,bytes,fate,delay_ms'; it is written "
+                  "by netkf relay --record)");
+  EXPECT_EQ(error_of(""), bad + ": empty file (a relay's record starts with its header)");
 }
 
 }  // namespace

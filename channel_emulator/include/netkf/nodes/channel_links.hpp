@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "netkf/analysis/recent_loss_fit.hpp"
@@ -101,6 +102,8 @@ class ChannelLinks {
     LinkKeys to;
   };
   struct Link {
+    Link(LinkLossProcess loss_process, LinkDelayProcess delay_process, LinkReport first_report)
+        : loss(std::move(loss_process)), delay(std::move(delay_process)), report(std::move(first_report)) {}
     LinkLossProcess loss;
     LinkDelayProcess delay;
     LinkReport report;
