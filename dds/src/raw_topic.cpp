@@ -74,9 +74,13 @@ fdds::Topic* raw_topic(Participant& participant, const DiscoveredWriter& writer)
 RawReader::RawReader(Participant& participant, const DiscoveredWriter& writer, int depth,
                      std::function<void(RawSample&&)> on_sample)
     : participant_(participant), on_sample_(std::move(on_sample)) {
-  reader_ = participant_.subscriber()->create_datareader(
-      raw_topic(participant_, writer), reader_qos(raw_topic_qos(writer, depth)), this,
-      fdds::StatusMask::data_available());
+  fdds::DataReaderQos qos = reader_qos(raw_topic_qos(writer, depth));
+  // Acknowledge a heartbeat at once (Fast DDS waits 5 ms by default): a writer that keeps all
+  // its samples, as a fast talker does, waits for these acknowledgements before it writes on,
+  // so the delay paced the relay's input (BENCHMARKS.md, "netkf relay").
+  qos.reliable_reader_qos().times.heartbeatResponseDelay = eprosima::fastrtps::Duration_t(0, 0);
+  reader_ = participant_.subscriber()->create_datareader(raw_topic(participant_, writer), qos, this,
+                                                         fdds::StatusMask::data_available());
   if (reader_ == nullptr)
     throw DdsError("cannot create a reader of " + writer.topic + " (" + writer.type + ") on domain " +
                    std::to_string(participant_.domain()));
