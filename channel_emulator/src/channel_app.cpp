@@ -314,7 +314,7 @@ class ChannelApp::Impl {
 
   // io thread
   void on_control(const wire::LinkControl& c) {
-    if (c.sensor_id() == kRelayTopicLinkId) return;  // a topic of `netkf relay`: not a link of this network
+    if (is_relay_topic_link_id(c.sensor_id())) return;  // a topic of `netkf relay`: not a link of this network
     LinkChangeResult result;
     LinkSpec applied;
     const LinkKeys keys = dds::link_keys_of(c);

@@ -146,7 +146,7 @@ int run_ctl_set_link(const CtlOptions& o) {
                 (link_id ? "netkf launch" : "netkf relay --to-domain ...") + ")");
   LinkKeys request = keys;
   if (!link_id) request.insert(request.begin(), LinkKey{kRelayTopicKey, o.link});
-  if (!bus->send_link_control(request_id, link_id.value_or(kRelayTopicLinkId), request))
+  if (!bus->send_link_control(request_id, link_id.value_or(relay_topic_link_id(o.link)), request))
     fail(ExitCode::no_network, "DDS refused to send the link change");
   const auto left = timeout - std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start);
   if (!run_until(io, [&] { return reply.has_value(); }, std::max(left, std::chrono::milliseconds(1000))))

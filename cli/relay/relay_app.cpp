@@ -260,11 +260,12 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Relay thread: a change of one of its topics' links, from its next sample on. A request for a
   // topic it does not relay is another relay's: no answer.
   void on_control(const wire::LinkControl& c) {
-    if (c.sensor_id() != kRelayTopicLinkId) return;
+    if (!is_relay_topic_link_id(c.sensor_id())) return;
     LinkKeys keys = dds::link_keys_of(c);
     if (keys.empty() || keys.front().name != kRelayTopicKey || !std::holds_alternative<std::string>(keys.front().value))
       return;  // not the relay's form (docs/relay.md)
     const std::string topic = std::get<std::string>(keys.front().value);
+    if (c.sensor_id() != relay_topic_link_id(topic)) return;  // the id is the topic's, or the request is not ours
     keys.erase(keys.begin());
     std::optional<LinkSpec> current;
     {
@@ -287,7 +288,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       }
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
     }
-    reply_->write(dds::make_link_control_reply(c.request_id(), kRelayTopicLinkId, reason.empty(), reason));
+    reply_->write(dds::make_link_control_reply(c.request_id(), c.sensor_id(), reason.empty(), reason));
     publish_status();  // acknowledges the request
   }
 

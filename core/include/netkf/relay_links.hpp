@@ -17,15 +17,17 @@
 
 namespace netkf {
 
-/// A link change for a relayed topic (`netkf ctl set-link rt/scan ...`) travels as an ordinary
-/// link-control request with this link id, its topic named by the key `topic` (a word) before
-/// the link's own keys; the channel emulator ignores it, a relay answers for its own topics.
+/// The link ids of relayed topics are below this one (-1 is the actuation link's).
 inline constexpr int kRelayTopicLinkId = -2;
+/// A link change for a relayed topic (`netkf ctl set-link rt/scan ...`) travels as an ordinary
+/// link-control request with the topic's link id (relay_topic_link_id), its topic named by the
+/// key `topic` (a word) before the link's own keys; the channel emulator ignores it, a relay
+/// answers for its own topics.
 inline constexpr const char* kRelayTopicKey = "topic";
 
-/// The link id a relayed topic's status and journal carry (wire::LinkStatus is keyed by it):
-/// below kRelayTopicLinkId, from a hash of the topic's name, so every relay and every reader
-/// gives a topic the same id; the topic itself travels beside it (`topic`).
+/// The one id of a relayed topic's link: its requests, replies, status and journal carry it
+/// (wire::LinkStatus is keyed by it); below kRelayTopicLinkId, from a hash of the topic's name,
+/// so every relay and every reader gives a topic the same id; the topic itself travels beside it.
 int relay_topic_link_id(const std::string& topic);
 /// Whether a link id is one relay_topic_link_id makes.
 inline bool is_relay_topic_link_id(int link_id) { return link_id < kRelayTopicLinkId; }
