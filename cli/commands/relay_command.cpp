@@ -126,7 +126,7 @@ void check_relay_outputs(const RelayCommandOptions& o) {
 /// The end of a relay with --check or --summary: the checks' table, the summary's JSON; exit 1
 /// when a check failed (as a launch's, run_summary.hpp).
 void conclude_relay(const std::vector<Check>& checks, std::ostream* summary_out, const std::string& summary_file,
-                    const std::vector<RelayTopicCounts>& counts) {
+                    const std::string& end, const std::vector<RelayTopicCounts>& counts) {
   std::vector<RelayTopicSummary> topics;
   for (const auto& c : counts) topics.push_back({c.topic, c.lifetime, c.since_change, c.refused});
   const auto results =
@@ -134,7 +134,10 @@ void conclude_relay(const std::vector<Check>& checks, std::ostream* summary_out,
   if (!results.empty()) std::cout << render_check_table(results) << std::flush;
   if (summary_out) {
     errno = 0;
-    *summary_out << relay_summary_json(topics, results).dump(2) << "\n";
+    nlohmann::ordered_json j{{"end", end}};  // as a launch's summary begins
+    const auto body = relay_summary_json(topics, results);  // named: items() of a temporary would dangle
+    for (const auto& item : body.items()) j[item.key()] = item.value();
+    *summary_out << j.dump(2) << "\n";
     summary_out->flush();
     if (!*summary_out)
       fail(ExitCode::run_failed, "cannot write the summary to " + summary_file + ": " + std::strerror(errno));
@@ -195,7 +198,8 @@ int run_relay(const RelayCommandOptions& o) {
   const auto counts = app->counts();
   app.reset();  // the last samples' fates and the timeline's last changes are written
   print_counts(counts);
-  if (summary_out || !checks.empty()) conclude_relay(checks, summary_out.get(), o.summary.value_or(""), counts);
+  if (summary_out || !checks.empty())
+    conclude_relay(checks, summary_out.get(), o.summary.value_or(""), stop ? "signal" : "duration reached", counts);
   return 0;
 }
 

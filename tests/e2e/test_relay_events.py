@@ -135,6 +135,7 @@ link = summary["link"]["rt/chatter"]
 check(link["samples"] == TOTAL and link["dropped"] == dropped and link["delivered"] == TOTAL - dropped,
       "the summary counts what the recording shows (%d samples, %d dropped)" % (TOTAL, dropped))
 check(abs(link["observed_loss"] - dropped / TOTAL) < 1e-12, "the summary's observed loss is the recording's")
+check(summary["end"] == "signal", "the summary says the relay ended on a signal (Ctrl-C)")
 check(summary["passed"] is True and [c["verdict"] for c in summary["checks"]] == ["PASS", "PASS"],
       "both checks passed in the summary")
 check("2 checks: 2 passed, 0 failed" in text("relay1", ".out"), "the relay prints the checks' table")
