@@ -9,28 +9,32 @@ recording shows before it), the recording's own counts for the summary, and a se
 replay of the first run's journal over a talker writing the same number of samples (in another
 split: the fates depend on the sample indices only) must record the same fate for every index.
 
-1. relay.yaml --record r1.csv --check (passes) --summary s1.json; a talker writes 300 samples;
-   `netkf ctl set-link rt/chatter --bernoulli 0.5` (applies at sample 300, journaled); a second
-   talker writes 200 more; Ctrl-C: exit 0, r1.csv.events.yaml holds the timeline's set at 200 and
-   the live change at 300, s1.json the recording's counts and the check passed.
-2. relay.yaml --events r1.csv.events.yaml --record r2.csv --check (fails): one talker of 500
+1. relay.yaml --record r1.csv --check (passes) --summary s1.json --dashboard 0; a talker writes
+   300 samples; `netkf ctl set-link rt/chatter --bernoulli 0.5` (applies at sample 300,
+   journaled); a second talker writes 200 more; a Foxglove client (@foxglove/ws-protocol) sets
+   the topic's loss to 0 (applies at sample 500, journaled); a third talker writes 100 more;
+   Ctrl-C: exit 0, r1.csv.events.yaml holds the timeline's set at 200 and the live changes at
+   300 and 500, s1.json the recording's counts and the checks passed.
+2. relay.yaml --events r1.csv.events.yaml --record r2.csv --check (fails): one talker of 600
    samples; Ctrl-C: exit 1, the fate column equals r1's, its journal equals r1's.
 3. A check on a topic not relayed, an events file naming one: exit 2 before anything starts, the
    events file's mistake at its line and column."""
 import csv
 import json
 import os
+import re
 import subprocess
 import sys
 
 import yaml
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, require_netns, stop_process, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, finish, node, require_netns, stop_process, wait_for,
+                        workdir)
 
 require_netns()
 FROM, TO = 119, 120
-FIRST, SECOND = 300, 200  # the first run's two talkers
-TOTAL = FIRST + SECOND
+FIRST, SECOND, THIRD = 300, 200, 100  # the first run's three talkers
+TOTAL = FIRST + SECOND + THIRD
 AT = 200                  # the timeline's event: loss 1 from this sample on
 CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
 if not (CHATTER and os.access(CHATTER, os.X_OK)):
@@ -77,6 +81,18 @@ def talk(count, first):
     check(r.returncode == 0, "a talker wrote %d samples through the relay" % count)
 
 
+def fnv1a(text):
+    h = 14695981039346656037
+    for c in text.encode():
+        h = ((h ^ c) * 1099511628211) % 2 ** 64
+    return h
+
+
+def link_id(topic):
+    """relay_topic_link_id (docs/relay.md): -1000 - FNV-1a(topic) mod 2^30."""
+    return -1000 - fnv1a(topic) % 2 ** 30
+
+
 def journal(path):
     with open(path) as f:
         return yaml.safe_load(f)["events"]
@@ -92,7 +108,8 @@ def fates(path):
 r1, s1 = os.path.join(out, "r1.csv"), os.path.join(out, "s1.json")
 j1 = r1 + ".events.yaml"
 relay = start("relay1", [NETKF, "relay", relay_file, "--record", r1, "--summary", s1,
-                         "--check", "link.rt/chatter.samples>=%d" % TOTAL, "--check", "link.rt/chatter.observed_loss<0.9"])
+                         "--check", "link.rt/chatter.samples>=%d" % TOTAL, "--check", "link.rt/chatter.observed_loss<0.9",
+                         "--dashboard", "0"])
 try:
     check(wait_for(lambda: os.path.exists(j1), 20), "the relay writes its journal from the start")
     check(journal(j1) == [], "an empty journal before any change")
@@ -103,7 +120,14 @@ try:
     check(live.returncode == 0, "`netkf ctl set-link rt/chatter --bernoulli 0.5` is applied (rc=%d)" % live.returncode)
     check(wait_for(lambda: len(journal(j1)) == 2, 10), "the live change is journaled as it happens")
     talk(SECOND, 1001)
-    check(wait_for(lambda: lines(r1) == TOTAL + 1, 20), "the recording has the second talker's samples")
+    check(wait_for(lambda: lines(r1) == FIRST + SECOND + 1, 20), "the recording has the second talker's samples")
+    port = re.search(r"ws://127\.0\.0\.1:(\d+)/", text("relay1", ".out") + text("relay1", ".log")).group(1)
+    fox = node("foxglove_client.mjs", "--url", "ws://127.0.0.1:%s/" % port, "--seconds", 2, "--set-after", 0.3,
+               "--set", "link.%d.loss=0" % link_id("rt/chatter"))
+    check(fox.get("connected"), "a Foxglove client set the topic's loss to 0")
+    check(wait_for(lambda: len(journal(j1)) == 3, 10), "the WebSocket's change is journaled as it happens")
+    talk(THIRD, 2001)
+    check(wait_for(lambda: lines(r1) == TOTAL + 1, 20), "the recording has the third talker's samples")
 finally:
     rc1 = stop_process(relay)
 print("---- relay 1 ----\n" + text("relay1", ".out") + text("relay1", ".log")[-3000:], flush=True)
@@ -115,19 +139,23 @@ before = [first[i] for i in range(AT)]
 check("delivered" in before and "dropped" in before, "before sample %d the link drops some samples (loss 0.3)" % AT)
 check(all(first[i] == "dropped" for i in range(AT, FIRST)),
       "every sample from %d to %d is dropped (the timeline's loss 1)" % (AT, FIRST - 1))
-after = [first[i] for i in range(FIRST, TOTAL)]
+after = [first[i] for i in range(FIRST, FIRST + SECOND)]
 check(after.count("delivered") > 0 and after.count("dropped") > 0,
       "from sample %d on the live change's loss 0.5 delivers again (%d of %d)" % (FIRST, after.count("delivered"),
                                                                                   SECOND))
 entries = journal(j1)
 print("journal:", json.dumps(entries), flush=True)
-check(len(entries) == 2, "the journal holds the timeline's change and the live one (%d)" % len(entries))
-if len(entries) == 2:
+check(all(first[i] == "delivered" for i in range(FIRST + SECOND, TOTAL)),
+      "every sample from %d on is delivered (the WebSocket's loss 0)" % (FIRST + SECOND))
+check(len(entries) == 3, "the journal holds the timeline's change and the two live ones (%d)" % len(entries))
+if len(entries) == 3:
     check(entries[0]["at_sample"] == AT and entries[0]["topic"] == "rt/chatter"
           and entries[0]["set"]["model"] == "bernoulli" and entries[0]["set"]["loss"] == 1.0,
           "the timeline's change: rt/chatter set to loss 1 at sample %d" % AT)
     check(entries[1]["at_sample"] == FIRST and entries[1]["set"]["loss"] == 0.5,
           "the live change: loss 0.5 from sample %d, the first after the %d the recording had" % (FIRST, FIRST))
+    check(entries[2]["at_sample"] == FIRST + SECOND and entries[2]["set"]["loss"] == 0,
+          "the WebSocket's change: loss 0 from sample %d" % (FIRST + SECOND))
 with open(s1) as f:
     summary = json.load(f)
 dropped = sum(f == "dropped" for f in first.values())
