@@ -4,10 +4,14 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <memory>
 #include <thread>
+
+#include <spdlog/spdlog.h>
 
 #include "command_options.hpp"
 #include "commands.hpp"
@@ -15,7 +19,9 @@
 #include "netkf/scenario.hpp"
 #include "netkf/dds/participant.hpp"  // resolve_naming
 #include "netkf/relay_config.hpp"
+#include "output_file.hpp"
 #include "relay_app.hpp"
+#include "relay_summary.hpp"
 #include "serve_loop.hpp"
 
 namespace netkf::cli {
@@ -30,6 +36,9 @@ struct RelayCommandOptions {
   std::optional<std::string> seed;
   std::optional<int> depth;
   std::optional<std::string> record;
+  std::optional<std::string> events;
+  std::vector<std::string> checks;
+  std::optional<std::string> summary;
   std::optional<unsigned short> metrics_port;
   std::optional<std::string> profile;
   std::optional<std::string> naming;
@@ -65,6 +74,7 @@ RelayOptions relay_options(const RelayCommandOptions& o) {
       options.seed = file.seed;
       options.depth = file.depth;
       options.topics = file.topics;
+      options.timeline = file.events;
     } else {
       if (o.topics.empty()) fail(ExitCode::bad_usage, "give a relay file or --topic (repeatable) with a link");
       if (keys.empty())
@@ -78,6 +88,15 @@ RelayOptions relay_options(const RelayCommandOptions& o) {
     if (o.to_domain) options.to_domain = *o.to_domain;
     if (o.seed) options.seed = parse_seed(*o.seed);
     if (o.depth) options.depth = *o.depth;
+    if (o.events) {
+      // A journal holds the session's every change (the file's events that applied, the live
+      // ones): it replaces the file's timeline rather than adding to it.
+      RelayConfig relay;
+      relay.topics = options.topics;
+      options.timeline = load_relay_events_file(*o.events, relay);
+      spdlog::info("replaying {} change(s) of {}{}", options.timeline.size(), *o.events,
+                   o.file ? " instead of the relay file's events" : "");
+    }
   } catch (const CommandError&) {
     throw;
   } catch (const std::exception& e) {
@@ -88,8 +107,63 @@ RelayOptions relay_options(const RelayCommandOptions& o) {
   return options;
 }
 
+/// The files the relay writes, checked before it starts: regular files, none of them an input
+/// or another, and the recording and its journal new (a session cannot be recorded again).
+void check_relay_outputs(const RelayCommandOptions& o) {
+  std::vector<FileArg> recordings, outputs, inputs;
+  if (o.record) {
+    recordings.push_back({"--record", *o.record});
+    recordings.push_back({"--record's journal", relay_journal_file(*o.record).string()});
+  }
+  outputs = recordings;
+  if (o.summary) outputs.push_back({"--summary", *o.summary});
+  if (o.file) inputs.push_back({"the relay file", *o.file});
+  if (o.events) inputs.push_back({"--events", *o.events});
+  check_output_files(outputs, inputs);
+  refuse_existing(recordings, "give another name");
+}
+
+/// The end of a relay with --check or --summary: the checks' table, the summary's JSON; exit 1
+/// when a check failed (as a launch's, run_summary.hpp).
+void conclude_relay(const std::vector<Check>& checks, std::ostream* summary_out, const std::string& summary_file,
+                    const std::string& end, const std::vector<RelayTopicCounts>& counts) {
+  std::vector<RelayTopicSummary> topics;
+  for (const auto& c : counts) topics.push_back({c.topic, c.lifetime, c.since_change, c.refused});
+  const auto results =
+      evaluate_checks(checks, [&topics](const std::string& name) { return measure_relay(topics, name); });
+  if (!results.empty()) std::cout << render_check_table(results) << std::flush;
+  if (summary_out) {
+    errno = 0;
+    nlohmann::ordered_json j{{"end", end}};  // as a launch's summary begins
+    const auto body = relay_summary_json(topics, results);  // named: items() of a temporary would dangle
+    for (const auto& item : body.items()) j[item.key()] = item.value();
+    *summary_out << j.dump(2) << "\n";
+    summary_out->flush();
+    if (!*summary_out)
+      fail(ExitCode::run_failed, "cannot write the summary to " + summary_file + ": " + std::strerror(errno));
+  }
+  if (!all_passed(results)) {
+    std::size_t failed = 0;
+    for (const auto& r : results) failed += !r.passed;
+    fail(ExitCode::run_failed, std::to_string(failed) + " of " + std::to_string(results.size()) + " checks failed");
+  }
+}
+
 int run_relay(const RelayCommandOptions& o) {
+  check_relay_outputs(o);
   RelayOptions options = relay_options(o);
+  std::vector<Check> checks;
+  std::vector<std::string> topic_names;
+  for (const auto& t : options.topics) topic_names.push_back(t.name);
+  for (const auto& text : o.checks) {
+    try {
+      checks.push_back(parse_relay_check(text, topic_names));
+    } catch (const std::invalid_argument& e) {
+      fail(ExitCode::bad_usage, e.what());
+    }
+  }
+  std::unique_ptr<std::ostream> summary_out;
+  if (o.summary) summary_out = open_output_stream({"--summary", *o.summary});
   const std::size_t topics = options.topics.size();
   const int from = options.from_domain, to = options.to_domain;
   if (o.profile) options.profile = *o.profile;
@@ -121,8 +195,11 @@ int run_relay(const RelayCommandOptions& o) {
   signals.cancel();
   app->stop();
   relay_thread.join();
-  print_counts(app->counts());
-  app.reset();
+  const auto counts = app->counts();
+  app.reset();  // the last samples' fates and the timeline's last changes are written
+  print_counts(counts);
+  if (summary_out || !checks.empty())
+    conclude_relay(checks, summary_out.get(), o.summary.value_or(""), stop ? "signal" : "duration reached", counts);
   return 0;
 }
 
@@ -143,6 +220,17 @@ void add_relay_command(CLI::App& app) {
   cmd->add_option("--depth", o->depth, "Keep-last history of the relay's readers and writers (default 100)")
       ->check(CLI::Range(1, 100000));
   cmd->add_option("--record", o->record, "A CSV line per sample: topic,index,sequence,bytes,fate,delay_ms (a new file)");
+  cmd->add_option("--events", o->events,
+                  "Replay a journal (--record FILE wrote FILE.events.yaml): its changes replace the relay file's "
+                  "events; the same seed and the same samples make the same decisions")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--check", o->checks,
+                  "Pass/fail check at the end on a topic's link: link.TOPIC.NAME<VALUE (or <=, >, >=), e.g. "
+                  "'link.rt/chatter.observed_loss<0.35'; NAME: samples, delivered, dropped, refused, observed_loss, "
+                  "mean_burst, observed_arrival_rate_since_change; repeatable; exit 1 when one fails")
+      ->allow_extra_args(false);
+  cmd->add_option("--summary", o->summary,
+                  "Write each topic's link quantities and every check's verdict as JSON at the end (docs/relay.md)");
   cmd->add_option("--dds-profile", o->profile, "Fast DDS XML profile of both sides (default: built-in localhost-only)");
   cmd->add_option("--naming", o->naming,
                   "Names of netkf's own topics the relay answers and reports on (link control, status, journal): netkf "

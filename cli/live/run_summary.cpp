@@ -189,12 +189,6 @@ std::string value_text(const Measured& m) {
   return buf;
 }
 
-nlohmann::ordered_json json_value(const Measured& m) {
-  if (!m.measured()) return nullptr;
-  if (m.count) return static_cast<std::uint64_t>(m.value);
-  return m.value;  // an infinite value (an overflowing error) is written as null by the JSON library
-}
-
 bool holds(double v, CheckOp op, double threshold) {
   switch (op) {
     case CheckOp::less: return v < threshold;
@@ -359,9 +353,15 @@ const char* to_string(CheckOp op) {
   return "?";
 }
 
-Check parse_check(const std::string& text, const std::vector<int>& link_ids) {
+nlohmann::ordered_json measured_json(const Measured& m) {
+  if (!m.measured()) return nullptr;
+  if (m.count) return static_cast<std::uint64_t>(m.value);
+  return m.value;  // an infinite value (an overflowing error) is written as null by the JSON library
+}
+
+Check parse_check_syntax(const std::string& text, const std::string& example) {
   const std::string quoted = "check '" + text + "': ";
-  const std::string syntax = "write NAME<VALUE, NAME<=VALUE, NAME>VALUE or NAME>=VALUE, e.g. 'rms_error<0.8'";
+  const std::string syntax = "write NAME<VALUE, NAME<=VALUE, NAME>VALUE or NAME>=VALUE, e.g. '" + example + "'";
   const auto pos = text.find_first_of("<>=!");
   if (pos == std::string::npos) throw std::invalid_argument(quoted + "no comparison; " + syntax);
   if (text[pos] == '=' || text[pos] == '!')
@@ -379,7 +379,12 @@ Check parse_check(const std::string& text, const std::vector<int>& link_ids) {
   const auto [end, ec] = std::from_chars(first, last, c.threshold);
   if (number.empty() || ec != std::errc() || end != last || !std::isfinite(c.threshold))
     throw std::invalid_argument(quoted + "the right side must be a finite number, got '" + number + "'");
+  return c;
+}
 
+Check parse_check(const std::string& text, const std::vector<int>& link_ids) {
+  const std::string quoted = "check '" + text + "': ";
+  Check c = parse_check_syntax(text);
   const auto names = summary_names(link_ids);
   if (std::find(names.begin(), names.end(), c.name) != names.end()) return c;
   // link.ID.NAME with a real quantity but an id the scenario does not have: say so.
@@ -405,11 +410,16 @@ std::string CheckResult::verdict() const {
 }
 
 std::vector<CheckResult> evaluate_checks(const std::vector<Check>& checks, const RunSummary& summary) {
+  return evaluate_checks(checks, [&summary](const std::string& name) { return measure(summary, name); });
+}
+
+std::vector<CheckResult> evaluate_checks(const std::vector<Check>& checks,
+                                         const std::function<Measured(const std::string&)>& measure) {
   std::vector<CheckResult> results;
   for (const auto& c : checks) {
     CheckResult r;
     r.check = c;
-    r.measured = measure(summary, c.name);
+    r.measured = measure(c.name);
     // A comparison with NaN is false for every operator: a value that is not there never passes.
     r.passed = r.measured.measured() && holds(r.measured.value, c.op, c.threshold);
     results.push_back(std::move(r));
@@ -447,25 +457,30 @@ std::string render_check_table(const std::vector<CheckResult>& results) {
 nlohmann::ordered_json summary_json(const RunSummary& summary, const std::vector<CheckResult>& results) {
   // Insertion order: the file reads in the order of docs/experiments.md's definitions.
   nlohmann::ordered_json j;
-  for (const auto& q : kRunQuantities) j[q.name] = json_value(q.measure(summary));
+  for (const auto& q : kRunQuantities) j[q.name] = measured_json(q.measure(summary));
   j["link"] = nlohmann::ordered_json::object();
   for (const auto& l : summary.links) {
     auto& link = j["link"][link_name(l.id)];
-    for (const auto& q : kLinkQuantities) link[q.name] = json_value(q.measure(summary, l));
+    for (const auto& q : kLinkQuantities) link[q.name] = measured_json(q.measure(summary, l));
   }
-  j["checks"] = nlohmann::ordered_json::array();
+  j["checks"] = checks_json(results);
+  j["passed"] = all_passed(results);
+  return j;
+}
+
+nlohmann::ordered_json checks_json(const std::vector<CheckResult>& results) {
+  auto checks = nlohmann::ordered_json::array();
   for (const auto& r : results) {
     nlohmann::ordered_json c{{"check", r.check.text},
                              {"name", r.check.name},
                              {"operator", to_string(r.check.op)},
                              {"threshold", r.check.threshold},
-                             {"value", json_value(r.measured)},
+                             {"value", measured_json(r.measured)},
                              {"verdict", r.passed ? "PASS" : "FAIL"}};
     if (!r.measured.measured()) c["reason"] = "not measured: " + r.measured.missing;
-    j["checks"].push_back(std::move(c));
+    checks.push_back(std::move(c));
   }
-  j["passed"] = all_passed(results);
-  return j;
+  return checks;
 }
 
 }  // namespace netkf::cli

@@ -35,6 +35,7 @@
 // A quantity with nothing to measure (no estimate received, a link the channel never
 // reported, ...) has no value: null in the JSON, and a check on it fails, saying why.
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -150,6 +151,10 @@ struct Check {
   double threshold = 0.0;
 };
 
+/// `NAME OP NUMBER` parsed, whatever the name (the relay's checks, relay_summary.hpp, name topics):
+/// throws std::invalid_argument for no or another operator, no name, not a finite number.
+Check parse_check_syntax(const std::string& text, const std::string& example = "rms_error<0.8");
+
 /// Parses `NAME<VALUE`, `NAME<=VALUE`, `NAME>VALUE`, `NAME>=VALUE` (whitespace allowed around
 /// the operator; VALUE a finite number) for a scenario with `link_ids`. Throws
 /// std::invalid_argument saying what is wrong: no or another operator, no name, not a finite
@@ -167,6 +172,9 @@ struct CheckResult {
 /// Each check against the summary: it passes only when its value was measured and satisfies
 /// the comparison (NaN never passes).
 std::vector<CheckResult> evaluate_checks(const std::vector<Check>& checks, const RunSummary& summary);
+/// The same against any summary: `measure` gives a check's name its value.
+std::vector<CheckResult> evaluate_checks(const std::vector<Check>& checks,
+                                         const std::function<Measured(const std::string&)>& measure);
 bool all_passed(const std::vector<CheckResult>& results);
 
 /// The table printed at the end of a run: check, measured value, verdict; then a count.
@@ -176,5 +184,9 @@ std::string render_check_table(const std::vector<CheckResult>& results);
 /// check's name is its path), null when not measured; "checks" with value and verdict;
 /// "passed" (every check passed). Keys in the order of the definitions above.
 nlohmann::ordered_json summary_json(const RunSummary& summary, const std::vector<CheckResult>& results);
+/// A quantity as the summary's JSON writes it: a number, an integer for a count, null when not measured.
+nlohmann::ordered_json measured_json(const Measured& m);
+/// The summary JSON's "checks": each check with its value and verdict.
+nlohmann::ordered_json checks_json(const std::vector<CheckResult>& results);
 
 }  // namespace netkf::cli

@@ -25,8 +25,10 @@
 #include "dashboard_server.hpp"
 #include "live_bus.hpp"
 #include "live_metrics.hpp"
+#include "output_file.hpp"
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
+#include "netkf/relay_config.hpp"  // relay_events_to_yaml
 #include "netkf/release_queue.hpp"
 
 namespace netkf::cli {
@@ -37,7 +39,10 @@ namespace wire = netkf::wire;
 class RelayApp::Impl : private fdds::DomainParticipantListener {
  public:
   explicit Impl(RelayOptions options)
-      : options_(std::move(options)), links_(options_.topics, options_.seed), release_timer_(io_), flush_timer_(io_) {
+      : options_(std::move(options)),
+        links_(options_.topics, options_.seed, options_.timeline),
+        release_timer_(io_),
+        flush_timer_(io_) {
     if (options_.from_domain == options_.to_domain)
       throw std::invalid_argument("the relay's two domains must differ (it would relay its own samples again)");
     for (const auto& t : options_.topics) {
@@ -51,6 +56,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
         throw std::runtime_error("cannot create " + options_.record->string() + ": " + std::strerror(errno) +
                                  (errno == EEXIST ? " (give another name)" : ""));
       std::fputs("topic,index,sequence,bytes,fate,delay_ms\n", record_.get());
+      journal_file_ = relay_journal_file(*options_.record);
+      // An empty journal too: a replay of a session without changes is valid.
+      if (!write_journal()) throw std::runtime_error(journal_error_);
     }
     dds::ParticipantOptions to;
     to.domain = options_.to_domain;
@@ -96,6 +104,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                    options_.from_domain);
     source_.reset();
     write_record();  // the lines of the last samples
+    publish_changes();  // the timeline's changes at the last samples
     publish_status();  // the final counts, for a reader still there
     relayed_.clear();
     journal_.reset();
@@ -126,7 +135,13 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   std::vector<RelayTopicCounts> counts() const {
     const std::lock_guard lock(mutex_);
     std::vector<RelayTopicCounts> out;
-    for (const auto& [name, c] : counts_) out.push_back(c);
+    for (const auto& [name, c] : counts_) {
+      out.push_back(c);
+      if (const auto report = links_.report(name)) {
+        out.back().lifetime = report->lifetime;
+        out.back().since_change = report->stats;
+      }
+    }
     return out;
   }
 
@@ -217,9 +232,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
                    r.writer.topic);
     RelayFate fate;
     bool rearm = false;  // a new earliest held sample: the release timer must move
+    bool changed = false;  // the timeline changed the link at this sample: journaled on the relay's thread
     {
       const std::lock_guard lock(mutex_);
       fate = *links_.on_sample(r.writer.topic);
+      changed = links_.has_changes();
       auto& c = counts_[r.writer.topic];
       ++c.samples;
       ++(fate.delivered ? c.delivered : c.dropped);
@@ -235,6 +252,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       }
     }
     if (rearm) boost::asio::post(io_, [this] { release_due(); });
+    if (changed) boost::asio::post(io_, [this] { publish_changes(); });
     if (fate.delivered && fate.delay_ms <= 0.0) send(r, sample);
   }
 
@@ -299,14 +317,58 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     std::uint64_t at_sample = 0;
     {
       const std::lock_guard lock(mutex_);
-      links_.set_link(topic, next);  // throws on an invalid model (nothing changes)
+      links_.set_link(topic, next, request_id);  // throws on an invalid model (nothing changes)
       links_.note_request(topic, request_id, "");
       at_sample = links_.report(topic)->next_sample;
     }
     spdlog::info("request {}: {} now has a {} link (from its sample {} on)", request_id, topic, link_kind(next),
                  at_sample);
-    journal_->write(dds::make_link_change(relay_topic_link_id(topic), at_sample, "request", request_id, next,
-                                          dds::steady_now_ns(), topic));
+    publish_changes();
+  }
+
+  // Relay thread (and the end): the links' changes since, each on DDS (netkf/link/change) and,
+  // with --record, in the journal file as the event a replay makes at the same sample.
+  void publish_changes() {
+    std::vector<RelayLinkChange> changes;
+    {
+      const std::lock_guard lock(mutex_);
+      changes = links_.take_changes();
+    }
+    bool journaled = false;
+    for (const auto& c : changes) {
+      if (!c.failure.empty()) {
+        spdlog::warn("timeline: {} event at its sample {} not applied: {}", c.topic, c.at_sample, c.failure);
+        continue;
+      }
+      if (c.origin == "timeline")
+        spdlog::info("timeline: {} from its sample {}: {}", c.topic, c.at_sample, describe_link(c.link));
+      journal_->write(dds::make_link_change(relay_topic_link_id(c.topic), c.at_sample, c.origin, c.request_id, c.link,
+                                            dds::steady_now_ns(), c.topic));
+      if (c.replay && journal_file_) {
+        journal_events_.push_back(*c.replay);
+        journaled = true;
+      }
+    }
+    if (journaled && !write_journal() && !journal_warned_) {
+      journal_warned_ = true;
+      spdlog::error("{}", journal_error_);
+    }
+  }
+
+  // The journal file whole (it is small: one entry per change), renamed in place, so it is
+  // complete whenever the relay stops.
+  bool write_journal() {
+    try {
+      write_output_file({"--record's journal", journal_file_->string()},
+                        "# Link changes of a netkf relay, with the topic's sample each applied from.\n"
+                        "# Replay: netkf relay RELAY_FILE --events THIS_FILE (same relay file and seed, same samples).\n" +
+                            relay_events_to_yaml(journal_events_),
+                        /*sync=*/false);
+    } catch (const std::exception& e) {
+      journal_error_ = e.what();
+      return false;
+    }
+    return true;
   }
 
   // Relay thread: a WebSocket client's setParameters (link.ID.KEY, ID a topic's link id), checked
@@ -453,6 +515,11 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   std::map<std::string, std::optional<std::string>> wanted_types_;  // per topic; never changed after construction
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> record_{nullptr, &std::fclose};
   std::string unwritten_;  // record lines not yet written (mutex_)
+  // The journal file (--record's) and what it holds; the relay's thread's.
+  std::optional<std::filesystem::path> journal_file_;
+  std::vector<RelayEvent> journal_events_;
+  std::string journal_error_;
+  bool journal_warned_ = false;
   // A delivered sample its link delays, until its release (mutex_).
   struct Held {
     Relayed* relayed = nullptr;

@@ -28,8 +28,12 @@ struct RelayOptions {
   /// The names of netkf's own topics it uses (link control, reply, status, journal: docs/ros2.md);
   /// the relayed topics keep theirs.
   TopicNaming naming = TopicNaming::netkf;
-  /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay.
+  /// A CSV line per sample (topic,index,sequence,bytes,fate,delay_ms), created by the relay;
+  /// beside it the journal RECORD.events.yaml, every change of a topic's link with the sample
+  /// it applied from, rewritten as changes happen (relay_journal_file).
   std::optional<std::filesystem::path> record;
+  /// The changes to make at given samples: the relay file's `events:` or a replayed journal.
+  std::vector<RelayEvent> timeline;
   /// Serve the topics' links on 127.0.0.1:PORT (0: any free port): GET /metrics (Prometheus) and
   /// the Foxglove WebSocket with netkf/link/status (`--dashboard`).
   std::optional<unsigned short> metrics_port;
@@ -40,7 +44,14 @@ struct RelayTopicCounts {
   std::string topic;
   std::string type;  // as discovered ("" while no writer was seen)
   std::uint64_t samples = 0, delivered = 0, dropped = 0, refused = 0;  // refused: DDS refused the write
+  LinkStatistics lifetime;      // the link's, since the relay started
+  LinkStatistics since_change;  // since the link was last set
 };
+
+/// The journal a relay recording `record` writes beside it (a launch's journal's name).
+inline std::filesystem::path relay_journal_file(const std::filesystem::path& record) {
+  return record.string() + ".events.yaml";
+}
 
 class RelayApp {
  public:

@@ -1,5 +1,6 @@
 #include "netkf/relay_links.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string_view>
@@ -26,7 +27,8 @@ int relay_topic_link_id(const std::string& topic) {
   return -1000 - static_cast<int>(name_hash(topic) % (1ull << 30));
 }
 
-RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed) {
+RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed,
+                       const std::vector<RelayEvent>& timeline) {
   for (const auto& t : topics) {
     if (t.name.empty()) throw std::invalid_argument("a relayed topic needs a name");
     const auto index = name_hash(t.name);
@@ -35,12 +37,94 @@ RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed
     if (!links_.emplace(t.name, std::move(link)).second)
       throw std::invalid_argument("topic " + t.name + " is relayed twice");
   }
+  std::vector<const RelayEvent*> ordered;
+  for (const auto& e : timeline) ordered.push_back(&e);
+  std::stable_sort(ordered.begin(), ordered.end(),
+                   [](const RelayEvent* a, const RelayEvent* b) { return a->at_sample < b->at_sample; });
+  for (const RelayEvent* e : ordered) {
+    const auto it = links_.find(e->topic);
+    if (it == links_.end()) throw std::invalid_argument("an event of topic " + e->topic + ", which is not relayed");
+    it->second.timeline.push_back(*e);
+    for (const auto& key : e->keys) {
+      if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
+      const std::string& path = std::get<std::string>(key.value);
+      try {
+        timeline_traces_.emplace(path, read_link_trace_for(path));
+      } catch (const LinkError&) {
+        // The loader read it already; if it has gone since, the event fails when due (journaled).
+      }
+    }
+  }
+}
+
+void RelayLinks::change(Link& link, const LinkSpec& spec, bool reset_statistics) {
+  link.loss.set_model(spec.loss);  // keeps the stream's (and a Gilbert-Elliott chain's) state
+  link.spec = spec;
+  if (!reset_statistics) return;
+  link.stats = LinkStatistics{};
+  link.recent.clear();
+  link.trace_start = link.samples;
+}
+
+// The timeline's events due at the topic's next sample, as a scenario's timeline applies at a
+// period (nodes/channel_links.cpp): a set ends a running ramp; a ramp starts from the values
+// the link has now.
+void RelayLinks::apply_due(const std::string& topic, Link& link) {
+  const std::uint64_t n = link.samples;
+  while (link.next_event < link.timeline.size() && link.timeline[link.next_event].at_sample <= n) {
+    const RelayEvent& e = link.timeline[link.next_event++];
+    RelayLinkChange entry{topic, n, "timeline", 0, link.spec, {}, std::nullopt};
+    try {
+      if (e.kind == LinkEvent::Kind::set || e.ramp_samples == 0) {
+        entry.link = apply_link_keys(link.spec, e.keys, &timeline_traces_);
+        change(link, entry.link, true);
+        link.ramp.reset();
+        entry.replay = RelayEvent{n, topic, LinkEvent::Kind::set, link_keys(entry.link), 0};
+      } else {
+        Ramp ramp{n, e.ramp_samples, {}, e.keys};
+        for (const auto& key : e.keys) ramp.from.emplace_back(key.name, link_key_value(link.spec, key.name));
+        (void)apply_link_keys(link.spec, e.keys);  // the target must be a valid link now
+        link.ramp = std::move(ramp);
+        entry.replay = RelayEvent{n, topic, LinkEvent::Kind::ramp, e.keys, e.ramp_samples};
+      }
+    } catch (const LinkError& err) {
+      // Only a live change can make a checked timeline inapplicable (e.g. another model).
+      entry.failure = err.what();
+    }
+    changes_.push_back(std::move(entry));
+  }
+}
+
+void RelayLinks::step_ramp(const std::string& topic, Link& link) {
+  if (!link.ramp) return;
+  const Ramp& ramp = *link.ramp;
+  const std::uint64_t n = link.samples;
+  const double fraction = std::min(1.0, static_cast<double>(n - ramp.start) / static_cast<double>(ramp.samples));
+  LinkKeys keys;
+  for (std::size_t i = 0; i < ramp.to.size(); ++i) {
+    const double from = ramp.from[i].second;
+    const double to = std::get<double>(ramp.to[i].value);
+    keys.push_back({ramp.to[i].name, fraction >= 1.0 ? to : from + (to - from) * fraction});
+  }
+  try {
+    change(link, apply_link_keys(link.spec, keys), false);
+  } catch (const LinkError& err) {
+    changes_.push_back({topic, n, "timeline", 0, link.spec, err.what(), std::nullopt});
+    link.ramp.reset();
+    return;
+  }
+  if (fraction >= 1.0) {
+    changes_.push_back({topic, n, "timeline", 0, link.spec, {}, std::nullopt});  // the ramp's end
+    link.ramp.reset();
+  }
 }
 
 std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
   const auto it = links_.find(topic);
   if (it == links_.end()) return std::nullopt;
   Link& link = it->second;
+  apply_due(topic, link);
+  step_ramp(topic, link);
   RelayFate fate;
   fate.index = link.samples++;
   double delay_ms = std::nan("");
@@ -58,16 +142,22 @@ std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
   return fate;
 }
 
-bool RelayLinks::set_link(const std::string& topic, const LinkSpec& spec) {
+bool RelayLinks::set_link(const std::string& topic, const LinkSpec& spec, std::uint64_t request_id) {
   const auto it = links_.find(topic);
   if (it == links_.end()) return false;
   Link& link = it->second;
-  link.loss.set_model(spec.loss);  // throws (and changes nothing) on an invalid model
-  link.spec = spec;
-  link.stats = LinkStatistics{};
-  link.recent.clear();
-  link.trace_start = link.samples;
+  change(link, spec, true);  // set_model throws (and changes nothing) on an invalid model
+  link.ramp.reset();         // the operator's word ends a ramp in progress
+  const std::uint64_t n = link.samples;
+  changes_.push_back({topic, n, "request", request_id, spec, {},
+                      RelayEvent{n, topic, LinkEvent::Kind::set, link_keys(spec), 0}});
   return true;
+}
+
+std::vector<RelayLinkChange> RelayLinks::take_changes() {
+  std::vector<RelayLinkChange> out;
+  out.swap(changes_);
+  return out;
 }
 
 void RelayLinks::note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason) {

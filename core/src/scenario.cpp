@@ -12,6 +12,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "netkf/lqr.hpp"
+#include "netkf/relay_config.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf {
@@ -367,6 +368,32 @@ std::string events_to_yaml(const std::vector<LinkEvent>& events) {
     out << YAML::Flow << YAML::BeginSeq << YAML::EndSeq;
   } else {
     emit_events(out, events);
+  }
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+std::string relay_events_to_yaml(const std::vector<RelayEvent>& events) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap << YAML::Key << "events" << YAML::Value;
+  if (events.empty()) out << YAML::Flow << YAML::BeginSeq << YAML::EndSeq;
+  else {
+    out << YAML::BeginSeq;
+    for (const auto& e : events) {
+      out << YAML::Flow << YAML::BeginMap << YAML::Key << "at_sample" << YAML::Value << e.at_sample;
+      out << YAML::Key << "topic" << YAML::Value << e.topic;
+      if (e.kind == LinkEvent::Kind::set) {
+        out << YAML::Key << "set" << YAML::Value;
+        emit_link_keys(out, e.keys);
+      } else {
+        out << YAML::Key << "ramp" << YAML::Value << YAML::BeginMap << YAML::Key << "to" << YAML::Value;
+        emit_link_keys(out, e.keys);
+        out << YAML::Key << "over_samples" << YAML::Value << e.ramp_samples << YAML::EndMap;
+      }
+      out << YAML::EndMap;
+    }
+    out << YAML::EndSeq;
   }
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

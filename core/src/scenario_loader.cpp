@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -191,7 +192,7 @@ class Loader {
       fail(root.IsNull() ? YAML::Mark::null_mark() : root.Mark(),
            "a relay file is a mapping with 'relay:' (from_domain, to_domain, topics), got " +
                (root.IsNull() ? std::string("nothing") : describe(root)));
-    const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"relay"});
+    const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"relay", "events"});
     const YAML::Node& node = require(top, "relay");
     const MapView m = open_map(node, "relay", mark_of(node, "relay"), {"from_domain", "to_domain", "seed", "depth", "topics"});
     RelayConfig c;
@@ -230,7 +231,30 @@ class Loader {
       topic.link = read_link(require(tm, "link"), at + ".link");
       c.topics.push_back(std::move(topic));
     }
+    // Beside `relay:`, as a scenario's `events:` is beside its links.
+    if (top.has("events")) c.events = read_relay_events(top.values.at("events"), "events", c);
     return c;
+  }
+
+  // An events file of a relay (`events: [...]` or the bare list, as --record's journal writes
+  // it), for the relay `c`'s topics.
+  std::vector<RelayEvent> load_relay_events(const std::string& text, const RelayConfig& c) {
+    YAML::Node root;
+    try {
+      root = YAML::Load(text);
+    } catch (const YAML::ParserException& e) {
+      fail(e.mark, "YAML syntax error: " + e.msg);
+    }
+    if (root.IsNull())
+      fail(YAML::Mark::null_mark(), "the events file is empty (expected 'events:' with a list of link changes; "
+                                    "'events: []' for none)");
+    if (root.IsScalar())
+      fail(root.Mark(), "an events file is 'events:' with a list of link changes, got plain text (is this a YAML file?)");
+    if (root.IsMap()) {
+      const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
+      root = require(top, "events");
+    }
+    return read_relay_events(root, "events", c);
   }
 
  private:
@@ -509,6 +533,32 @@ class Loader {
     }
   }
 
+  // An event's change: `set: { LINK KEYS }` or `ramp: { to: { LINK KEYS }, DURATION }` (a
+  // scenario's and a relay's events alike). Returns the ramp's mapping, whose duration keys
+  // (`durations`, shown in messages as `duration_form`) are the caller's to read.
+  std::optional<MapView> read_set_or_ramp(const MapView& m, const std::string& path, const std::string& duration_form,
+                                          const std::vector<std::string>& durations, LinkEvent::Kind& kind,
+                                          LinkKeys& keys) {
+    if (m.has("set") == m.has("ramp"))
+      fail(m.mark, path + " needs exactly one of set: { LINK KEYS } or ramp: { to: { LINK KEYS }, " + duration_form + " }");
+    if (m.has("set")) {
+      kind = LinkEvent::Kind::set;
+      keys = read_link_keys(m.values.at("set"), path + ".set", mark_of(m.values.at("set"), path + ".set"));
+      return std::nullopt;
+    }
+    kind = LinkEvent::Kind::ramp;
+    const std::string rp = path + ".ramp";
+    std::vector<std::string> allowed{"to"};
+    allowed.insert(allowed.end(), durations.begin(), durations.end());
+    MapView r = open_map(m.values.at("ramp"), rp, mark_of(m.values.at("ramp"), rp), allowed);
+    keys = read_link_keys(require(r, "to"), rp + ".to", mark_of(require(r, "to"), rp + ".to"));
+    for (const auto& k : keys)
+      if (link_key_is_word(k.name))
+        fail(mark_of(r.values.at("to"), rp + ".to." + k.name),
+             rp + ".to." + k.name + ": a ramp moves numbers; change " + k.name + " with set");
+    return r;
+  }
+
   // `events:`: when each link changes. Which keys are valid for the link at that point is
   // checked by validate_scenario(), which replays the events in order.
   std::vector<LinkEvent> read_events(const YAML::Node& node, const std::string& at, const Scenario& s) {
@@ -544,29 +594,17 @@ class Loader {
         fail(mark_of(link, path + ".link"),
              path + ".link: unknown link " + link_name(e.link) + " (the scenario's links: " + ids + ")");
       }
-      if (m.has("set") == m.has("ramp"))
-        fail(m.mark, path + " needs exactly one of set: { LINK KEYS } or ramp: { to: { LINK KEYS }, over_s: S }");
-      if (m.has("set")) {
-        e.kind = LinkEvent::Kind::set;
-        e.keys = read_link_keys(m.values.at("set"), path + ".set", mark_of(m.values.at("set"), path + ".set"));
-      } else {
-        e.kind = LinkEvent::Kind::ramp;
+      if (const auto r = read_set_or_ramp(m, path, "over_s: S", {"over_s", "over_periods"}, e.kind, e.keys)) {
         const std::string rp = path + ".ramp";
-        const MapView r = open_map(m.values.at("ramp"), rp, mark_of(m.values.at("ramp"), rp), {"to", "over_s", "over_periods"});
-        e.keys = read_link_keys(require(r, "to"), rp + ".to", mark_of(require(r, "to"), rp + ".to"));
-        for (const auto& k : e.keys)
-          if (link_key_is_word(k.name))
-            fail(mark_of(r.values.at("to"), rp + ".to." + k.name),
-                 rp + ".to." + k.name + ": a ramp moves numbers; change " + k.name + " with set");
-        if (r.has("over_s") == r.has("over_periods"))
-          fail(r.mark, rp + " needs exactly one of over_s (seconds) or over_periods");
-        if (r.has("over_s")) {
-          const YAML::Node& v = r.values.at("over_s");
+        if (r->has("over_s") == r->has("over_periods"))
+          fail(r->mark, rp + " needs exactly one of over_s (seconds) or over_periods");
+        if (r->has("over_s")) {
+          const YAML::Node& v = r->values.at("over_s");
           const double seconds = read_double(v, rp + ".over_s");
           if (seconds < 0.0) fail(v.Mark(), rp + ".over_s must be >= 0, got " + v.Scalar());
           e.ramp_periods = periods_in(seconds, s, v, rp + ".over_s");
         } else {
-          const YAML::Node& v = r.values.at("over_periods");
+          const YAML::Node& v = r->values.at("over_periods");
           e.ramp_periods = read_integer(v, rp + ".over_periods");
           if (e.ramp_periods < 0) fail(v.Mark(), rp + ".over_periods must be >= 0, got " + v.Scalar());
         }
@@ -574,6 +612,74 @@ class Loader {
       events.push_back(std::move(e));
     }
     return events;
+  }
+
+  // A relay's `events:`: when each topic's link changes, by the topic's sample index. Checked as
+  // they will apply, from each topic's link in `c` (a key of the model the link then has).
+  std::vector<RelayEvent> read_relay_events(const YAML::Node& node, const std::string& at, const RelayConfig& c) {
+    if (!node.IsSequence())
+      fail(mark_of(node, at), at + " must be a list such as - { at_sample: 200, topic: rt/scan, set: { loss: 1.0 } }, "
+                                   "got " + describe(node));
+    std::vector<RelayEvent> events;
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string path = at + "[" + std::to_string(i) + "]";
+      marks_[path] = node[i].Mark();
+      const MapView m = open_map(node[i], path, marks_[path], {"at_sample", "at_s", "at_period", "topic", "set", "ramp"});
+      for (const char* other : {"at_s", "at_period"})
+        if (m.has(other))
+          fail(mark_of(m.values.at(other), child(path, other)),
+               path + "." + other + ": a relay's event names the topic's sample index, at_sample (its record's `index`: "
+                                    "the same samples make the same decisions)");
+      RelayEvent e;
+      const YAML::Node& n = require(m, "at_sample");
+      const long long index = read_integer(n, path + ".at_sample");
+      if (index < 0) fail(n.Mark(), path + ".at_sample: the event is before the topic's first sample (0), got " + n.Scalar());
+      e.at_sample = static_cast<std::uint64_t>(index);
+      const YAML::Node& topic = require(m, "topic");
+      e.topic = read_string(topic, path + ".topic");
+      if (std::none_of(c.topics.begin(), c.topics.end(), [&](const RelayTopic& t) { return t.name == e.topic; })) {
+        std::vector<std::string> names;
+        for (const auto& t : c.topics) names.push_back(t.name);
+        fail(mark_of(topic, path + ".topic"), path + ".topic: " + e.topic + " is not relayed (the relay's topics: " +
+                                                  join(names) + ")");
+      }
+      if (const auto r = read_set_or_ramp(m, path, "over_samples: N", {"over_samples"}, e.kind, e.keys)) {
+        const YAML::Node& v = require(*r, "over_samples");
+        const long long samples = read_integer(v, path + ".ramp.over_samples");
+        if (samples < 0) fail(v.Mark(), path + ".ramp.over_samples must be >= 0, got " + v.Scalar());
+        e.ramp_samples = static_cast<std::uint64_t>(samples);
+      }
+      events.push_back(std::move(e));
+    }
+    check_relay_events(events, at, c);
+    return events;
+  }
+
+  // Replays the events in the order they apply (stable by at_sample), as RelayLinks will: each
+  // must make sense for its topic's link at that point.
+  void check_relay_events(const std::vector<RelayEvent>& events, const std::string& at, const RelayConfig& c) const {
+    std::map<std::string, LinkSpec> links;
+    for (const auto& t : c.topics) links[t.name] = t.link;
+    std::vector<std::size_t> order(events.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return events[a].at_sample < events[b].at_sample; });
+    for (const std::size_t i : order) {
+      const RelayEvent& e = events[i];
+      const std::string keys_at = at + "[" + std::to_string(i) + "]" + (e.kind == LinkEvent::Kind::set ? ".set" : ".ramp.to");
+      LinkSpec& link = links.at(e.topic);
+      try {
+        if (e.kind == LinkEvent::Kind::ramp)
+          for (const auto& k : e.keys) (void)link_key_value(link, k.name);  // the ramp starts from it
+        link = apply_link_keys(link, e.keys);
+      } catch (const LinkError& err) {
+        const SourceLocation where = locate(keys_at + "." + err.key());
+        throw ScenarioError(where.file + (where.line > 0 ? ":" + std::to_string(where.line) + ":" +
+                                                              std::to_string(where.column)
+                                                        : std::string()) +
+                            ": " + link_error_at(keys_at, err));
+      }
+    }
   }
 
   // Seconds as a whole number of periods (rounded to the nearest).
@@ -678,6 +784,21 @@ RelayConfig parse_relay_config(const std::string& yaml_text, const std::string& 
 
 RelayConfig load_relay_config_file(const std::filesystem::path& path) {
   return parse_relay_config(read_text_file(path, "relay file"), path.string());
+}
+
+std::vector<RelayEvent> parse_relay_events(const std::string& yaml_text, const RelayConfig& config,
+                                           const std::string& source_name) {
+  try {
+    return Loader(source_name.empty() ? "<events>" : source_name).load_relay_events(yaml_text, config);
+  } catch (const YAML::Exception& e) {
+    std::string prefix = source_name;
+    if (valid(e.mark)) prefix += ":" + std::to_string(e.mark.line + 1) + ":" + std::to_string(e.mark.column + 1);
+    throw ScenarioError(prefix + ": " + e.msg);
+  }
+}
+
+std::vector<RelayEvent> load_relay_events_file(const std::filesystem::path& path, const RelayConfig& config) {
+  return parse_relay_events(read_text_file(path, "events file"), config, path.string());
 }
 
 }  // namespace netkf

@@ -4,11 +4,13 @@
 // (π_B = p/(p+r), mean burst 1/r for the simple Gilbert channel), a trace's own rows.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
 #include "netkf/link_trace.hpp"
 #include "netkf/random.hpp"
+#include "netkf/relay_config.hpp"
 #include "netkf/relay_links.hpp"
 #include "netkf/scenario.hpp"
 
@@ -149,6 +151,167 @@ TEST(RelayLinks, ATopicsLinkIdIsItsOwnStableNegativeId) {
   EXPECT_FALSE(netkf::is_relay_topic_link_id(netkf::kControlLinkId));
   EXPECT_FALSE(netkf::is_relay_topic_link_id(netkf::kRelayTopicLinkId));
   EXPECT_FALSE(netkf::is_relay_topic_link_id(0));
+}
+
+// ---- the timeline, the journal and its replay --------------------------------------------
+
+using netkf::LinkEvent;
+using netkf::RelayEvent;
+using netkf::RelayFate;
+
+RelayEvent set_at(std::uint64_t n, const std::string& topic, netkf::LinkKeys keys) {
+  return RelayEvent{n, topic, LinkEvent::Kind::set, std::move(keys), 0};
+}
+
+std::vector<RelayFate> fates(RelayLinks& links, const std::string& topic, int n) {
+  std::vector<RelayFate> out;
+  for (int i = 0; i < n; ++i) out.push_back(*links.on_sample(topic));
+  return out;
+}
+
+void expect_same_fates(const std::vector<RelayFate>& a, const std::vector<RelayFate>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].index, b[i].index);
+    EXPECT_EQ(a[i].delivered, b[i].delivered) << "sample " << i;
+    EXPECT_EQ(a[i].delay_ms, b[i].delay_ms) << "sample " << i;
+  }
+}
+
+TEST(RelayTimeline, ASetAppliesFromItsSampleOnAndIsJournaled) {
+  // Expectation: the documented stream drawn directly for samples 0..199, then loss 1.
+  RelayLinks links({{"rt/chatter", BernoulliLink{0.3}}}, 5, {set_at(200, "rt/chatter", {{"loss", 1.0}})});
+  netkf::LinkLossProcess direct(BernoulliLink{0.3}, netkf::derive_seed(5, "relay-link", fnv1a("rt/chatter")));
+  for (std::uint64_t i = 0; i < 400; ++i) {
+    const auto f = links.on_sample("rt/chatter");
+    if (i < 200) {
+      EXPECT_EQ(f->delivered, !direct.next_dropped()) << "sample " << i;
+      EXPECT_FALSE(links.has_changes()) << "nothing changed before sample 200";
+    } else {
+      EXPECT_FALSE(f->delivered) << "sample " << i;
+    }
+  }
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].topic, "rt/chatter");
+  EXPECT_EQ(changes[0].at_sample, 200u);
+  EXPECT_EQ(changes[0].origin, "timeline");
+  EXPECT_EQ(changes[0].request_id, 0u);
+  EXPECT_EQ(changes[0].link, LinkSpec(BernoulliLink{1.0}));
+  ASSERT_TRUE(changes[0].replay);
+  EXPECT_EQ(*changes[0].replay, set_at(200, "rt/chatter", netkf::link_keys(LinkSpec(BernoulliLink{1.0}))))
+      << "the journal sets the whole link";
+  EXPECT_EQ(links.report("rt/chatter")->stats.samples(), 200u) << "statistics restart at the change";
+  EXPECT_EQ(links.report("rt/chatter")->lifetime.samples(), 400u);
+  EXPECT_TRUE(links.take_changes().empty());
+}
+
+TEST(RelayTimeline, ALiveChangeIsJournaledAtTheTopicsNextSample) {
+  RelayLinks links({{"rt/a", BernoulliLink{0.3}}, {"rt/b", BernoulliLink{0.3}}}, 5);
+  fates(links, "rt/a", 17);
+  fates(links, "rt/b", 4);
+  ASSERT_TRUE(links.set_link("rt/a", LinkSpec(BernoulliLink{0.0}), 41));
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 1u);
+  EXPECT_EQ(changes[0].at_sample, 17u) << "rt/a's samples 0..16 went before it";
+  EXPECT_EQ(changes[0].origin, "request");
+  EXPECT_EQ(changes[0].request_id, 41u);
+  EXPECT_EQ(changes[0].replay->at_sample, 17u);
+  EXPECT_EQ(fates(links, "rt/a", 1).at(0).index, 17u);
+}
+
+TEST(RelayTimeline, ARampMovesTheLinkOneStepPerSampleAndIsJournaledOnce) {
+  RelayEvent ramp{100, "rt/a", LinkEvent::Kind::ramp, {{"loss", 1.0}}, 50};
+  RelayLinks links({{"rt/a", BernoulliLink{0.0}}}, 2, {ramp});
+  for (std::uint64_t i = 0; i < 200; ++i) {
+    const auto f = links.on_sample("rt/a");
+    const double loss = std::get<BernoulliLink>(links.report("rt/a")->link.loss).loss;
+    // At sample n in [100, 150] the loss is (n − 100)/50, its value for that sample's draw.
+    const double expected = i < 100 ? 0.0 : std::min(1.0, static_cast<double>(i - 100) / 50.0);
+    EXPECT_DOUBLE_EQ(loss, expected) << "sample " << i;
+    if (i < 100) {
+      EXPECT_TRUE(f->delivered);
+    } else if (i >= 150) {
+      EXPECT_FALSE(f->delivered) << "sample " << i;
+    }
+  }
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 2u) << "its start and its end";
+  EXPECT_EQ(changes[0].at_sample, 100u);
+  ASSERT_TRUE(changes[0].replay);
+  EXPECT_EQ(*changes[0].replay, ramp) << "the journal holds the ramp as it started";
+  EXPECT_EQ(changes[1].at_sample, 150u);
+  EXPECT_FALSE(changes[1].replay) << "a replay reaches the ramp's end by itself";
+  EXPECT_EQ(links.report("rt/a")->stats.samples(), 200u) << "a ramp does not restart the statistics (as a channel link)";
+}
+
+TEST(RelayTimeline, ATimelineEventThatNoLongerAppliesChangesNothing) {
+  // A live change to Bernoulli makes the timeline's Gilbert-Elliott key p inapplicable.
+  RelayLinks links({{"rt/a", GilbertElliottLink{0.1, 0.5, 0.0, 1.0}}}, 2, {set_at(10, "rt/a", {{"p", 0.2}})});
+  fates(links, "rt/a", 5);
+  links.set_link("rt/a", LinkSpec(BernoulliLink{0.25}));
+  fates(links, "rt/a", 10);
+  const auto changes = links.take_changes();
+  ASSERT_EQ(changes.size(), 2u);
+  EXPECT_EQ(changes[1].at_sample, 10u);
+  EXPECT_FALSE(changes[1].failure.empty());
+  EXPECT_FALSE(changes[1].replay);
+  EXPECT_EQ(links.report("rt/a")->link, LinkSpec(BernoulliLink{0.25}));
+}
+
+TEST(RelayTimeline, RefusesAnEventOfATopicThatIsNotRelayed) {
+  EXPECT_THROW(RelayLinks({{"rt/a", BernoulliLink{0.1}}}, 1, {set_at(0, "rt/b", {{"loss", 1.0}})}),
+               std::invalid_argument);
+}
+
+// The reproducibility claim: a session's journal, written as YAML and read back as a relay's
+// --events, replayed over the same number of samples with the same seed, makes the same
+// decisions and delays sample for sample (the live changes' streams keep their state; the
+// replay's sets do the same at the same samples).
+TEST(RelayTimeline, TheJournalOfASessionReplaysItSampleForSample) {
+  LinkSpec scan(GilbertElliottLink{0.05, 0.25, 0.0, 1.0});
+  scan.delay = {10.0, 4.0, netkf::DelayDistribution::normal};
+  const std::vector<netkf::RelayTopic> topics{{"rt/scan", scan}, {"rt/odom", BernoulliLink{0.2}}};
+  const std::vector<RelayEvent> timeline{
+      set_at(300, "rt/scan", {{"mean_burst", 4.0}, {"loss", 0.4}}),
+      RelayEvent{200, "rt/odom", LinkEvent::Kind::ramp, {{"loss", 0.9}}, 200},
+  };
+  RelayLinks session(topics, 11, timeline);
+  std::vector<RelayFate> scan_fates, odom_fates;
+  std::vector<RelayEvent> journal;
+  auto take = [&] {
+    for (const auto& c : session.take_changes())
+      if (c.replay) journal.push_back(*c.replay);
+  };
+  for (int i = 0; i < 1200; ++i) {
+    // Live changes between samples, as ctl and the dashboard make them.
+    if (i == 150) session.set_link("rt/scan", netkf::apply_link_keys(*session.link("rt/scan"), {{"jitter_ms", 9.0}}), 7);
+    // rt/odom's sample 350: in the middle of its ramp (samples 200..400), which it ends.
+    if (i == 700) session.set_link("rt/odom", LinkSpec(GilbertElliottLink{0.3, 0.3, 0.1, 0.9}), 8);
+    if (i == 900) session.set_link("rt/scan", LinkSpec(BernoulliLink{0.5}), 0);
+    scan_fates.push_back(*session.on_sample("rt/scan"));
+    if (i % 2 == 0) odom_fates.push_back(*session.on_sample("rt/odom"));
+    take();
+  }
+  ASSERT_EQ(journal.size(), 5u) << "three live changes, the timeline's set and its ramp";
+
+  netkf::RelayConfig config;
+  config.topics = topics;
+  const auto replayed = netkf::parse_relay_events(netkf::relay_events_to_yaml(journal), config, "journal.yaml");
+  EXPECT_EQ(replayed, journal) << "the journal's YAML reads back exactly";
+  RelayLinks replay(topics, 11, replayed);
+  std::vector<RelayFate> scan_again, odom_again;
+  for (int i = 0; i < 1200; ++i) {
+    scan_again.push_back(*replay.on_sample("rt/scan"));
+    if (i % 2 == 0) odom_again.push_back(*replay.on_sample("rt/odom"));
+  }
+  expect_same_fates(scan_fates, scan_again);
+  expect_same_fates(odom_fates, odom_again);
+  // And the decisions did change: without the journal the same seed decides otherwise.
+  RelayLinks plain(topics, 11);
+  std::size_t differ = 0;
+  for (int i = 0; i < 1200; ++i) differ += plain.on_sample("rt/scan")->delivered != scan_fates[i].delivered;
+  EXPECT_GT(differ, 0u);
 }
 
 }  // namespace

@@ -11,6 +11,7 @@
 #include <map>
 #include <random>
 
+#include "relay_summary.hpp"
 #include "run_summary.hpp"
 
 namespace netkf::cli {
@@ -545,6 +546,86 @@ TEST(RunSummary, WithoutRevisionsTheFinalErrorIsTheInTimeOne) {
   b.add_estimate(estimate(1, {0.0, 3.0}, 2.0, {1}, {}, "ok", 1.0));
   EXPECT_DOUBLE_EQ(value_of(b.summary(), "rms_error_final"), value_of(b.summary(), "rms_error"));
   EXPECT_DOUBLE_EQ(value_of(b.summary(), "rms_error"), std::sqrt((0.25 + 1.0 + 9.0) / 2.0));
+}
+
+
+// ---- a relay's summary and checks (relay_summary.hpp) ------------------------------------
+
+RelayTopicSummary relayed(const std::string& topic, const std::vector<bool>& dropped, std::size_t changed_at = 0) {
+  RelayTopicSummary t;
+  t.topic = topic;
+  for (std::size_t i = 0; i < dropped.size(); ++i) {
+    t.lifetime.record(dropped[i]);
+    if (i >= changed_at) t.since_change.record(dropped[i]);
+  }
+  return t;
+}
+
+TEST(RelayChecks, NameATopicsLinkQuantity) {
+  const std::vector<std::string> topics{"rt/chatter", "a.b"};
+  const Check c = parse_relay_check("link.rt/chatter.observed_loss < 0.35", topics);
+  EXPECT_EQ(c.name, "link.rt/chatter.observed_loss");
+  EXPECT_EQ(c.op, CheckOp::less);
+  EXPECT_EQ(c.threshold, 0.35);
+  EXPECT_EQ(parse_relay_check("link.a.b.samples>=10", topics).name, "link.a.b.samples") << "a topic with a dot";
+  for (const auto& q : relay_quantity_names()) EXPECT_NO_THROW(parse_relay_check("link.a.b." + q + ">0", topics));
+  const auto error = [&](const std::string& text) {
+    try {
+      parse_relay_check(text, topics);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_NE(error("link.rt/scan.samples>1").find("topic rt/scan is not relayed (the relay's topics: rt/chatter, a.b)"),
+            std::string::npos);
+  EXPECT_NE(error("link.rt/chatter.late>1").find("unknown name 'link.rt/chatter.late'; a relay's names are "
+                                                 "link.TOPIC.{samples, delivered, dropped, refused, observed_loss, "
+                                                 "mean_burst, observed_arrival_rate_since_change}"),
+            std::string::npos);
+  EXPECT_NE(error("rms_error<1").find("unknown name 'rms_error'"), std::string::npos);
+  EXPECT_NE(error("link.rt/chatter.samples=1").find("e.g. 'link.rt/chatter.observed_loss<0.35'"), std::string::npos);
+}
+
+TEST(RelayChecks, MeasureEachTopicsCountsByHand) {
+  // Drops at 1, 2, 4, 9: 10 samples, 4 dropped, bursts {1,2} {4} {9} → mean burst 4/3; the link
+  // last set before sample 5: 5 samples since, 1 dropped.
+  const std::vector<bool> d{false, true, true, false, true, false, false, false, false, true};
+  auto t = relayed("rt/chatter", d, 5);
+  t.refused = 2;
+  const std::vector<RelayTopicSummary> topics{t, relayed("rt/none", {})};
+  const auto at = [&](const std::string& name) { return measure_relay(topics, name); };
+  EXPECT_EQ(at("link.rt/chatter.samples").value, 10.0);
+  EXPECT_TRUE(at("link.rt/chatter.samples").count);
+  EXPECT_EQ(at("link.rt/chatter.delivered").value, 6.0);
+  EXPECT_EQ(at("link.rt/chatter.dropped").value, 4.0);
+  EXPECT_EQ(at("link.rt/chatter.refused").value, 2.0);
+  EXPECT_DOUBLE_EQ(at("link.rt/chatter.observed_loss").value, 0.4);
+  EXPECT_DOUBLE_EQ(at("link.rt/chatter.mean_burst").value, 4.0 / 3.0);
+  EXPECT_DOUBLE_EQ(at("link.rt/chatter.observed_arrival_rate_since_change").value, 0.8);
+  EXPECT_EQ(at("link.rt/none.samples").value, 0.0);
+  EXPECT_FALSE(at("link.rt/none.observed_loss").measured()) << "no sample: no loss";
+  EXPECT_THROW(at("link.rt/other.samples"), std::invalid_argument);
+
+  const std::vector<Check> checks{parse_relay_check("link.rt/chatter.observed_loss<0.45", {"rt/chatter", "rt/none"}),
+                                  parse_relay_check("link.rt/chatter.observed_loss<0.35", {"rt/chatter", "rt/none"}),
+                                  parse_relay_check("link.rt/none.observed_loss<=1", {"rt/chatter", "rt/none"})};
+  const auto results = evaluate_checks(checks, at);
+  ASSERT_EQ(results.size(), 3u);
+  EXPECT_TRUE(results[0].passed);
+  EXPECT_FALSE(results[1].passed);
+  EXPECT_FALSE(results[2].passed);
+  EXPECT_EQ(results[2].verdict(), "FAIL (not measured: rt/none relayed no sample)");
+  EXPECT_FALSE(all_passed(results));
+
+  const auto j = relay_summary_json(topics, results);
+  EXPECT_EQ(j["link"]["rt/chatter"]["samples"], 10);
+  EXPECT_EQ(j["link"]["rt/chatter"]["observed_loss"], 0.4);
+  EXPECT_TRUE(j["link"]["rt/none"]["observed_loss"].is_null());
+  ASSERT_EQ(j["checks"].size(), 3u);
+  EXPECT_EQ(j["checks"][1]["verdict"], "FAIL");
+  EXPECT_EQ(j["checks"][1]["value"], 0.4);
+  EXPECT_EQ(j["passed"], false);
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/link.hpp"
 #include "netkf/loss_model.hpp"
+#include "netkf/scenario.hpp"  // LinkEvent::Kind
 
 namespace netkf {
 
@@ -42,6 +43,34 @@ struct RelayTopic {
   std::optional<std::string> type;  // relay only writers of this type name (nullopt: any)
 };
 
+/// A change of one topic's link at one of its samples (a relay file's `events:`, a replayed
+/// journal): `set` applies its keys from the topic's sample `at_sample` on; a ramp moves each
+/// numeric key of `keys` linearly from its value at `at_sample` to the value given, one step
+/// per sample, reaching it at at_sample + ramp_samples (a scenario's LinkEvent, by sample).
+struct RelayEvent {
+  std::uint64_t at_sample = 0;
+  std::string topic;
+  LinkEvent::Kind kind = LinkEvent::Kind::set;
+  LinkKeys keys;
+  std::uint64_t ramp_samples = 0;
+  bool operator==(const RelayEvent&) const = default;
+};
+
+/// One entry of a relay's journal: a change of a topic's link and the index of the topic's
+/// first sample under it.
+struct RelayLinkChange {
+  std::string topic;
+  std::uint64_t at_sample = 0;
+  std::string origin;            // "request" (ctl, the WebSocket) or "timeline"
+  std::uint64_t request_id = 0;  // 0: the timeline or the WebSocket
+  LinkSpec link;                 // the whole link after the change
+  std::string failure;           // a timeline event that could not apply (the link is unchanged)
+  /// What a replay needs to make the same change at the same sample (the journal file's entry):
+  /// a set of the whole link, or the timeline's ramp as it started; nullopt for a ramp's end and
+  /// a failure (a replay gets there by itself).
+  std::optional<RelayEvent> replay;
+};
+
 /// The decision for one relayed sample.
 struct RelayFate {
   std::uint64_t index = 0;  // the sample's number on its topic (0 first)
@@ -54,15 +83,25 @@ class RelayLinks {
   /// Topic i draws its losses from derive_seed(seed, "relay-link", hash of its name) and its
   /// delays from derive_seed(seed, "relay-link-delay", the same hash): a topic keeps its streams
   /// whatever other topics are relayed. Throws std::invalid_argument on a duplicate or empty
-  /// topic name.
-  RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed);
+  /// topic name, or an event of a topic that is not relayed. `timeline`: the changes to make at
+  /// given samples (in the order they apply: stable by at_sample); the traces it names are read
+  /// here, never on the sample path.
+  RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed, const std::vector<RelayEvent>& timeline = {});
 
-  /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed.
+  /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed. First what
+  /// is due at this sample applies (the timeline's events with at_sample <= its index, then a
+  /// running ramp's step), then the loss draw, and for a delivered sample the delay draw.
   std::optional<RelayFate> on_sample(const std::string& topic);
 
-  /// Replace a topic's link from its next sample on (statistics since the change restart); false
-  /// for an unknown topic. Throws LinkError on an invalid link (nothing changes).
-  bool set_link(const std::string& topic, const LinkSpec& link);
+  /// Replace a topic's link from its next sample on (statistics since the change restart, a
+  /// running ramp ends), journaled as a request; false for an unknown topic. Throws LinkError on
+  /// an invalid link (nothing changes). Made at sample n, it decides exactly as a timeline `set`
+  /// of the whole link at_sample n: the streams keep their state either way.
+  bool set_link(const std::string& topic, const LinkSpec& link, std::uint64_t request_id = 0);
+
+  /// The journal entries made since the previous call, in the order the changes applied.
+  std::vector<RelayLinkChange> take_changes();
+  bool has_changes() const { return !changes_.empty(); }
   /// The answer to a change request, as the channel's links keep it (the status shows it).
   void note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason);
 
@@ -84,6 +123,12 @@ class RelayLinks {
   std::optional<Report> report(const std::string& topic) const;
 
  private:
+  struct Ramp {
+    std::uint64_t start = 0;    // the sample it started at
+    std::uint64_t samples = 0;  // its length
+    std::vector<std::pair<std::string, double>> from;  // each key's value at `start`
+    LinkKeys to;
+  };
   struct Link {
     Link(LinkSpec link, LinkLossProcess loss_process, LinkDelayProcess delay_process)
         : spec(std::move(link)), loss(std::move(loss_process)), delay(std::move(delay_process)) {}
@@ -97,8 +142,18 @@ class RelayLinks {
     std::string reject_reason;
     std::uint64_t samples = 0;      // every sample of the topic (the trace's row index)
     std::uint64_t trace_start = 0;  // the sample a trace link took effect at
+    std::vector<RelayEvent> timeline;  // this topic's events in the order they apply
+    std::size_t next_event = 0;
+    std::optional<Ramp> ramp;
   };
+  // `reset_statistics`: false for a ramp's step (its statistics run from the ramp's start).
+  void change(Link& link, const LinkSpec& spec, bool reset_statistics);
+  void apply_due(const std::string& topic, Link& link);
+  void step_ramp(const std::string& topic, Link& link);
+
   std::map<std::string, Link> links_;
+  TraceRows timeline_traces_;  // the traces the timeline switches to, read at start
+  std::vector<RelayLinkChange> changes_;
 };
 
 }  // namespace netkf
