@@ -1,5 +1,6 @@
 #include "netkf/relay_links.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string_view>
@@ -26,20 +27,51 @@ int relay_topic_link_id(const std::string& topic) {
   return -1000 - static_cast<int>(name_hash(topic) % (1ull << 30));
 }
 
-RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed) {
+std::string relay_writer_link_name(const std::string& topic, const std::string& writer) { return topic + "@" + writer; }
+
+RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed) : seed_(seed) {
   for (const auto& t : topics) {
     if (t.name.empty()) throw std::invalid_argument("a relayed topic needs a name");
-    const auto index = name_hash(t.name);
-    Link link{t.link, LinkLossProcess(t.link.loss, derive_seed(seed, "relay-link", index)),
-              LinkDelayProcess(derive_seed(seed, "relay-link-delay", index))};
+    Link link = make_link(t.name, t.link);
+    link.per_writer = t.per_writer;
     if (!links_.emplace(t.name, std::move(link)).second)
       throw std::invalid_argument("topic " + t.name + " is relayed twice");
   }
 }
 
-std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
+// A link's streams come from its name only: a topic's and a writer's alike.
+RelayLinks::Link RelayLinks::make_link(const std::string& name, const LinkSpec& spec) const {
+  const auto index = name_hash(name);
+  return Link{spec, LinkLossProcess(spec.loss, derive_seed(seed_, "relay-link", index)),
+              LinkDelayProcess(derive_seed(seed_, "relay-link-delay", index))};
+}
+
+std::optional<std::string> RelayLinks::add_writer_link(const std::string& topic, const std::string& writer) {
   const auto it = links_.find(topic);
-  if (it == links_.end()) return std::nullopt;
+  if (it == links_.end() || !it->second.per_writer) return std::nullopt;
+  if (writer.empty()) throw std::invalid_argument("a writer's link of " + topic + " needs the writer's name");
+  const std::string name = relay_writer_link_name(topic, writer);
+  auto& writers = it->second.writers;
+  if (std::find(writers.begin(), writers.end(), name) != writers.end()) return name;
+  if (links_.contains(name)) throw std::invalid_argument(name + " is a relayed topic's name, not a writer's link");
+  links_.emplace(name, make_link(name, it->second.spec));
+  writers.push_back(name);
+  return name;
+}
+
+bool RelayLinks::per_writer(const std::string& topic) const {
+  const auto it = links_.find(topic);
+  return it != links_.end() && it->second.per_writer;
+}
+
+std::vector<std::string> RelayLinks::writer_links(const std::string& topic) const {
+  const auto it = links_.find(topic);
+  return it == links_.end() ? std::vector<std::string>{} : it->second.writers;
+}
+
+std::optional<RelayFate> RelayLinks::on_sample(const std::string& name) {
+  const auto it = links_.find(name);
+  if (it == links_.end() || it->second.per_writer) return std::nullopt;
   Link& link = it->second;
   RelayFate fate;
   fate.index = link.samples++;
@@ -58,23 +90,26 @@ std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
   return fate;
 }
 
-bool RelayLinks::set_link(const std::string& topic, const LinkSpec& spec) {
-  const auto it = links_.find(topic);
+bool RelayLinks::set_link(const std::string& name, const LinkSpec& spec) {
+  const auto it = links_.find(name);
   if (it == links_.end()) return false;
   Link& link = it->second;
-  link.loss.set_model(spec.loss);  // throws (and changes nothing) on an invalid model
+  // First: throws (and changes nothing) on an invalid model; the writers' links then take it too.
+  link.loss.set_model(spec.loss);
   link.spec = spec;
   link.stats = LinkStatistics{};
   link.recent.clear();
   link.trace_start = link.samples;
+  for (const auto& writer : link.writers) set_link(writer, spec);
   return true;
 }
 
-void RelayLinks::note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason) {
-  const auto it = links_.find(topic);
+void RelayLinks::note_request(const std::string& name, std::uint64_t request_id, const std::string& reject_reason) {
+  const auto it = links_.find(name);
   if (it == links_.end()) return;
   it->second.last_request_id = request_id;
   it->second.reject_reason = reject_reason;
+  for (const auto& writer : it->second.writers) note_request(writer, request_id, reject_reason);
 }
 
 std::optional<LinkSpec> RelayLinks::link(const std::string& topic) const {
@@ -83,17 +118,18 @@ std::optional<LinkSpec> RelayLinks::link(const std::string& topic) const {
   return it->second.spec;
 }
 
-std::optional<RelayLinks::Report> RelayLinks::report(const std::string& topic) const {
-  const auto it = links_.find(topic);
-  if (it == links_.end()) return std::nullopt;
+std::optional<RelayLinks::Report> RelayLinks::report(const std::string& name) const {
+  const auto it = links_.find(name);
+  if (it == links_.end() || it->second.per_writer) return std::nullopt;
   const Link& link = it->second;
-  return Report{topic, link.spec, link.stats, link.lifetime, link.samples, link.last_request_id, link.reject_reason,
+  return Report{name, link.spec, link.stats, link.lifetime, link.samples, link.last_request_id, link.reject_reason,
                 link.recent.fit()};
 }
 
 std::vector<RelayLinks::Report> RelayLinks::reports() const {
   std::vector<Report> out;
-  for (const auto& [name, link] : links_) out.push_back(*report(name));
+  for (const auto& [name, link] : links_)
+    if (!link.per_writer) out.push_back(*report(name));
   return out;
 }
 

@@ -220,7 +220,7 @@ class Loader {
     for (std::size_t i = 0; i < topics.size(); ++i) {
       const std::string at = "relay.topics[" + std::to_string(i) + "]";
       const YAML::Node t = topics[i];
-      const MapView tm = open_map(t, at, t.Mark(), {"name", "type", "link"});
+      const MapView tm = open_map(t, at, t.Mark(), {"name", "type", "link", "per_writer"});
       RelayTopic topic;
       topic.name = read_string(require(tm, "name"), at + ".name");
       if (const auto [it, fresh] = seen.emplace(topic.name, i); !fresh)
@@ -228,6 +228,7 @@ class Loader {
              "topic " + topic.name + " is relayed twice (also relay.topics[" + std::to_string(it->second) + "])");
       if (tm.has("type")) topic.type = read_string(tm.values.at("type"), at + ".type");
       topic.link = read_link(require(tm, "link"), at + ".link");
+      if (tm.has("per_writer")) topic.per_writer = read_bool(tm.values.at("per_writer"), at + ".per_writer");
       c.topics.push_back(std::move(topic));
     }
     return c;

@@ -12,6 +12,7 @@
 //         link: { model: gilbert_elliott, p: 0.05, r: 0.25 }
 //       - name: rt/odom
 //         link: { model: bernoulli, loss: 0.1, delay_ms: 5 }
+//         per_writer: true   # optional: each writer of the topic its own link, a copy of this one
 //
 // Read by the scenario's YAML loader (core/src/scenario_loader.cpp): the same link keys, trace
 // paths relative to the file, and errors as FILE:LINE:COL: message (ScenarioError).

@@ -30,14 +30,22 @@ int relay_topic_link_id(const std::string& topic);
 /// Whether a link id is one relay_topic_link_id makes.
 inline bool is_relay_topic_link_id(int link_id) { return link_id < kRelayTopicLinkId; }
 
+/// The name of one writer's link on a topic relayed per writer: `topic@writer` (rt/scan@robot1).
+/// Status, journal and recording carry it where a topic's link carries the topic, and
+/// relay_topic_link_id(name) is the link's id.
+std::string relay_writer_link_name(const std::string& topic, const std::string& writer);
+
 /// A topic to relay and its link.
 struct RelayTopic {
   RelayTopic() = default;
-  RelayTopic(std::string topic, LinkSpec topic_link, std::optional<std::string> type_name = std::nullopt)
-      : name(std::move(topic)), link(std::move(topic_link)), type(std::move(type_name)) {}
+  RelayTopic(std::string topic, LinkSpec topic_link, std::optional<std::string> type_name = std::nullopt,
+             bool link_per_writer = false)
+      : name(std::move(topic)), link(std::move(topic_link)), type(std::move(type_name)), per_writer(link_per_writer) {}
   std::string name;  // the DDS topic name, e.g. rt/scan
   LinkSpec link;
   std::optional<std::string> type;  // relay only writers of this type name (nullopt: any)
+  /// Each writer of the topic has its own link, a copy of `link` (RelayLinks::add_writer_link).
+  bool per_writer = false;
 };
 
 /// The decision for one relayed sample.
@@ -55,17 +63,33 @@ class RelayLinks {
   /// topic name.
   RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed);
 
-  /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed.
-  std::optional<RelayFate> on_sample(const std::string& topic);
+  /// A topic relayed per writer (RelayTopic::per_writer) has no link of its own: its link is the
+  /// model of its writers' links, each added at run time, named relay_writer_link_name(topic,
+  /// writer), a copy of the topic's current link with streams of its own, seeded from its name
+  /// as a topic's are (so a writer of the same name makes the same decisions in every run).
+  /// Returns the link's name (also when it exists already); nullopt for a topic not relayed per
+  /// writer. Throws std::invalid_argument for an empty writer or a name a topic has.
+  std::optional<std::string> add_writer_link(const std::string& topic, const std::string& writer);
+  /// Whether `topic` is relayed with a link per writer.
+  bool per_writer(const std::string& topic) const;
+  /// The names of a per-writer topic's writers' links, in the order they were added.
+  std::vector<std::string> writer_links(const std::string& topic) const;
 
-  /// Replace a topic's link from its next sample on (statistics since the change restart); false
-  /// for an unknown topic. Throws LinkError on an invalid link (nothing changes).
-  bool set_link(const std::string& topic, const LinkSpec& link);
-  /// The answer to a change request, as the channel's links keep it (the status shows it).
-  void note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason);
+  /// The fate of the next sample of a topic's or a writer's link (by its name); nullopt for a
+  /// name that is not a link (a per-writer topic's own name included).
+  std::optional<RelayFate> on_sample(const std::string& name);
 
-  /// A topic's current link; nullopt for a topic that is not relayed.
-  std::optional<LinkSpec> link(const std::string& topic) const;
+  /// Replace a link from its next sample on (statistics since the change restart); false for an
+  /// unknown name. A per-writer topic's name changes every one of its writers' links and the
+  /// model of those to come. Throws LinkError on an invalid link (nothing changes).
+  bool set_link(const std::string& name, const LinkSpec& link);
+  /// The answer to a change request, as the channel's links keep it (the status shows it); for a
+  /// per-writer topic, on each of its writers' links.
+  void note_request(const std::string& name, std::uint64_t request_id, const std::string& reject_reason);
+
+  /// A link's current spec (a per-writer topic's: the model of its writers' links); nullopt for
+  /// a name that is not relayed.
+  std::optional<LinkSpec> link(const std::string& name) const;
 
   struct Report {
     std::string topic;
@@ -77,9 +101,10 @@ class RelayLinks {
     std::string reject_reason;  // of the last request (empty: applied)
     std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the link was set
   };
+  /// Every link's report: the topics' and the writers' links (not a per-writer topic's model).
   std::vector<Report> reports() const;
-  /// One topic's report; nullopt for a topic that is not relayed.
-  std::optional<Report> report(const std::string& topic) const;
+  /// One link's report; nullopt for a name that is not a link.
+  std::optional<Report> report(const std::string& name) const;
 
  private:
   struct Link {
@@ -95,8 +120,12 @@ class RelayLinks {
     std::string reject_reason;
     std::uint64_t samples = 0;      // every sample of the topic (the trace's row index)
     std::uint64_t trace_start = 0;  // the sample a trace link took effect at
+    bool per_writer = false;        // a per-writer topic's model: never samples, not reported
+    std::vector<std::string> writers;  // a per-writer topic's writers' links
   };
+  Link make_link(const std::string& name, const LinkSpec& spec) const;
   std::map<std::string, Link> links_;
+  std::uint64_t seed_;
 };
 
 }  // namespace netkf
