@@ -251,7 +251,9 @@ TEST(RelayLinks, AWritersChangeIsItsOwnATopicsChangeIsEveryWritersAndTheirsToCom
     for (int i = 0; i < 50; ++i) EXPECT_TRUE(links.on_sample(name)->delivered) << name << " at loss 0";
     const auto report = links.report(name);
     EXPECT_EQ(report->stats.samples(), 50u) << name << ": statistics since the change";
-    if (name != "rt/scan@robot3") EXPECT_EQ(report->last_request_id, 18u) << name;
+    if (name != "rt/scan@robot3") {
+      EXPECT_EQ(report->last_request_id, 18u) << name;
+    }
   }
   EXPECT_EQ(links.report("rt/scan@robot1")->lifetime.samples(), 260u);
   EXPECT_FALSE(links.report("rt/scan")) << "the topic's model is not a link";
