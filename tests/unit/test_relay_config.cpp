@@ -95,7 +95,7 @@ TEST(RelayConfig, PerWriterIsATopicsOptionOffByDefault) {
   EXPECT_FALSE(c.topics[1].per_writer);
   const std::string bad = error_of("relay:\n  from_domain: 1\n  to_domain: 2\n  topics:\n    - name: a\n"
                                    "      per_writer: maybe\n      link: {model: bernoulli, loss: 0}\n");
-  EXPECT_NE(bad.find("relay.yaml:6:19: relay.topics[0].per_writer must be true or false"), std::string::npos) << bad;
+  EXPECT_NE(bad.find("relay.yaml:6:7: relay.topics[0].per_writer must be true or false"), std::string::npos) << bad;
 }
 
 }  // namespace
