@@ -147,10 +147,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Fast DDS's discovery thread: only the topics asked for; the endpoints are made on the
   // relay's thread (creating them inside a discovery callback would wait on discovery itself).
   void on_publisher_discovery(fdds::DomainParticipant*, eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
-    if (info.status == eprosima::fastrtps::rtps::WriterDiscoveryInfo::REMOVED_WRITER) {
-      const std::lock_guard lock(mutex_);
-      writer_links_.erase(info.info.guid());  // its link stays; its name is free for the next writer of that name
-    }
+    if (info.status == eprosima::fastrtps::rtps::WriterDiscoveryInfo::REMOVED_WRITER)
+      forget_writers([&](const auto& guid) { return guid == info.info.guid(); });
     if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
     dds::DiscoveredWriter writer = dds::discovered_writer(info);
     if (!wanted_types_.contains(writer.topic)) return;  // wanted_types_' keys never change after construction
@@ -174,11 +172,35 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       override {
     using Info = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
     const auto prefix = info.info.m_guid.guidPrefix;
-    const std::lock_guard lock(mutex_);
-    if (info.status == Info::DISCOVERED_PARTICIPANT || info.status == Info::CHANGED_QOS_PARTICIPANT)
-      participant_names_[prefix] = info.info.m_participantName.to_string();
-    else
-      participant_names_.erase(prefix);
+    const bool gone = info.status == Info::REMOVED_PARTICIPANT || info.status == Info::DROPPED_PARTICIPANT;
+    {
+      const std::lock_guard lock(mutex_);
+      if (gone)
+        participant_names_.erase(prefix);
+      else
+        participant_names_[prefix] = info.info.m_participantName.to_string();
+    }
+    // A participant that leaves (or whose lease expires) takes its writers with it.
+    if (gone) forget_writers([&](const auto& guid) { return guid.guidPrefix == prefix; });
+  }
+
+  // Discovery thread: writers that are gone free their links' names (the links stay), so the next
+  // writer of such a name (a robot that restarted) continues its link.
+  template <class Gone>
+  void forget_writers(Gone gone) {
+    std::vector<std::string> names;
+    {
+      const std::lock_guard lock(mutex_);
+      for (auto it = writer_links_.begin(); it != writer_links_.end();)
+        if (gone(it->first)) {
+          names.push_back(it->second);
+          it = writer_links_.erase(it);
+        } else {
+          ++it;
+        }
+    }
+    for (const auto& name : names)
+      spdlog::info("the writer of {} is gone (the next writer of its name continues the link)", name);
   }
 
   // mutex_ held (discovery or receive thread: in memory only). The name of the link a sample of

@@ -14,7 +14,9 @@ with the recording's counts and models, and the request on robot2's only; the li
 exactly the samples the recording says were delivered, each once; /metrics labels each
 writer's link. Then `ctl set-link rt/chatter --bernoulli 0` (the topic) retunes both writers'
 links, and a third talker whose participant announces no name (Cyclone's default) gets a link
-named by its GUID prefix, a copy of the topic's new link: all its samples arrive."""
+named by its GUID prefix, a copy of the topic's new link: all its samples arrive. Once the relay
+says robot1's writer is gone (its participant left or its lease expired), a new talker named
+robot1 continues rt/chatter@robot1: its samples are that link's 400th to 449th."""
 import csv
 import json
 import os
@@ -31,6 +33,7 @@ require_netns()
 FROM, TO = 123, 124
 COUNT, LOSS1, LOSS2 = 400, 0.1, 0.6
 COUNT3 = 100  # the unnamed third talker, after the topic's link is made lossless
+COUNT4 = 50   # robot1 again, once its first writer is gone
 CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
 if not CHATTER or not os.access(CHATTER, os.X_OK):
     required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
@@ -103,6 +106,14 @@ try:
     check(wait_for(lambda: sum(1 for _ in open(record)) == 2 * COUNT + COUNT3 + 1, 20), "its samples are recorded")
     time.sleep(2.5)  # a status after the last sample; the last ones reach the listener
     final = links()
+    gone = "the writer of %s is gone" % ROBOT1
+    check(wait_for(lambda: gone in text("relay", ".out") + text("relay", ".log"), 40),
+          "the relay sees robot1's first writer gone")
+    again = run([CHATTER, "talk", "--domain", str(FROM), "--name", "robot1", "--count", str(COUNT4), "--first", "3001",
+                 "--rate-hz", "200"])
+    check(again.returncode == 0, "a new talker named robot1 wrote %d samples" % COUNT4)
+    check(wait_for(lambda: sum(1 for _ in open(record)) == 2 * COUNT + COUNT3 + COUNT4 + 1, 20), "they are recorded")
+    time.sleep(1.0)  # the last ones reach the listener
 finally:
     for p in talkers.values():
         stop_process(p)
@@ -123,7 +134,7 @@ check(len(by_link) == 3 and len(unnamed) == 1 and re.fullmatch(r"rt/chatter@[0-9
       % sorted(by_link))
 delivered, dropped = {}, {}
 for name, loss, first in ((ROBOT1, LOSS1, 1), (ROBOT2, LOSS2, 1001)):
-    lines = by_link.get(name, [])
+    lines = by_link.get(name, [])[:COUNT]
     check([int(r["sequence"]) for r in lines] == list(range(1, COUNT + 1))
           and [int(r["index"]) for r in lines] == list(range(COUNT)),
           "%s: a line per sample of its writer (sequence 1..%d), numbered from 0 on its link (%d lines)"
@@ -157,16 +168,22 @@ for name, lo, hi in ((ROBOT1, 1, COUNT), (ROBOT2, 1001, 1000 + COUNT)):
           % (name, len(delivered[name]), sorted(delivered[name] - seen)[:10], sorted(seen - delivered[name])[:10]))
 third_rows = by_link.get(unnamed[0], []) if unnamed else []
 check(len(third_rows) == COUNT3 and all(r["fate"] == "delivered" for r in third_rows)
-      and sorted(n for n in numbers if n > 2000) == list(range(2001, 2001 + COUNT3)),
+      and sorted(n for n in numbers if 2000 < n <= 3000) == list(range(2001, 2001 + COUNT3)),
       "the unnamed writer's link is a copy of the topic's new lossless link: all %d recorded delivered and received"
       % COUNT3)
 for name in (ROBOT1, ROBOT2):
     s = final.get(name, {})
     check(s.get("loss") == 0 and s.get("samples_in") == 0 and s.get("samples_total") == COUNT,
           "after `set-link rt/chatter`, %s is lossless with its statistics restarted (%s)" % (name, s.get("loss")))
+later = by_link.get(ROBOT1, [])[COUNT:]
+check([int(r["index"]) for r in later] == list(range(COUNT, COUNT + COUNT4))
+      and [int(r["sequence"]) for r in later] == list(range(1, COUNT4 + 1)) and all(r["fate"] == "delivered" for r in later)
+      and sorted(n for n in numbers if n > 3000) == list(range(3001, 3001 + COUNT4)),
+      "the new robot1 continues rt/chatter@robot1 (indices %d.., lossless since the topic's change): all %d received"
+      % (COUNT, COUNT4))
 summary = {l.split()[0]: l.split()[2:5] for l in text("relay", ".out").splitlines() if l.startswith("rt/chatter")}
 total_dropped = len(dropped[ROBOT1]) + len(dropped[ROBOT2])
-check(summary.get(ROBOT1) == [str(COUNT), str(len(delivered[ROBOT1])), str(len(dropped[ROBOT1]))]
+check(summary.get(ROBOT1) == [str(COUNT + COUNT4), str(len(delivered[ROBOT1]) + COUNT4), str(len(dropped[ROBOT1]))]
       and summary.get("rt/chatter") == [str(len(rows)), str(len(rows) - total_dropped), str(total_dropped)],
       "the printed counts: a line per writer's link, the topic's line their sum (%s)" % summary)
 finish()
