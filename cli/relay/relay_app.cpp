@@ -219,7 +219,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     for (int n = 1;; ++n) {
       const std::string candidate = n == 1 ? base : base + "#" + std::to_string(n);
       const std::string name = relay_writer_link_name(topic, candidate);
-      const bool live = std::any_of(writer_links_.begin(), writer_links_.end(), [&](const auto& w) { return w.second == name; });
+      const bool live =
+          std::any_of(writer_links_.begin(), writer_links_.end(), [&](const auto& w) { return w.second == name; });
       const bool a_topic = links_.link(name) && std::find(own.begin(), own.end(), name) == own.end();
       if (live || a_topic) continue;
       links_.add_writer_link(topic, candidate);

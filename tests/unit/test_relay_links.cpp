@@ -155,7 +155,9 @@ TEST(RelayLinks, ATopicsLinkIdIsItsOwnStableNegativeId) {
 
 // Per-writer links (RelayTopic::per_writer): each writer's link is added at run time under the
 // name topic@writer, its streams derived from that name as a topic's are from the topic's.
-netkf::RelayTopic per_writer(const std::string& topic, LinkSpec link) { return {topic, std::move(link), std::nullopt, true}; }
+netkf::RelayTopic per_writer(const std::string& topic, LinkSpec link) {
+  return {topic, std::move(link), std::nullopt, true};
+}
 
 std::vector<bool> delivered_by(RelayLinks& links, const std::string& name, int n) {
   std::vector<bool> out;
@@ -243,7 +245,8 @@ TEST(RelayLinks, AWritersChangeIsItsOwnATopicsChangeIsEveryWritersAndTheirsToCom
   EXPECT_EQ(links.report("rt/scan@robot2")->last_request_id, 0u);
   EXPECT_EQ(std::get<BernoulliLink>(links.link("rt/scan")->loss).loss, 0.3) << "the topic's model is unchanged";
   EXPECT_THROW(links.set_link("rt/scan", BernoulliLink{1.5}), netkf::LinkError);
-  EXPECT_EQ(std::get<BernoulliLink>(links.link("rt/scan@robot2")->loss).loss, 0.3) << "an invalid change changes nothing";
+  EXPECT_EQ(std::get<BernoulliLink>(links.link("rt/scan@robot2")->loss).loss, 0.3)
+      << "an invalid change changes nothing";
   ASSERT_TRUE(links.set_link("rt/scan", BernoulliLink{0.0}));
   links.note_request("rt/scan", 18, "");
   links.add_writer_link("rt/scan", "robot3");  // after the change: a copy of the topic's current link
