@@ -112,8 +112,8 @@ void RelayLinks::note_request(const std::string& name, std::uint64_t request_id,
   for (const auto& writer : it->second.writers) note_request(writer, request_id, reject_reason);
 }
 
-std::optional<LinkSpec> RelayLinks::link(const std::string& topic) const {
-  const auto it = links_.find(topic);
+std::optional<LinkSpec> RelayLinks::link(const std::string& name) const {
+  const auto it = links_.find(name);
   if (it == links_.end()) return std::nullopt;
   return it->second.spec;
 }

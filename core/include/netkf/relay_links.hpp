@@ -1,6 +1,7 @@
 #pragma once
-// The links of `netkf relay` (docs/relay.md): one per relayed topic, each with its own seeded
-// loss and delay streams, so the same seed and the same samples make the same decisions.
+// The links of `netkf relay` (docs/relay.md): one per relayed topic (or per writer of a topic
+// relayed per writer), each with its own seeded loss and delay streams, so the same seed and
+// the same samples make the same decisions.
 // DDS-free: which sample of a topic is dropped, how long a delivered one is held, what each
 // link did. A topic's n-th sample (n = 0, 1, ...) plays the role a period plays for a sensor's
 // link (a trace link replays row offset + n).
