@@ -33,6 +33,7 @@ struct RelayCommandOptions {
   std::optional<int> to_domain;
   std::vector<std::string> topics;
   LinkFlags link;
+  bool per_writer = false;
   std::optional<std::string> seed;
   std::optional<int> depth;
   std::optional<std::string> record;
@@ -68,6 +69,8 @@ RelayOptions relay_options(const RelayCommandOptions& o) {
       if (!o.topics.empty() || !keys.empty())
         fail(ExitCode::bad_usage, "give the topics and their links in " + *o.file + " or with --topic and the link "
                                   "flags, not both");
+      if (o.per_writer)
+        fail(ExitCode::bad_usage, "--per-writer is for --topic; in " + *o.file + " give a topic per_writer: true");
       const RelayConfig file = load_relay_config_file(*o.file);
       options.from_domain = file.from_domain;
       options.to_domain = file.to_domain;
@@ -82,7 +85,7 @@ RelayOptions relay_options(const RelayCommandOptions& o) {
                                   "LOSS_BAD], --trace FILE or --model with its keys");
       if (!o.from_domain || !o.to_domain) fail(ExitCode::bad_usage, "give --from-domain and --to-domain (or a relay file)");
       const LinkSpec link = link_from_keys(keys);
-      for (const auto& t : o.topics) options.topics.push_back({t, link, std::nullopt});
+      for (const auto& t : o.topics) options.topics.push_back({t, link, std::nullopt, o.per_writer});
     }
     if (o.from_domain) options.from_domain = *o.from_domain;
     if (o.to_domain) options.to_domain = *o.to_domain;
@@ -216,6 +219,9 @@ void add_relay_command(CLI::App& app) {
       ->check(CLI::Range(0, 232));
   cmd->add_option("--topic", o->topics, "A DDS topic name to relay (e.g. rt/chatter); repeatable");
   add_link_flags(cmd, o->link);
+  cmd->add_flag("--per-writer", o->per_writer,
+                "Each writer of a --topic its own link, a copy of the link flags' (named TOPIC@PARTICIPANT; "
+                "docs/relay.md)");
   cmd->add_option("--seed", o->seed, "Seed of the links' random streams (each topic its own stream; default 1)");
   cmd->add_option("--depth", o->depth, "Keep-last history of the relay's readers and writers (default 100)")
       ->check(CLI::Range(1, 100000));

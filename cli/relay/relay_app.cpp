@@ -8,6 +8,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -16,7 +17,9 @@
 #include <map>
 #include <mutex>
 #include <stdexcept>
+#include <string_view>
 
+#include <fastdds/rtps/participant/ParticipantDiscoveryInfo.h>
 #include <fastdds/rtps/writer/WriterDiscoveryInfo.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -149,6 +152,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // One topic being relayed: the writer on the destination domain, the reader on the source.
   struct Relayed {
     int index = 0;  // its link's id in the release queue
+    bool per_writer = false;  // each writer its own link (RelayTopic::per_writer)
     dds::DiscoveredWriter writer;
     std::unique_ptr<dds::RawWriter> out;
     std::unique_ptr<dds::RawReader> in;
@@ -158,16 +162,109 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Fast DDS's discovery thread: only the topics asked for; the endpoints are made on the
   // relay's thread (creating them inside a discovery callback would wait on discovery itself).
   void on_publisher_discovery(fdds::DomainParticipant*, eprosima::fastrtps::rtps::WriterDiscoveryInfo&& info) override {
+    if (info.status == eprosima::fastrtps::rtps::WriterDiscoveryInfo::REMOVED_WRITER)
+      forget_writers([&](const auto& guid) { return guid == info.info.guid(); });
     if (info.status != eprosima::fastrtps::rtps::WriterDiscoveryInfo::DISCOVERED_WRITER) return;
     dds::DiscoveredWriter writer = dds::discovered_writer(info);
-    if (!counts_.contains(writer.topic)) return;  // counts_' keys never change after construction
+    if (!wanted_types_.contains(writer.topic)) return;  // wanted_types_' keys never change after construction
     if (writer.participant == destination_prefix_) return;  // its own (see on_sample)
     if (const auto& wanted = wanted_types_.at(writer.topic); wanted && *wanted != writer.type) {
       spdlog::warn("a writer of {} with type {} is not relayed (the relay file asks for {})", writer.topic, writer.type,
                    *wanted);
       return;
     }
-    boost::asio::post(io_, [this, writer = std::move(writer)] { start_relaying(writer); });
+    // A per-writer topic: the writer's link from now on (in the status before its first sample).
+    {
+      const std::lock_guard lock(mutex_);
+      writer_link_locked(writer.topic, info.info.guid(), writer.type);
+    }
+    boost::asio::post(io_, [this, writer = std::move(writer)] {
+      start_relaying(writer);
+      publish_changes();  // a writer's link made after a live change of its topic is journaled
+    });
+  }
+
+  // Discovery thread: the participants' names as discovery announces them (a writer's link is
+  // named after its participant's).
+  void on_participant_discovery(fdds::DomainParticipant*, eprosima::fastrtps::rtps::ParticipantDiscoveryInfo&& info)
+      override {
+    using Info = eprosima::fastrtps::rtps::ParticipantDiscoveryInfo;
+    const auto prefix = info.info.m_guid.guidPrefix;
+    const bool gone = info.status == Info::REMOVED_PARTICIPANT || info.status == Info::DROPPED_PARTICIPANT;
+    {
+      const std::lock_guard lock(mutex_);
+      if (gone)
+        participant_names_.erase(prefix);
+      else
+        participant_names_[prefix] = info.info.m_participantName.to_string();
+    }
+    // A participant that leaves (or whose lease expires) takes its writers with it.
+    if (gone) forget_writers([&](const auto& guid) { return guid.guidPrefix == prefix; });
+  }
+
+  // Discovery thread: writers that are gone free their links' names (the links stay), so the next
+  // writer of such a name (a robot that restarted) continues its link.
+  template <class Gone>
+  void forget_writers(Gone gone) {
+    std::vector<std::string> names;
+    {
+      const std::lock_guard lock(mutex_);
+      for (auto it = writer_links_.begin(); it != writer_links_.end();)
+        if (gone(it->first)) {
+          names.push_back(it->second);
+          it = writer_links_.erase(it);
+        } else {
+          ++it;
+        }
+    }
+    for (const auto& name : names)
+      spdlog::info("the writer of {} is gone (the next writer of its name continues the link)", name);
+  }
+
+  // mutex_ held (discovery or receive thread: in memory only). The name of the link a sample of
+  // `topic` from `writer` goes through: the topic's own, or on a per-writer topic the writer's,
+  // added on its first call: topic@NAME, NAME its participant's name as discovery announced it
+  // (else its GUID prefix in hex), NAME#2, NAME#3, ... when live writers of the topic have it.
+  std::string writer_link_locked(const std::string& topic, const eprosima::fastrtps::rtps::GUID_t& writer,
+                                 const std::string& type) {
+    if (!links_.per_writer(topic)) return topic;
+    if (const auto it = writer_links_.find(writer); it != writer_links_.end()) return it->second;
+    const auto participant = participant_names_.find(writer.guidPrefix);
+    const std::string base = link_word(participant == participant_names_.end() || participant->second.empty()
+                                           ? hex(writer.guidPrefix)
+                                           : participant->second);
+    const auto own = links_.writer_links(topic);
+    for (int n = 1;; ++n) {
+      const std::string candidate = n == 1 ? base : base + "#" + std::to_string(n);
+      const std::string name = relay_writer_link_name(topic, candidate);
+      const bool live =
+          std::any_of(writer_links_.begin(), writer_links_.end(), [&](const auto& w) { return w.second == name; });
+      const bool a_topic = links_.link(name) && std::find(own.begin(), own.end(), name) == own.end();
+      if (live || a_topic) continue;
+      links_.add_writer_link(topic, candidate);
+      writer_links_.emplace(writer, name);
+      if (link_index_.emplace(name, next_link_index_).second) ++next_link_index_;
+      auto& c = counts_[name];
+      c.topic = name;
+      c.type = type;
+      spdlog::info("{}: the writer of participant {} has its own link {}", topic, hex(writer.guidPrefix), name);
+      return name;
+    }
+  }
+
+  static std::string hex(const eprosima::fastrtps::rtps::GuidPrefix_t& prefix) {
+    std::string out;
+    for (const auto octet : prefix.value) out += fmt::format("{:02x}", octet);
+    return out;
+  }
+
+  // A participant's name as a word of a link's name (the recording's CSV, a shell's argument):
+  // letters, digits and _-./: kept, anything else `_`.
+  static std::string link_word(std::string name) {
+    for (char& ch : name)
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && std::string_view("_-./:").find(ch) == std::string_view::npos)
+        ch = '_';
+    return name;
   }
 
   // Relay thread.
@@ -191,7 +288,8 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     relayed->writer = writer;
     {
       const std::lock_guard lock(mutex_);
-      relayed->index = static_cast<int>(relayed_.size());
+      relayed->index = next_link_index_++;
+      relayed->per_writer = links_.per_writer(writer.topic);
     }
     try {
       relayed->out = std::make_unique<dds::RawWriter>(*destination_, writer, options_.depth);
@@ -235,20 +333,25 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     bool changed = false;  // the timeline changed the link at this sample: journaled on the relay's thread
     {
       const std::lock_guard lock(mutex_);
-      fate = *links_.on_sample(r.writer.topic);
+      // The topic's link, or on a per-writer topic the writer's (made here if discovery has not).
+      const std::string link = r.per_writer ? writer_link_locked(r.writer.topic, sample.writer, r.writer.type)
+                                            : r.writer.topic;
+      fate = *links_.on_sample(link);
       changed = links_.has_changes();
-      auto& c = counts_[r.writer.topic];
-      ++c.samples;
-      ++(fate.delivered ? c.delivered : c.dropped);
+      for (auto* c : {&counts_[r.writer.topic], link == r.writer.topic ? nullptr : &counts_[link]}) {
+        if (!c) continue;  // a per-writer topic's own line counts all its writers' samples
+        ++c->samples;
+        ++(fate.delivered ? c->delivered : c->dropped);
+      }
       // Into memory here; the relay's thread writes the file (no disk I/O on a DDS thread).
       if (record_)
-        fmt::format_to(std::back_inserter(unwritten_), "{},{},{},{},{},{:.6g}\n", r.writer.topic, fate.index,
+        fmt::format_to(std::back_inserter(unwritten_), "{},{},{},{},{},{:.6g}\n", link, fate.index,
                        sample.sequence, sample.payload.size(), fate.delivered ? "delivered" : "dropped", fate.delay_ms);
       if (fate.delivered && fate.delay_ms > 0.0) {
         const auto release = std::chrono::steady_clock::now() +
                              std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                  std::chrono::duration<double, std::milli>(fate.delay_ms));
-        rearm = held_.hold(release, r.index, Held{&r, std::move(sample)});
+        rearm = held_.hold(release, r.per_writer ? link_index_.at(link) : r.index, Held{&r, std::move(sample)});
       }
     }
     if (rearm) boost::asio::post(io_, [this] { release_due(); });
@@ -313,17 +416,19 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Relay thread: a valid link for a topic, from its next sample on, and its journal entry (the
   // sample it applies from: the link decides under the lock, so no sample of the topic falls
   // between the change and this index). request_id 0: a change from the WebSocket.
+  // A per-writer topic's change is each of its writers' links' (an entry each) and the model of
+  // the writers to come.
   void apply_change(const std::string& topic, const LinkSpec& next, std::uint64_t request_id) {
-    std::uint64_t at_sample = 0;
+    bool per_writer = false;
     {
       const std::lock_guard lock(mutex_);
       links_.set_link(topic, next, request_id);  // throws on an invalid model (nothing changes)
       links_.note_request(topic, request_id, "");
-      at_sample = links_.report(topic)->next_sample;
+      per_writer = links_.per_writer(topic);
     }
-    spdlog::info("request {}: {} now has a {} link (from its sample {} on)", request_id, topic, link_kind(next),
-                 at_sample);
-    publish_changes();
+    if (per_writer)
+      spdlog::info("request {}: {} has a {} link for each of its writers to come", request_id, topic, link_kind(next));
+    publish_changes();  // each changed link's journal entry, with the sample it applies from
   }
 
   // Relay thread (and the end): the links' changes since, each on DDS (netkf/link/change) and,
@@ -342,6 +447,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       }
       if (c.origin == "timeline")
         spdlog::info("timeline: {} from its sample {}: {}", c.topic, c.at_sample, describe_link(c.link));
+      else
+        spdlog::info("request {}: {} now has a {} link (from its sample {} on)", c.request_id, c.topic,
+                     link_kind(c.link), c.at_sample);
       journal_->write(dds::make_link_change(relay_topic_link_id(c.topic), c.at_sample, c.origin, c.request_id, c.link,
                                             dds::steady_now_ns(), c.topic));
       if (c.replay && journal_file_) {
@@ -470,7 +578,10 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       const std::lock_guard lock(mutex_);
       for (auto& r : links_.reports()) {
         const auto relayed = relayed_.find(r.topic);
-        const std::uint64_t held = relayed == relayed_.end() ? 0 : held_.held(relayed->second->index);
+        const auto writer = link_index_.find(r.topic);  // a writer's link
+        const std::uint64_t held = writer != link_index_.end() ? held_.held(writer->second)
+                                   : relayed == relayed_.end() ? 0
+                                                               : held_.held(relayed->second->index);
         facts.push_back({relay_topic_link_id(r.topic), r.link, 1.0, r.stats, r.lifetime, r.last_request_id,
                          !r.reject_reason.empty(), r.reject_reason, held, 0, std::move(r.recent_fit), r.topic});
       }
@@ -513,6 +624,12 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   RelayLinks links_;
   std::map<std::string, RelayTopicCounts> counts_;
   std::map<std::string, std::optional<std::string>> wanted_types_;  // per topic; never changed after construction
+  // Per-writer topics (mutex_): each live writer's link, the participants' names, each writer's
+  // link's id in the release queue (the topics' links take theirs from the same count).
+  std::map<eprosima::fastrtps::rtps::GUID_t, std::string> writer_links_;
+  std::map<eprosima::fastrtps::rtps::GuidPrefix_t, std::string> participant_names_;
+  std::map<std::string, int> link_index_;
+  int next_link_index_ = 0;
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> record_{nullptr, &std::fclose};
   std::string unwritten_;  // record lines not yet written (mutex_)
   // The journal file (--record's) and what it holds; the relay's thread's.

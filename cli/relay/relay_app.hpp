@@ -39,9 +39,9 @@ struct RelayOptions {
   std::optional<unsigned short> metrics_port;
 };
 
-/// What each topic's link did.
+/// What each topic's link did (a per-writer topic: each writer's link, and the topic their sum).
 struct RelayTopicCounts {
-  std::string topic;
+  std::string topic;  // a topic, or a writer's link (topic@writer)
   std::string type;  // as discovered ("" while no writer was seen)
   std::uint64_t samples = 0, delivered = 0, dropped = 0, refused = 0;  // refused: DDS refused the write
   LinkStatistics lifetime;      // the link's, since the relay started

@@ -23,17 +23,19 @@ std::uint64_t name_hash(std::string_view name) {
 }  // namespace
 
 int relay_topic_link_id(const std::string& topic) {
-  // 2^30 ids below -1000: far from the sensors' (>= 0), control's (-1) and the request id (-2).
+  // 2^30 ids below -1000: far from the sensors' (>= 0) and control's (-1).
   return -1000 - static_cast<int>(name_hash(topic) % (1ull << 30));
 }
 
+std::string relay_writer_link_name(const std::string& topic, const std::string& writer) { return topic + "@" + writer; }
+
 RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed,
-                       const std::vector<RelayEvent>& timeline) {
+                       const std::vector<RelayEvent>& timeline)
+    : seed_(seed) {
   for (const auto& t : topics) {
     if (t.name.empty()) throw std::invalid_argument("a relayed topic needs a name");
-    const auto index = name_hash(t.name);
-    Link link{t.link, LinkLossProcess(t.link.loss, derive_seed(seed, "relay-link", index)),
-              LinkDelayProcess(derive_seed(seed, "relay-link-delay", index))};
+    Link link = make_link(t.name, t.link);
+    link.per_writer = t.per_writer;
     if (!links_.emplace(t.name, std::move(link)).second)
       throw std::invalid_argument("topic " + t.name + " is relayed twice");
   }
@@ -41,20 +43,73 @@ RelayLinks::RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed
   for (const auto& e : timeline) ordered.push_back(&e);
   std::stable_sort(ordered.begin(), ordered.end(),
                    [](const RelayEvent* a, const RelayEvent* b) { return a->at_sample < b->at_sample; });
-  for (const RelayEvent* e : ordered) {
-    const auto it = links_.find(e->topic);
-    if (it == links_.end()) throw std::invalid_argument("an event of topic " + e->topic + ", which is not relayed");
-    it->second.timeline.push_back(*e);
-    for (const auto& key : e->keys) {
-      if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
-      const std::string& path = std::get<std::string>(key.value);
-      try {
-        timeline_traces_.emplace(path, read_link_trace_for(path));
-      } catch (const LinkError&) {
-        // The loader read it already; if it has gone since, the event fails when due (journaled).
-      }
+  for (const RelayEvent* e : ordered) add_event(*e);
+}
+
+// A topic's event, or one of a writer's link of a per-writer topic (kept until the writer comes);
+// the traces it names are read now.
+void RelayLinks::add_event(const RelayEvent& e) {
+  if (const auto it = links_.find(e.topic); it != links_.end()) {
+    it->second.timeline.push_back(e);
+  } else if (const auto at = e.topic.rfind('@'); at != std::string::npos && per_writer(e.topic.substr(0, at))) {
+    writer_events_[e.topic].push_back(e);
+  } else {
+    throw std::invalid_argument("an event of topic " + e.topic + ", which is not relayed");
+  }
+  for (const auto& key : e.keys) {
+    if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
+    const std::string& path = std::get<std::string>(key.value);
+    try {
+      timeline_traces_.emplace(path, read_link_trace_for(path));
+    } catch (const LinkError&) {
+      // The loader read it already; if it has gone since, the event fails when due (journaled).
     }
   }
+}
+
+// A link's streams come from its name only: a topic's and a writer's alike.
+RelayLinks::Link RelayLinks::make_link(const std::string& name, const LinkSpec& spec) const {
+  const auto index = name_hash(name);
+  return Link{spec, LinkLossProcess(spec.loss, derive_seed(seed_, "relay-link", index)),
+              LinkDelayProcess(derive_seed(seed_, "relay-link-delay", index))};
+}
+
+std::optional<std::string> RelayLinks::add_writer_link(const std::string& topic, const std::string& writer) {
+  const auto it = links_.find(topic);
+  if (it == links_.end() || !it->second.per_writer) return std::nullopt;
+  if (writer.empty()) throw std::invalid_argument("a writer's link of " + topic + " needs the writer's name");
+  const std::string name = relay_writer_link_name(topic, writer);
+  const Link& model = it->second;
+  if (std::find(model.writers.begin(), model.writers.end(), name) != model.writers.end()) return name;
+  if (links_.contains(name)) throw std::invalid_argument(name + " is a relayed topic's name, not a writer's link");
+  Link link = make_link(name, model.spec);
+  // The topic's timeline, each event at this writer's own sample, then this writer's own events
+  // (a replayed journal's), in the order they apply.
+  link.timeline = model.timeline;
+  for (auto& e : link.timeline) e.topic = name;
+  if (const auto own = writer_events_.find(name); own != writer_events_.end()) {
+    link.timeline.insert(link.timeline.end(), own->second.begin(), own->second.end());
+    writer_events_.erase(own);
+  }
+  std::stable_sort(link.timeline.begin(), link.timeline.end(),
+                   [](const RelayEvent& a, const RelayEvent& b) { return a.at_sample < b.at_sample; });
+  // Its first link is not the file's: the journal says so, at its sample 0.
+  if (model.changed_live)
+    changes_.push_back({name, 0, "request", 0, model.spec, {},
+                        RelayEvent{0, name, LinkEvent::Kind::set, link_keys(model.spec), 0}});
+  links_.emplace(name, std::move(link));
+  it->second.writers.push_back(name);
+  return name;
+}
+
+bool RelayLinks::per_writer(const std::string& topic) const {
+  const auto it = links_.find(topic);
+  return it != links_.end() && it->second.per_writer;
+}
+
+std::vector<std::string> RelayLinks::writer_links(const std::string& topic) const {
+  const auto it = links_.find(topic);
+  return it == links_.end() ? std::vector<std::string>{} : it->second.writers;
 }
 
 void RelayLinks::change(Link& link, const LinkSpec& spec, bool reset_statistics) {
@@ -119,12 +174,12 @@ void RelayLinks::step_ramp(const std::string& topic, Link& link) {
   }
 }
 
-std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
-  const auto it = links_.find(topic);
-  if (it == links_.end()) return std::nullopt;
+std::optional<RelayFate> RelayLinks::on_sample(const std::string& name) {
+  const auto it = links_.find(name);
+  if (it == links_.end() || it->second.per_writer) return std::nullopt;
   Link& link = it->second;
-  apply_due(topic, link);
-  step_ramp(topic, link);
+  apply_due(name, link);
+  step_ramp(name, link);
   RelayFate fate;
   fate.index = link.samples++;
   double delay_ms = std::nan("");
@@ -142,15 +197,21 @@ std::optional<RelayFate> RelayLinks::on_sample(const std::string& topic) {
   return fate;
 }
 
-bool RelayLinks::set_link(const std::string& topic, const LinkSpec& spec, std::uint64_t request_id) {
-  const auto it = links_.find(topic);
+bool RelayLinks::set_link(const std::string& name, const LinkSpec& spec, std::uint64_t request_id) {
+  const auto it = links_.find(name);
   if (it == links_.end()) return false;
   Link& link = it->second;
   change(link, spec, true);  // set_model throws (and changes nothing) on an invalid model
   link.ramp.reset();         // the operator's word ends a ramp in progress
+  if (link.per_writer) {
+    // The model of the writers' links to come (each journals it when made), and each writer's.
+    link.changed_live = true;
+    for (const auto& writer : link.writers) set_link(writer, spec, request_id);
+    return true;
+  }
   const std::uint64_t n = link.samples;
-  changes_.push_back({topic, n, "request", request_id, spec, {},
-                      RelayEvent{n, topic, LinkEvent::Kind::set, link_keys(spec), 0}});
+  changes_.push_back({name, n, "request", request_id, spec, {},
+                      RelayEvent{n, name, LinkEvent::Kind::set, link_keys(spec), 0}});
   return true;
 }
 
@@ -160,30 +221,32 @@ std::vector<RelayLinkChange> RelayLinks::take_changes() {
   return out;
 }
 
-void RelayLinks::note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason) {
-  const auto it = links_.find(topic);
+void RelayLinks::note_request(const std::string& name, std::uint64_t request_id, const std::string& reject_reason) {
+  const auto it = links_.find(name);
   if (it == links_.end()) return;
   it->second.last_request_id = request_id;
   it->second.reject_reason = reject_reason;
+  for (const auto& writer : it->second.writers) note_request(writer, request_id, reject_reason);
 }
 
-std::optional<LinkSpec> RelayLinks::link(const std::string& topic) const {
-  const auto it = links_.find(topic);
+std::optional<LinkSpec> RelayLinks::link(const std::string& name) const {
+  const auto it = links_.find(name);
   if (it == links_.end()) return std::nullopt;
   return it->second.spec;
 }
 
-std::optional<RelayLinks::Report> RelayLinks::report(const std::string& topic) const {
-  const auto it = links_.find(topic);
-  if (it == links_.end()) return std::nullopt;
+std::optional<RelayLinks::Report> RelayLinks::report(const std::string& name) const {
+  const auto it = links_.find(name);
+  if (it == links_.end() || it->second.per_writer) return std::nullopt;
   const Link& link = it->second;
-  return Report{topic, link.spec, link.stats, link.lifetime, link.samples, link.last_request_id, link.reject_reason,
+  return Report{name, link.spec, link.stats, link.lifetime, link.samples, link.last_request_id, link.reject_reason,
                 link.recent.fit()};
 }
 
 std::vector<RelayLinks::Report> RelayLinks::reports() const {
   std::vector<Report> out;
-  for (const auto& [name, link] : links_) out.push_back(*report(name));
+  for (const auto& [name, link] : links_)
+    if (!link.per_writer) out.push_back(*report(name));
   return out;
 }
 

@@ -221,7 +221,7 @@ class Loader {
     for (std::size_t i = 0; i < topics.size(); ++i) {
       const std::string at = "relay.topics[" + std::to_string(i) + "]";
       const YAML::Node t = topics[i];
-      const MapView tm = open_map(t, at, t.Mark(), {"name", "type", "link"});
+      const MapView tm = open_map(t, at, t.Mark(), {"name", "type", "link", "per_writer"});
       RelayTopic topic;
       topic.name = read_string(require(tm, "name"), at + ".name");
       if (const auto [it, fresh] = seen.emplace(topic.name, i); !fresh)
@@ -229,6 +229,7 @@ class Loader {
              "topic " + topic.name + " is relayed twice (also relay.topics[" + std::to_string(it->second) + "])");
       if (tm.has("type")) topic.type = read_string(tm.values.at("type"), at + ".type");
       topic.link = read_link(require(tm, "link"), at + ".link");
+      if (tm.has("per_writer")) topic.per_writer = read_bool(tm.values.at("per_writer"), at + ".per_writer");
       c.topics.push_back(std::move(topic));
     }
     // Beside `relay:`, as a scenario's `events:` is beside its links.
@@ -637,11 +638,13 @@ class Loader {
       e.at_sample = static_cast<std::uint64_t>(index);
       const YAML::Node& topic = require(m, "topic");
       e.topic = read_string(topic, path + ".topic");
-      if (std::none_of(c.topics.begin(), c.topics.end(), [&](const RelayTopic& t) { return t.name == e.topic; })) {
+      if (!relayed_topic_of(e.topic, c)) {
         std::vector<std::string> names;
         for (const auto& t : c.topics) names.push_back(t.name);
+        const bool any_per_writer = std::any_of(c.topics.begin(), c.topics.end(), [](const RelayTopic& t) { return t.per_writer; });
         fail(mark_of(topic, path + ".topic"), path + ".topic: " + e.topic + " is not relayed (the relay's topics: " +
-                                                  join(names) + ")");
+                                                  join(names) +
+                                                  (any_per_writer ? "; a writer's link of a per_writer topic: TOPIC@WRITER)" : ")"));
       }
       if (const auto r = read_set_or_ramp(m, path, "over_samples: N", {"over_samples"}, e.kind, e.keys)) {
         const YAML::Node& v = require(*r, "over_samples");
@@ -655,11 +658,23 @@ class Loader {
     return events;
   }
 
+  // The relayed topic a link name is: the topic itself, or a writer's link (TOPIC@WRITER, as a
+  // journal names it) of a per_writer topic; nullptr for neither.
+  static const RelayTopic* relayed_topic_of(const std::string& link, const RelayConfig& c) {
+    for (const auto& t : c.topics)
+      if (t.name == link) return &t;
+    const auto at = link.rfind('@');
+    if (at == std::string::npos) return nullptr;
+    for (const auto& t : c.topics)
+      if (t.per_writer && t.name == link.substr(0, at)) return &t;
+    return nullptr;
+  }
+
   // Replays the events in the order they apply (stable by at_sample), as RelayLinks will: each
-  // must make sense for its topic's link at that point.
+  // must make sense for its link at that point (a writer's link starts as its topic's).
   void check_relay_events(const std::vector<RelayEvent>& events, const std::string& at, const RelayConfig& c) const {
     std::map<std::string, LinkSpec> links;
-    for (const auto& t : c.topics) links[t.name] = t.link;
+    for (const auto& e : events) links.try_emplace(e.topic, relayed_topic_of(e.topic, c)->link);
     std::vector<std::size_t> order(events.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::stable_sort(order.begin(), order.end(),

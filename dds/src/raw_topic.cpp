@@ -99,6 +99,7 @@ void RawReader::on_data_available(fdds::DataReader* reader) {
     sample.key = info.instance_handle;
     sample.sequence = info.sample_identity.sequence_number().to64long();
     sample.writer_participant = info.sample_identity.writer_guid().guidPrefix;
+    sample.writer = info.sample_identity.writer_guid();
     on_sample_(std::move(sample));
     sample = RawSample{};
   }

@@ -180,4 +180,17 @@ TEST(RelayEvents, AJournalFileIsTheSameListAndWritesBackExactly) {
   }
 }
 
+TEST(RelayConfig, PerWriterIsATopicsOptionOffByDefault) {
+  const auto c = parse_relay_config("relay:\n  from_domain: 1\n  to_domain: 2\n  topics:\n"
+                                    "    - {name: rt/scan, per_writer: true, link: {model: bernoulli, loss: 0.1}}\n"
+                                    "    - {name: rt/odom, link: {model: bernoulli, loss: 0}}\n",
+                                    "relay.yaml");
+  ASSERT_EQ(c.topics.size(), 2u);
+  EXPECT_TRUE(c.topics[0].per_writer);
+  EXPECT_FALSE(c.topics[1].per_writer);
+  const std::string bad = error_of("relay:\n  from_domain: 1\n  to_domain: 2\n  topics:\n    - name: a\n"
+                                   "      per_writer: maybe\n      link: {model: bernoulli, loss: 0}\n");
+  EXPECT_NE(bad.find("relay.yaml:6:7: relay.topics[0].per_writer must be true or false"), std::string::npos) << bad;
+}
+
 }  // namespace

@@ -6,7 +6,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 #include "netkf/link_trace.hpp"
 #include "netkf/random.hpp"
@@ -312,6 +317,169 @@ TEST(RelayTimeline, TheJournalOfASessionReplaysItSampleForSample) {
   std::size_t differ = 0;
   for (int i = 0; i < 1200; ++i) differ += plain.on_sample("rt/scan")->delivered != scan_fates[i].delivered;
   EXPECT_GT(differ, 0u);
+}
+
+// Per-writer links (RelayTopic::per_writer): each writer's link is added at run time under the
+// name topic@writer, its streams derived from that name as a topic's are from the topic's.
+netkf::RelayTopic per_writer(const std::string& topic, LinkSpec link) {
+  return {topic, std::move(link), std::nullopt, true};
+}
+
+std::vector<bool> delivered_by(RelayLinks& links, const std::string& name, int n) {
+  std::vector<bool> out;
+  for (int i = 0; i < n; ++i) {
+    const auto fate = links.on_sample(name);
+    EXPECT_TRUE(fate) << name;
+    if (!fate) break;
+    EXPECT_EQ(fate->index, static_cast<std::uint64_t>(i)) << name << ": its own sample numbers from 0";
+    out.push_back(fate->delivered);
+  }
+  return out;
+}
+
+TEST(RelayLinks, AWritersLinkDrawsFromTheStreamOfItsName) {
+  RelayLinks links({per_writer("rt/scan", BernoulliLink{0.3})}, 42);
+  EXPECT_TRUE(links.per_writer("rt/scan"));
+  EXPECT_FALSE(links.on_sample("rt/scan")) << "a per-writer topic has no link of its own";
+  EXPECT_TRUE(links.reports().empty()) << "nor a report before a writer is added";
+  EXPECT_EQ(links.add_writer_link("rt/scan", "robot1"), "rt/scan@robot1");
+  EXPECT_EQ(links.add_writer_link("rt/scan", "robot2"), "rt/scan@robot2");
+  netkf::LinkLossProcess robot1(BernoulliLink{0.3}, netkf::derive_seed(42, "relay-link", fnv1a("rt/scan@robot1")));
+  netkf::LinkLossProcess robot2(BernoulliLink{0.3}, netkf::derive_seed(42, "relay-link", fnv1a("rt/scan@robot2")));
+  const int n = 4000;
+  int agree = 0;
+  for (int i = 0; i < n; ++i) {
+    const auto a = links.on_sample("rt/scan@robot1");
+    const auto b = links.on_sample("rt/scan@robot2");
+    ASSERT_TRUE(a && b);
+    EXPECT_EQ(a->delivered, !robot1.next_dropped()) << "robot1 sample " << i;
+    EXPECT_EQ(b->delivered, !robot2.next_dropped()) << "robot2 sample " << i;
+    agree += a->delivered == b->delivered;
+  }
+  // Independent streams agree with probability p² + (1-p)² = 0.58 (identical ones always).
+  const double p_agree = 0.3 * 0.3 + 0.7 * 0.7, sd = std::sqrt(p_agree * (1 - p_agree) / n);
+  EXPECT_NEAR(agree / static_cast<double>(n), p_agree, 5 * sd);
+  const auto reports = links.reports();
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_EQ(reports[0].topic, "rt/scan@robot1");
+  EXPECT_EQ(reports[0].stats.samples(), static_cast<std::uint64_t>(n));
+  EXPECT_EQ(links.writer_links("rt/scan"), (std::vector<std::string>{"rt/scan@robot1", "rt/scan@robot2"}));
+}
+
+TEST(RelayLinks, AWritersDecisionsDoNotDependOnOtherWritersOrTheOrderTheyCame) {
+  RelayLinks first({per_writer("rt/scan", BernoulliLink{0.4})}, 9);
+  RelayLinks second({per_writer("rt/scan", BernoulliLink{0.4})}, 9);
+  first.add_writer_link("rt/scan", "robot1");
+  const auto alone = delivered_by(first, "rt/scan@robot1", 500);
+  second.add_writer_link("rt/scan", "robot2");  // another writer first, and its traffic
+  delivered_by(second, "rt/scan@robot2", 123);
+  second.add_writer_link("rt/scan", "robot1");
+  EXPECT_EQ(delivered_by(second, "rt/scan@robot1", 500), alone);
+  RelayLinks other_seed({per_writer("rt/scan", BernoulliLink{0.4})}, 10);
+  other_seed.add_writer_link("rt/scan", "robot1");
+  EXPECT_NE(delivered_by(other_seed, "rt/scan@robot1", 500), alone) << "the relay's seed is part of the stream";
+}
+
+TEST(RelayLinks, AddsWritersLinksOnlyToPerWriterTopicsOnceEach) {
+  RelayLinks links({per_writer("rt/scan", BernoulliLink{0.1}), {"rt/odom", BernoulliLink{0.1}},
+                    {"rt/scan@robot9", BernoulliLink{0.1}}},
+                   1);
+  EXPECT_EQ(links.add_writer_link("rt/scan", "robot1"), "rt/scan@robot1");
+  links.on_sample("rt/scan@robot1");
+  EXPECT_EQ(links.add_writer_link("rt/scan", "robot1"), "rt/scan@robot1") << "the existing link";
+  EXPECT_EQ(links.report("rt/scan@robot1")->next_sample, 1u) << "kept, not restarted";
+  EXPECT_EQ(links.writer_links("rt/scan").size(), 1u);
+  EXPECT_FALSE(links.add_writer_link("rt/odom", "robot1")) << "rt/odom has one link for all writers";
+  EXPECT_FALSE(links.add_writer_link("rt/unknown", "robot1"));
+  EXPECT_FALSE(links.per_writer("rt/odom"));
+  EXPECT_THROW(links.add_writer_link("rt/scan", ""), std::invalid_argument);
+  EXPECT_THROW(links.add_writer_link("rt/scan", "robot9"), std::invalid_argument) << "a topic's name";
+}
+
+TEST(RelayLinks, AWritersChangeIsItsOwnATopicsChangeIsEveryWritersAndTheirsToCome) {
+  RelayLinks links({per_writer("rt/scan", BernoulliLink{0.3})}, 5);
+  links.add_writer_link("rt/scan", "robot1");
+  links.add_writer_link("rt/scan", "robot2");
+  netkf::LinkLossProcess robot2(BernoulliLink{0.3}, netkf::derive_seed(5, "relay-link", fnv1a("rt/scan@robot2")));
+  delivered_by(links, "rt/scan@robot1", 10);
+  ASSERT_TRUE(links.set_link("rt/scan@robot1", BernoulliLink{1.0}));
+  links.note_request("rt/scan@robot1", 17, "");
+  for (int i = 0; i < 200; ++i) {
+    EXPECT_FALSE(links.on_sample("rt/scan@robot1")->delivered) << "robot1 at loss 1";
+    EXPECT_EQ(links.on_sample("rt/scan@robot2")->delivered, !robot2.next_dropped()) << "robot2 untouched, sample " << i;
+  }
+  EXPECT_EQ(links.report("rt/scan@robot2")->last_request_id, 0u);
+  EXPECT_EQ(std::get<BernoulliLink>(links.link("rt/scan")->loss).loss, 0.3) << "the topic's model is unchanged";
+  EXPECT_THROW(links.set_link("rt/scan", BernoulliLink{1.5}), netkf::LinkError);
+  EXPECT_EQ(std::get<BernoulliLink>(links.link("rt/scan@robot2")->loss).loss, 0.3)
+      << "an invalid change changes nothing";
+  ASSERT_TRUE(links.set_link("rt/scan", BernoulliLink{0.0}));
+  links.note_request("rt/scan", 18, "");
+  links.add_writer_link("rt/scan", "robot3");  // after the change: a copy of the topic's current link
+  for (const std::string name : {"rt/scan@robot1", "rt/scan@robot2", "rt/scan@robot3"}) {
+    for (int i = 0; i < 50; ++i) EXPECT_TRUE(links.on_sample(name)->delivered) << name << " at loss 0";
+    const auto report = links.report(name);
+    EXPECT_EQ(report->stats.samples(), 50u) << name << ": statistics since the change";
+    if (name != "rt/scan@robot3") {
+      EXPECT_EQ(report->last_request_id, 18u) << name;
+    }
+  }
+  EXPECT_EQ(links.report("rt/scan@robot1")->lifetime.samples(), 260u);
+  EXPECT_FALSE(links.report("rt/scan")) << "the topic's model is not a link";
+}
+
+// A per-writer topic's timeline applies to each writer's link at that writer's own samples; a
+// writer's link made after a live change of its topic is journaled at its sample 0; the
+// journal (writers' links by name, through its YAML) replays every writer's fates, whatever
+// order the writers come in.
+TEST(RelayTimeline, APerWriterSessionReplaysFromItsJournal) {
+  const std::vector<netkf::RelayTopic> topics{per_writer("rt/scan", BernoulliLink{0.3})};
+  RelayLinks session(topics, 5, {set_at(10, "rt/scan", {{"loss", 0.8}})});
+  std::vector<RelayEvent> journal;
+  std::vector<netkf::RelayLinkChange> entries;
+  auto take = [&] {
+    for (auto& c : session.take_changes()) {
+      if (c.replay) journal.push_back(*c.replay);
+      entries.push_back(std::move(c));
+    }
+  };
+  std::map<std::string, std::vector<RelayFate>> fates;
+  ASSERT_EQ(session.add_writer_link("rt/scan", "robot1"), "rt/scan@robot1");
+  for (int i = 0; i < 30; ++i) fates["rt/scan@robot1"].push_back(*session.on_sample("rt/scan@robot1"));
+  take();
+  ASSERT_EQ(entries.size(), 1u);
+  EXPECT_EQ((std::pair{entries[0].topic, entries[0].at_sample}), (std::pair{std::string("rt/scan@robot1"), std::uint64_t{10}}))
+      << "the topic's event, at robot1's sample 10";
+  session.set_link("rt/scan", LinkSpec(BernoulliLink{0.1}), 4);  // every writer's, and those to come
+  session.add_writer_link("rt/scan", "robot2");
+  take();
+  ASSERT_EQ(entries.size(), 3u) << "robot1's change, and robot2's link at its sample 0";
+  EXPECT_EQ(entries[1].topic, "rt/scan@robot1");
+  EXPECT_EQ(entries[1].at_sample, 30u);
+  EXPECT_EQ((std::tuple{entries[2].topic, entries[2].at_sample, entries[2].origin}),
+            (std::tuple{std::string("rt/scan@robot2"), std::uint64_t{0}, std::string("request")}));
+  for (int i = 0; i < 40; ++i)
+    for (const char* w : {"rt/scan@robot1", "rt/scan@robot2"}) fates[w].push_back(*session.on_sample(w));
+  take();
+  EXPECT_EQ(entries.back().topic, "rt/scan@robot2") << "the topic's event at robot2's own sample 10";
+  EXPECT_EQ(entries.back().at_sample, 10u);
+
+  // Replayed (--events replaces the file's timeline), the writers coming in the other order.
+  netkf::RelayConfig config;
+  config.topics = topics;
+  const auto replayed = netkf::parse_relay_events(netkf::relay_events_to_yaml(journal), config, "journal.yaml");
+  EXPECT_EQ(replayed, journal) << "writers' links by name read back";
+  RelayLinks replay(topics, 5, replayed);
+  replay.add_writer_link("rt/scan", "robot2");
+  replay.add_writer_link("rt/scan", "robot1");
+  std::map<std::string, std::vector<RelayFate>> again;
+  for (int i = 0; i < 30; ++i) again["rt/scan@robot1"].push_back(*replay.on_sample("rt/scan@robot1"));
+  for (int i = 0; i < 40; ++i)
+    for (const char* w : {"rt/scan@robot2", "rt/scan@robot1"}) again[w].push_back(*replay.on_sample(w));
+  expect_same_fates(fates["rt/scan@robot1"], again["rt/scan@robot1"]);
+  expect_same_fates(fates["rt/scan@robot2"], again["rt/scan@robot2"]);
+  // A writer's link of a topic that is not per writer is not relayed.
+  EXPECT_THROW(RelayLinks(topics, 5, {set_at(1, "rt/odom@robot1", {{"loss", 0.5}})}), std::invalid_argument);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 //         link: { model: gilbert_elliott, p: 0.05, r: 0.25 }
 //       - name: rt/odom
 //         link: { model: bernoulli, loss: 0.1, delay_ms: 5 }
+//         per_writer: true   # optional: each writer of the topic its own link, a copy of this one
 //   events:            # optional: a timeline of link changes, by the topic's sample index
 //     - { at_sample: 200, topic: rt/scan, set: { loss: 1.0 } }
 //     - { at_sample: 500, topic: rt/odom, ramp: { to: { loss: 0.5 }, over_samples: 100 } }

@@ -33,14 +33,22 @@ int relay_topic_link_id(const std::string& topic);
 /// Whether a link id is one relay_topic_link_id makes.
 inline bool is_relay_topic_link_id(int link_id) { return link_id < kRelayTopicLinkId; }
 
+/// The name of one writer's link on a topic relayed per writer: `topic@writer` (rt/scan@robot1).
+/// Status, journal and recording carry it where a topic's link carries the topic, and
+/// relay_topic_link_id(name) is the link's id.
+std::string relay_writer_link_name(const std::string& topic, const std::string& writer);
+
 /// A topic to relay and its link.
 struct RelayTopic {
   RelayTopic() = default;
-  RelayTopic(std::string topic, LinkSpec topic_link, std::optional<std::string> type_name = std::nullopt)
-      : name(std::move(topic)), link(std::move(topic_link)), type(std::move(type_name)) {}
+  RelayTopic(std::string topic, LinkSpec topic_link, std::optional<std::string> type_name = std::nullopt,
+             bool link_per_writer = false)
+      : name(std::move(topic)), link(std::move(topic_link)), type(std::move(type_name)), per_writer(link_per_writer) {}
   std::string name;  // the DDS topic name, e.g. rt/scan
   LinkSpec link;
   std::optional<std::string> type;  // relay only writers of this type name (nullopt: any)
+  /// Each writer of the topic has its own link, a copy of `link` (RelayLinks::add_writer_link).
+  bool per_writer = false;
 };
 
 /// A change of one topic's link at one of its samples (a relay file's `events:`, a replayed
@@ -85,28 +93,48 @@ class RelayLinks {
   /// whatever other topics are relayed. Throws std::invalid_argument on a duplicate or empty
   /// topic name, or an event of a topic that is not relayed. `timeline`: the changes to make at
   /// given samples (in the order they apply: stable by at_sample); the traces it names are read
-  /// here, never on the sample path.
+  /// here, never on the sample path. An event of a per-writer topic is every writer's link's
+  /// (at that writer's sample); one of a writer's link (`topic@writer`, as a journal names it)
+  /// waits for that writer.
   RelayLinks(const std::vector<RelayTopic>& topics, std::uint64_t seed, const std::vector<RelayEvent>& timeline = {});
 
-  /// The fate of the next sample of `topic`; nullopt for a topic that is not relayed. First what
+  /// A topic relayed per writer (RelayTopic::per_writer) has no link of its own: its link is the
+  /// model of its writers' links, each added at run time, named relay_writer_link_name(topic,
+  /// writer), a copy of the topic's current link and timeline with streams of its own, seeded
+  /// from its name as a topic's are (so a writer of the same name makes the same decisions in
+  /// every run). A writer's link made after a live change of the topic starts with a journal
+  /// entry of its link at sample 0 (so a replay makes it alike). Returns the link's name (also
+  /// when it exists already); nullopt for a topic not relayed per writer. Throws
+  /// std::invalid_argument for an empty writer or a name a topic has.
+  std::optional<std::string> add_writer_link(const std::string& topic, const std::string& writer);
+  /// Whether `topic` is relayed with a link per writer.
+  bool per_writer(const std::string& topic) const;
+  /// The names of a per-writer topic's writers' links, in the order they were added.
+  std::vector<std::string> writer_links(const std::string& topic) const;
+
+  /// The fate of the next sample of a topic's or a writer's link (by its name); nullopt for a
+  /// name that is not a link (a per-writer topic's own name included). First what
   /// is due at this sample applies (the timeline's events with at_sample <= its index, then a
   /// running ramp's step), then the loss draw, and for a delivered sample the delay draw.
-  std::optional<RelayFate> on_sample(const std::string& topic);
+  std::optional<RelayFate> on_sample(const std::string& name);
 
-  /// Replace a topic's link from its next sample on (statistics since the change restart, a
-  /// running ramp ends), journaled as a request; false for an unknown topic. Throws LinkError on
-  /// an invalid link (nothing changes). Made at sample n, it decides exactly as a timeline `set`
-  /// of the whole link at_sample n: the streams keep their state either way.
-  bool set_link(const std::string& topic, const LinkSpec& link, std::uint64_t request_id = 0);
+  /// Replace a link from its next sample on (statistics since the change restart, a running ramp
+  /// ends), journaled as a request; false for an unknown name. A per-writer topic's name changes
+  /// every one of its writers' links (each journaled) and the model of those to come. Throws
+  /// LinkError on an invalid link (nothing changes). Made at sample n, it decides exactly as a
+  /// timeline `set` of the whole link at_sample n: the streams keep their state either way.
+  bool set_link(const std::string& name, const LinkSpec& link, std::uint64_t request_id = 0);
 
   /// The journal entries made since the previous call, in the order the changes applied.
   std::vector<RelayLinkChange> take_changes();
   bool has_changes() const { return !changes_.empty(); }
-  /// The answer to a change request, as the channel's links keep it (the status shows it).
-  void note_request(const std::string& topic, std::uint64_t request_id, const std::string& reject_reason);
+  /// The answer to a change request, as the channel's links keep it (the status shows it); for a
+  /// per-writer topic, on each of its writers' links.
+  void note_request(const std::string& name, std::uint64_t request_id, const std::string& reject_reason);
 
-  /// A topic's current link; nullopt for a topic that is not relayed.
-  std::optional<LinkSpec> link(const std::string& topic) const;
+  /// A link's current spec (a per-writer topic's: the model of its writers' links); nullopt for
+  /// a name that is not relayed.
+  std::optional<LinkSpec> link(const std::string& name) const;
 
   struct Report {
     std::string topic;
@@ -118,9 +146,10 @@ class RelayLinks {
     std::string reject_reason;  // of the last request (empty: applied)
     std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the link was set
   };
+  /// Every link's report: the topics' and the writers' links (not a per-writer topic's model).
   std::vector<Report> reports() const;
-  /// One topic's report; nullopt for a topic that is not relayed.
-  std::optional<Report> report(const std::string& topic) const;
+  /// One link's report; nullopt for a name that is not a link.
+  std::optional<Report> report(const std::string& name) const;
 
  private:
   struct Ramp {
@@ -145,7 +174,12 @@ class RelayLinks {
     std::vector<RelayEvent> timeline;  // this topic's events in the order they apply
     std::size_t next_event = 0;
     std::optional<Ramp> ramp;
+    bool per_writer = false;           // a per-writer topic's model: never samples, not reported
+    bool changed_live = false;         // the model: a request changed it (its writers' links to come say so)
+    std::vector<std::string> writers;  // a per-writer topic's writers' links
   };
+  Link make_link(const std::string& name, const LinkSpec& spec) const;
+  void add_event(const RelayEvent& event);
   // `reset_statistics`: false for a ramp's step (its statistics run from the ramp's start).
   void change(Link& link, const LinkSpec& spec, bool reset_statistics);
   void apply_due(const std::string& topic, Link& link);
@@ -154,6 +188,8 @@ class RelayLinks {
   std::map<std::string, Link> links_;
   TraceRows timeline_traces_;  // the traces the timeline switches to, read at start
   std::vector<RelayLinkChange> changes_;
+  std::map<std::string, std::vector<RelayEvent>> writer_events_;  // events of writers' links not yet seen
+  std::uint64_t seed_;
 };
 
 }  // namespace netkf

@@ -27,6 +27,8 @@ struct RawSample {
   std::int64_t sequence = 0;
   /// The participant of the writer that wrote it.
   eprosima::fastrtps::rtps::GuidPrefix_t writer_participant;
+  /// The writer that wrote it (a per-writer topic's relay picks the writer's link by it).
+  eprosima::fastrtps::rtps::GUID_t writer;
 };
 
 /// What the relay mirrors of a writer it discovered: the topic, its type's name, whether the
