@@ -320,6 +320,20 @@ void emit_link_keys(YAML::Emitter& out, const LinkKeys& keys) {
   out << YAML::EndMap;
 }
 
+// An event's change: `set: {keys}`, or `ramp: {to: {keys}, OVER: length}` (a launch's ramp in
+// periods, a relay's in samples).
+template <class Length>
+void emit_change(YAML::Emitter& out, LinkEvent::Kind kind, const LinkKeys& keys, const char* over, Length length) {
+  if (kind == LinkEvent::Kind::set) {
+    out << YAML::Key << "set" << YAML::Value;
+    emit_link_keys(out, keys);
+    return;
+  }
+  out << YAML::Key << "ramp" << YAML::Value << YAML::BeginMap << YAML::Key << "to" << YAML::Value;
+  emit_link_keys(out, keys);
+  out << YAML::Key << over << YAML::Value << length << YAML::EndMap;
+}
+
 void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
   out << YAML::BeginSeq;
   for (const auto& e : events) {
@@ -327,14 +341,7 @@ void emit_events(YAML::Emitter& out, const std::vector<LinkEvent>& events) {
     out << YAML::Key << "at_period" << YAML::Value << e.at_period;
     if (e.link == kControlLinkId) out << YAML::Key << "link" << YAML::Value << kControlLinkName;
     else out << YAML::Key << "link" << YAML::Value << e.link;
-    if (e.kind == LinkEvent::Kind::set) {
-      out << YAML::Key << "set" << YAML::Value;
-      emit_link_keys(out, e.keys);
-    } else {
-      out << YAML::Key << "ramp" << YAML::Value << YAML::BeginMap << YAML::Key << "to" << YAML::Value;
-      emit_link_keys(out, e.keys);
-      out << YAML::Key << "over_periods" << YAML::Value << e.ramp_periods << YAML::EndMap;
-    }
+    emit_change(out, e.kind, e.keys, "over_periods", e.ramp_periods);
     out << YAML::EndMap;
   }
   out << YAML::EndSeq;
@@ -383,14 +390,7 @@ std::string relay_events_to_yaml(const std::vector<RelayEvent>& events) {
     for (const auto& e : events) {
       out << YAML::Flow << YAML::BeginMap << YAML::Key << "at_sample" << YAML::Value << e.at_sample;
       out << YAML::Key << "topic" << YAML::Value << e.topic;
-      if (e.kind == LinkEvent::Kind::set) {
-        out << YAML::Key << "set" << YAML::Value;
-        emit_link_keys(out, e.keys);
-      } else {
-        out << YAML::Key << "ramp" << YAML::Value << YAML::BeginMap << YAML::Key << "to" << YAML::Value;
-        emit_link_keys(out, e.keys);
-        out << YAML::Key << "over_samples" << YAML::Value << e.ramp_samples << YAML::EndMap;
-      }
+      emit_change(out, e.kind, e.keys, "over_samples", e.ramp_samples);
       out << YAML::EndMap;
     }
     out << YAML::EndSeq;

@@ -150,8 +150,8 @@ class Loader {
     return s;
   }
 
-  // An events file: `events: [...]` or the bare list, for `scenario`'s links and period.
-  std::vector<LinkEvent> load_events(const std::string& text, const Scenario& scenario) {
+  // An events file's list: `events: [...]` or the bare list (a launch's and a relay's alike).
+  YAML::Node events_list(const std::string& text) {
     YAML::Node root;
     try {
       root = YAML::Load(text);
@@ -165,11 +165,14 @@ class Loader {
                                     "'events: []' for none)");
     if (root.IsScalar())
       fail(root.Mark(), "an events file is 'events:' with a list of link changes, got plain text (is this a YAML file?)");
-    if (root.IsMap()) {
-      const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
-      root = require(top, "events");
-    }
-    std::vector<LinkEvent> events = read_events(root, "events", scenario);
+    if (!root.IsMap()) return root;
+    const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
+    return require(top, "events");
+  }
+
+  // An events file for `scenario`'s links and period.
+  std::vector<LinkEvent> load_events(const std::string& text, const Scenario& scenario) {
+    std::vector<LinkEvent> events = read_events(events_list(text), "events", scenario);
     // Checked as they will run: before the scenario's own events of the same period, and
     // together with its timeline (an event may rely on an earlier change of the scenario's).
     // The replayed events come first, so the messages' events[i] are this file's.
@@ -240,22 +243,7 @@ class Loader {
   // An events file of a relay (`events: [...]` or the bare list, as --record's journal writes
   // it), for the relay `c`'s topics.
   std::vector<RelayEvent> load_relay_events(const std::string& text, const RelayConfig& c) {
-    YAML::Node root;
-    try {
-      root = YAML::Load(text);
-    } catch (const YAML::ParserException& e) {
-      fail(e.mark, "YAML syntax error: " + e.msg);
-    }
-    if (root.IsNull())
-      fail(YAML::Mark::null_mark(), "the events file is empty (expected 'events:' with a list of link changes; "
-                                    "'events: []' for none)");
-    if (root.IsScalar())
-      fail(root.Mark(), "an events file is 'events:' with a list of link changes, got plain text (is this a YAML file?)");
-    if (root.IsMap()) {
-      const MapView top = open_map(root, "", YAML::Mark::null_mark(), {"events"});
-      root = require(top, "events");
-    }
-    return read_relay_events(root, "events", c);
+    return read_relay_events(events_list(text), "events", c);
   }
 
  private:

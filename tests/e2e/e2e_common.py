@@ -195,6 +195,19 @@ def stop_process(proc, timeout=20):
         return proc.wait()
 
 
+def cyclone_programs(*variables):
+    """The Cyclone DDS test programs the environment names (e.g. NETKF_CYCLONE_CHATTER), built by
+    tests/interop when Cyclone DDS is installed; when one is missing the test ends: skipped (77,
+    ctest's SKIP_RETURN_CODE), or failed in CI and with NETKF_REQUIRE_INTEROP."""
+    paths = [os.environ.get(v, "") for v in variables]
+    if all(p and os.access(p, os.X_OK) for p in paths):
+        return paths[0] if len(paths) == 1 else paths
+    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
+    print("%s not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, scripts/deps.sh)"
+          % " / ".join(v.lower() for v in variables), flush=True)
+    sys.exit(1 if required else 77)
+
+
 class CycloneReader:
     """tests/interop/netkf_cyclone_reader (or its ROS 2 build) in the background: JSON lines on
     stdout, its log on stderr; CYCLONEDDS_URI set to `config_uri`, or unset (Cyclone's defaults)."""

@@ -24,24 +24,18 @@ import json
 import os
 import re
 import subprocess
-import sys
 
 import yaml
 
-from e2e_common import (NETKF, REPO, LoggedProcesses, check, finish, node, require_netns, stop_process, wait_for,
-                        workdir)
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, node, require_netns,
+                         stop_process, wait_for, workdir)
 
 require_netns()
 FROM, TO = 119, 120
 FIRST, SECOND, THIRD = 300, 200, 100  # the first run's three talkers
 TOTAL = FIRST + SECOND + THIRD
 AT = 200                  # the timeline's event: loss 1 from this sample on
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-if not (CHATTER and os.access(CHATTER, os.X_OK)):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
-          "scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER = cyclone_programs("NETKF_CYCLONE_CHATTER")
 out = workdir("relay_events")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
 processes = LoggedProcesses(out, env)

@@ -19,25 +19,19 @@ import os
 import re
 import signal
 import subprocess
-import sys
 import time
 import urllib.error
 import urllib.request
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, node, require_netns, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, node, require_netns,
+                         stop_process, wait_for, workdir)
 
 require_netns()
 FROM, TO = 109, 110
 COUNT, LOSS = 400, 0.3
 COUNT2 = 100  # after the link is made lossless
 COUNT3 = 30   # after a Foxglove client makes it drop everything
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-READER = os.environ.get("NETKF_CYCLONE_READER", "")
-if not all(p and os.access(p, os.X_OK) for p in (CHATTER, READER)):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter / netkf_cyclone_reader are not built (Cyclone DDS missing: install cyclonedds-dev "
-          "cyclonedds-tools, scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER, READER = cyclone_programs("NETKF_CYCLONE_CHATTER", "NETKF_CYCLONE_READER")
 out = workdir("relay_live")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
 record = os.path.join(out, "fates.csv")

@@ -21,7 +21,8 @@ import sys
 import threading
 import time
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, node, require_netns, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, node, require_netns,
+                         stop_process, wait_for, workdir)
 
 require_netns()
 FROM, TO = 117, 118
@@ -29,12 +30,7 @@ COUNT, LOSS = 300, 0.3
 COUNT2 = 100  # after the page made the link lossless
 DELAY_MS = 5  # and set this delay
 TYPE = "std_msgs::msg::dds_::String_"  # the type name the Cyclone talker registers
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-if not (CHATTER and os.access(CHATTER, os.X_OK)):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
-          "scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER = cyclone_programs("NETKF_CYCLONE_CHATTER")
 if not os.access("/usr/bin/chromium", os.X_OK):
     print("Debian's chromium is not installed (scripts/deps.sh)", flush=True)
     sys.exit(1 if os.environ.get("CI") == "true" else 77)

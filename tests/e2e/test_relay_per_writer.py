@@ -23,23 +23,18 @@ import os
 import re
 import signal
 import subprocess
-import sys
 import time
 import urllib.request
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, require_netns, stop_process, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, require_netns, stop_process,
+                         wait_for, workdir)
 
 require_netns()
 FROM, TO = 123, 124
 COUNT, LOSS1, LOSS2 = 400, 0.1, 0.6
 COUNT3 = 100  # the unnamed third talker, after the topic's link is made lossless
 COUNT4 = 50   # robot1 again, once its first writer is gone
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-if not CHATTER or not os.access(CHATTER, os.X_OK):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
-          "scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER = cyclone_programs("NETKF_CYCLONE_CHATTER")
 out = workdir("relay_per_writer")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
 record = os.path.join(out, "fates.csv")

@@ -19,20 +19,15 @@ computes of the text the talker writes.
 import os
 import signal
 import subprocess
-import sys
 import time
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, stop_process, require_netns, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, require_netns, stop_process,
+                         wait_for, workdir)
 
 require_netns()
 FROM, TO = 111, 112
 DEPTH = 10
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-if not CHATTER or not os.access(CHATTER, os.X_OK):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
-          "scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER = cyclone_programs("NETKF_CYCLONE_CHATTER")
 out = workdir("relay_qos")
 localhost = os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + localhost)

@@ -14,19 +14,14 @@ import csv
 import json
 import math
 import os
-import sys
 
-from e2e_common import NETKF, REPO, LoggedProcesses, check, finish, netkf, require_netns, stop_process, wait_for, workdir
+from e2e_common import (NETKF, REPO, LoggedProcesses, check, cyclone_programs, finish, netkf, require_netns,
+                         stop_process, wait_for, workdir)
 
 require_netns()
 FROM, TO = 121, 122
 COUNT = 300
-CHATTER = os.environ.get("NETKF_CYCLONE_CHATTER", "")
-if not CHATTER or not os.access(CHATTER, os.X_OK):
-    required = os.environ.get("NETKF_REQUIRE_INTEROP") in ("1", "ON", "TRUE", "true") or os.environ.get("CI") == "true"
-    print("netkf_cyclone_chatter is not built (Cyclone DDS missing: install cyclonedds-dev cyclonedds-tools, "
-          "scripts/deps.sh)", flush=True)
-    sys.exit(1 if required else 77)  # 77: ctest SKIP_RETURN_CODE
+CHATTER = cyclone_programs("NETKF_CYCLONE_CHATTER")
 out = workdir("relay_trace")
 env = dict(os.environ, CYCLONEDDS_URI="file://" + os.path.join(REPO, "deploy", "dds", "cyclonedds-localhost.xml"))
 processes = LoggedProcesses(out, env)
