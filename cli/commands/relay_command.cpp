@@ -156,11 +156,12 @@ int run_relay(const RelayCommandOptions& o) {
   check_relay_outputs(o);
   RelayOptions options = relay_options(o);
   std::vector<Check> checks;
-  std::vector<std::string> topic_names;
-  for (const auto& t : options.topics) topic_names.push_back(t.name);
+  std::vector<std::string> topic_names, per_writer_names;
+  for (const auto& t : options.topics) (t.per_writer ? per_writer_names : topic_names).push_back(t.name);
+  topic_names.insert(topic_names.end(), per_writer_names.begin(), per_writer_names.end());
   for (const auto& text : o.checks) {
     try {
-      checks.push_back(parse_relay_check(text, topic_names));
+      checks.push_back(parse_relay_check(text, topic_names, per_writer_names));
     } catch (const std::invalid_argument& e) {
       fail(ExitCode::bad_usage, e.what());
     }

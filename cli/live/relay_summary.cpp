@@ -78,7 +78,8 @@ std::vector<std::string> relay_quantity_names() {
   return names;
 }
 
-Check parse_relay_check(const std::string& text, const std::vector<std::string>& topics) {
+Check parse_relay_check(const std::string& text, const std::vector<std::string>& topics,
+                        const std::vector<std::string>& per_writer_topics) {
   Check c = parse_check_syntax(text, "link.rt/chatter.observed_loss<0.35");
   const std::string quoted = "check '" + text + "': ";
   std::string topic, quantity;
@@ -88,7 +89,12 @@ Check parse_relay_check(const std::string& text, const std::vector<std::string>&
                                 join(relay_quantity_names()) + "} for the topics " + join(topics));
   for (const auto& t : topics)
     if (t == topic) return c;
-  throw std::invalid_argument(quoted + "topic " + topic + " is not relayed (the relay's topics: " + join(topics) + ")");
+  // A writer's link: TOPIC@WRITER of a per-writer topic.
+  if (const auto at = topic.rfind('@'); at != std::string::npos)
+    for (const auto& t : per_writer_topics)
+      if (t == topic.substr(0, at)) return c;
+  throw std::invalid_argument(quoted + "topic " + topic + " is not relayed (the relay's topics: " + join(topics) +
+                              (per_writer_topics.empty() ? ")" : "; a writer's link of a per-writer topic: TOPIC@WRITER)"));
 }
 
 Measured measure_relay(const std::vector<RelayTopicSummary>& topics, const std::string& name) {
@@ -97,6 +103,11 @@ Measured measure_relay(const std::vector<RelayTopicSummary>& topics, const std::
     if (const auto* q = topic_quantity(quantity))
       for (const auto& t : topics)
         if (t.topic == topic) return q->measure(t);
+  if (topic.find('@') != std::string::npos) {
+    Measured m;
+    m.missing = "no writer made the link " + topic;
+    return m;
+  }
   throw std::invalid_argument("no quantity named '" + name + "' in the relay's summary");
 }
 

@@ -34,11 +34,14 @@ struct RelayTopicSummary {
 /// The per-topic quantity names above, in their order.
 std::vector<std::string> relay_quantity_names();
 
-/// Parses a check (run_summary.hpp's syntax) on `link.TOPIC.NAME` for one of `topics`; throws
+/// Parses a check (run_summary.hpp's syntax) on `link.TOPIC.NAME` for one of `topics`, or for a
+/// writer's link `link.TOPIC@WRITER.NAME` of one of `per_writer_topics`; throws
 /// std::invalid_argument naming what is wrong (the topics and names there are).
-Check parse_relay_check(const std::string& text, const std::vector<std::string>& topics);
+Check parse_relay_check(const std::string& text, const std::vector<std::string>& topics,
+                        const std::vector<std::string>& per_writer_topics = {});
 
-/// The value of `link.TOPIC.NAME`; throws std::invalid_argument for a name that is none.
+/// The value of `link.TOPIC.NAME`; not measured (the check fails, saying so) for a writer's link
+/// no writer of that name made; throws std::invalid_argument for a name that is none.
 Measured measure_relay(const std::vector<RelayTopicSummary>& topics, const std::string& name);
 
 /// The summary as JSON: "link": {"TOPIC": {every quantity}}, "checks", "passed".

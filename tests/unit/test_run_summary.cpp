@@ -628,5 +628,29 @@ TEST(RelayChecks, MeasureEachTopicsCountsByHand) {
   EXPECT_EQ(j["passed"], false);
 }
 
+// A per-writer topic's writers' links (TOPIC@WRITER) may be checked; one no writer made is not
+// measured, so its check fails saying so (the relay ends with exit 1, not an error).
+TEST(RelayChecks, AWritersLinkIsCheckedAndAMissingOneFails) {
+  const std::vector<std::string> topics{"rt/scan", "rt/odom"}, per_writer{"rt/scan"};
+  EXPECT_EQ(parse_relay_check("link.rt/scan@robot1.dropped<5", topics, per_writer).name, "link.rt/scan@robot1.dropped");
+  try {
+    parse_relay_check("link.rt/odom@robot1.dropped<5", topics, per_writer);
+    ADD_FAILURE() << "rt/odom has no writers' links";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("a writer's link of a per-writer topic: TOPIC@WRITER"), std::string::npos)
+        << e.what();
+  }
+  const std::vector<RelayTopicSummary> seen{relayed("rt/scan@robot1", {false, true, false})};
+  const auto at = [&](const std::string& name) { return measure_relay(seen, name); };
+  const auto results = evaluate_checks({parse_relay_check("link.rt/scan@robot1.dropped<5", topics, per_writer),
+                                        parse_relay_check("link.rt/scan@robot2.dropped<5", topics, per_writer)},
+                                       at);
+  ASSERT_EQ(results.size(), 2u);
+  EXPECT_TRUE(results[0].passed);
+  EXPECT_EQ(results[0].measured.value, 1.0);
+  EXPECT_FALSE(results[1].passed);
+  EXPECT_EQ(results[1].verdict(), "FAIL (not measured: no writer made the link rt/scan@robot2)");
+}
+
 }  // namespace
 }  // namespace netkf::cli
