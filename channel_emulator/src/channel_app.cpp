@@ -38,9 +38,9 @@ class ChannelApp::Impl {
         status_(participant, dds::topics::link_status),
         reply_(participant, dds::topics::link_control_reply),
         journal_(participant, dds::topics::link_change) {
-    for (const auto& r : links_.reports()) {
-      spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", link_name(r.sensor_id),
-                   describe_link(r.link), stationary_loss(r.link.loss), probability_within(r.link.delay, r.deadline_ms));
+    for (const auto& r : links_.statuses()) {
+      spdlog::info("link {}: {}; stationary loss {:.4f}, in time for the deadline {:.4f}", r.name(),
+                   describe_link(r.link), stationary_loss(r.link.loss), r.in_time);
     }
     // The actuation link: the estimator's inputs reach the plant through this process.
     if (scenario.actuation_link())
@@ -128,7 +128,7 @@ class ChannelApp::Impl {
     ChannelAppStats s;
     {
       const std::lock_guard lock(mutex_);
-      s.links = links_.reports();
+      s.links = links_.statuses();
       s.held = held_.size() + held_inputs_.size();
       s.unknown_sensor_samples = links_.unknown_sensor_samples();
     }
@@ -142,10 +142,11 @@ class ChannelApp::Impl {
       spdlog::info("{} raw samples came in {} batches (sensor processes of several sensors)", batched_samples_.load(),
                    raw_batch_->received());
     const std::lock_guard lock(mutex_);  // the raw reader still delivers until it is gone
-    for (const auto& r : links_.reports()) {
-      spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} mean burst {:.3f}", link_name(r.sensor_id),
-                   r.lifetime.samples(), r.lifetime.delivered(), r.lifetime.dropped(), r.lifetime.observed_loss(),
-                   r.lifetime.mean_burst_length());
+    for (const auto& r : links_.statuses()) {
+      const double loss =
+          r.samples_total == 0 ? 0.0 : static_cast<double>(r.dropped_total) / static_cast<double>(r.samples_total);
+      spdlog::info("link {}: in {} delivered {} dropped {} observed loss {:.4f} (since the last change: mean burst {:.3f})",
+                   r.name(), r.samples_total, r.delivered_total, r.dropped_total, loss, r.mean_burst_length);
     }
   }
 
@@ -153,33 +154,28 @@ class ChannelApp::Impl {
   // Any thread (io thread; run()'s caller once the io thread is done).
   void publish_status() {
     const auto now = dds::steady_now_ns();
-    std::vector<dds::LinkStatusFacts> facts;
+    std::vector<LinkStatus> statuses;
     {
       const std::lock_guard lock(mutex_);
-      for (const auto& r : links_.reports()) {
-        const std::uint64_t held =
-            r.sensor_id == kControlLinkId ? held_inputs_.held(r.sensor_id) : held_.held(r.sensor_id);
-        facts.push_back({r.sensor_id, r.link, probability_within(r.link.delay, r.deadline_ms), r.stats, r.lifetime,
-                         r.last_request_id, r.last_request_rejected, r.reject_reason, held,
-                         r.past_deadline, r.recent_fit});
-      }
+      statuses = links_.statuses();
+      for (auto& r : statuses)
+        r.held = r.sensor_id == kControlLinkId ? held_inputs_.held(r.sensor_id) : held_.held(r.sensor_id);
     }
-    for (const auto& f : facts) status_.write(dds::make_link_status(f, now));
+    for (const auto& r : statuses) status_.write(dds::to_wire(r, now));
   }
 
   // DDS receive thread. Journal entries are written where they are made (a sample or a
   // request: rare, short).
-  void publish_changes(const std::vector<AppliedLinkChange>& changes) {
+  void publish_changes(const std::vector<LinkChange>& changes) {
     for (const auto& c : changes) {
       if (!c.failure.empty()) {
         spdlog::warn("timeline: link {} event at period {} not applied: {}", link_name(c.sensor_id), c.at_period,
                      c.failure);
         continue;
       }
-      if (c.origin == AppliedLinkChange::Origin::timeline)
+      if (c.origin == LinkChange::Origin::timeline)
         spdlog::info("timeline: link {} from period {}: {}", link_name(c.sensor_id), c.at_period, describe_link(c.link));
-      journal_.write(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), to_string(c.origin),
-                                           c.request_id, c.link, dds::steady_now_ns()));
+      journal_.write(dds::to_wire(c, dds::steady_now_ns()));
     }
   }
 
@@ -222,7 +218,7 @@ class ChannelApp::Impl {
   };
 
   // DDS receive thread, under mutex_: the sample's fate on its link; a delayed one is held.
-  Routed route_locked(const wire::Measurement& m, std::vector<AppliedLinkChange>& changes) {
+  Routed route_locked(const wire::Measurement& m, std::vector<LinkChange>& changes) {
     Routed r;
     r.fate = links_.on_sample(m.sensor_id(), static_cast<std::int64_t>(m.k()));
     r.unknown_so_far = links_.unknown_sensor_samples();
@@ -251,7 +247,7 @@ class ChannelApp::Impl {
 
   // DDS receive thread
   void on_raw(const wire::Measurement& m) {
-    std::vector<AppliedLinkChange> changes;
+    std::vector<LinkChange> changes;
     Routed r;
     {
       const std::lock_guard lock(mutex_);
@@ -267,7 +263,7 @@ class ChannelApp::Impl {
   // (so every link sees the same sequence as from a process of its own); the ones relayed at
   // once leave as one batch, delayed ones one by one when due.
   void on_raw_batch(wire::MeasurementBatch&& batch) {
-    std::vector<AppliedLinkChange> changes;
+    std::vector<LinkChange> changes;
     std::vector<Routed> routed;
     routed.reserve(batch.samples().size());
     bool rearm = false;
@@ -295,7 +291,7 @@ class ChannelApp::Impl {
   // a write, as a sample); a delayed one is held like a delayed sample. The plant applies it
   // only if it arrives before the tick that needs it.
   void on_input(const wire::ControlInput& c) {
-    std::vector<AppliedLinkChange> changes;
+    std::vector<LinkChange> changes;
     SampleFate fate;
     bool rearm = false;
     {
@@ -315,7 +311,7 @@ class ChannelApp::Impl {
   // io thread
   void on_control(const wire::LinkControl& c) {
     if (is_relay_topic_link_id(c.sensor_id())) return;  // a topic of `netkf relay`: not a link of this network
-    LinkChangeResult result;
+    LinkReply result;
     LinkSpec applied;
     const LinkKeys keys = dds::link_keys_of(c);
     // A trace is read here, outside the lock the sample path takes (a request is rare; the
@@ -331,14 +327,14 @@ class ChannelApp::Impl {
     }
     if (!result.reason.empty()) {
       spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), link_name(c.sensor_id()), result.reason);
-      reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, false, result.reason));
+      reply_.write(dds::to_wire(result));
       publish_status();
       return;
     }
     {
       const std::lock_guard lock(mutex_);
       result = links_.request(c.request_id(), c.sensor_id(), keys, &traces);
-      if (result.applied) applied = links_.report(c.sensor_id())->link;
+      if (result.applied) applied = links_.status(c.sensor_id())->link;
     }
     if (result.applied) {
       spdlog::info("request {}: link {} set to {} (stationary loss {:.4f}) from its next sample", c.request_id(),
@@ -346,11 +342,11 @@ class ChannelApp::Impl {
     } else {
       spdlog::warn("request {}: link {} change rejected: {}", c.request_id(), link_name(c.sensor_id()), result.reason);
     }
-    reply_.write(dds::make_link_control_reply(result.request_id, result.sensor_id, result.applied, result.reason));
+    reply_.write(dds::to_wire(result));
     publish_status();
   }
 
-  LinkChangeResult links_reject(const wire::LinkControl& c, const std::string& reason) {
+  LinkReply links_reject(const wire::LinkControl& c, const std::string& reason) {
     const std::lock_guard lock(mutex_);
     return links_.reject(c.request_id(), c.sensor_id(), reason);
   }

@@ -48,7 +48,7 @@ namespace {
 // processes on other hosts are discovered later (a discovery server relays them one by one):
 // wait until every presence writer discovered was heard and nothing new came for a grace period
 // (400 ms, which alone missed a host's processes under load), at most until `deadline`.
-void settle_status(boost::asio::io_context& io, const LiveBus& bus, const std::map<int, LinkStatusRecord>& links,
+void settle_status(boost::asio::io_context& io, const LiveBus& bus, const std::map<int, LinkStatus>& links,
                    Clock::time_point deadline) {
   constexpr auto grace = std::chrono::milliseconds(400);
   const auto heard = [&] {
@@ -73,9 +73,9 @@ void settle_status(boost::asio::io_context& io, const LiveBus& bus, const std::m
 
 int run_ctl_status(const CtlOptions& o) {
   boost::asio::io_context io;
-  std::map<int, LinkStatusRecord> links;
+  std::map<int, LinkStatus> links;
   BusHandlers h;
-  h.link_status = [&](LinkStatusRecord&& l) { links[l.sensor_id] = std::move(l); };
+  h.link_status = [&](LinkStatus&& l) { links[l.sensor_id] = std::move(l); };
   std::unique_ptr<LiveBus> bus;
   try {
     BusOptions bus_options = o.network.bus("netkf-ctl", dds::Role::observer);
@@ -89,7 +89,7 @@ int run_ctl_status(const CtlOptions& o) {
     fail(ExitCode::no_network, "no link status received within " + number_text(o.timeout) + " s on DDS domain " +
                 std::to_string(bus->domain()) + " (is a network running? netkf launch)");
   settle_status(io, *bus, links, Clock::now() + timeout);
-  std::vector<LinkStatusRecord> list;
+  std::vector<LinkStatus> list;
   for (auto& [id, l] : links) list.push_back(l);
   // The processes of the network, on every host (presence), running ones first.
   std::vector<dds::PresenceRecord> processes;
@@ -119,14 +119,14 @@ int run_ctl_set_link(const CtlOptions& o) {
   const LinkKeys keys = ctl_link_keys(o);
 
   boost::asio::io_context io;
-  std::optional<LinkReplyRecord> reply;
-  std::optional<LinkStatusRecord> acknowledged;
+  std::optional<LinkReply> reply;
+  std::optional<LinkStatus> acknowledged;
   const std::uint64_t request_id = random_request_id();  // unlikely to collide with another ctl's
   BusHandlers h;
-  h.link_reply = [&](LinkReplyRecord&& r) {
+  h.link_reply = [&](LinkReply&& r) {
     if (r.request_id == request_id) reply = r;
   };
-  h.link_status = [&](LinkStatusRecord&& l) {
+  h.link_status = [&](LinkStatus&& l) {
     if (l.last_request_id == request_id) acknowledged = l;
   };
   std::unique_ptr<LiveBus> bus;

@@ -181,9 +181,9 @@ json parameter_values(const std::vector<LinkView>& links, const std::vector<std:
   return j;
 }
 
-std::vector<LinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links) {
+std::vector<RequestedLinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links) {
   // Gather each link's requested values; refuse names that are not link parameters.
-  std::vector<LinkChange> refused;
+  std::vector<RequestedLinkChange> refused;
   std::map<int, std::map<std::string, json>> by_link;
   for (const auto& [name, value] : request.parameters) {
     const auto parts = split_parameter_name(name);
@@ -193,9 +193,9 @@ std::vector<LinkChange> link_changes(const SetParameters& request, const std::ve
     }
     by_link[parts->first][parts->second] = value;
   }
-  std::vector<LinkChange> out;
+  std::vector<RequestedLinkChange> out;
   for (auto& [sensor_id, values] : by_link) {
-    LinkChange change{sensor_id, std::nullopt, {}, {}};
+    RequestedLinkChange change{sensor_id, std::nullopt, {}, {}};
     const LinkView* link = nullptr;
     for (const auto& l : links)
       if (l.sensor_id == sensor_id) link = &l;

@@ -15,7 +15,12 @@
 #include <nlohmann/json.hpp>
 
 #include "channel_catalogue.hpp"
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "live_snapshot.hpp"
 #include "netkf/scenario.hpp"
 
@@ -74,7 +79,7 @@ nlohmann::json link_parameter_values(const LinkView& link, const std::optional<s
 
 /// One link's requested change: the keys to send and the link they make of the current one,
 /// or why it is refused (then nothing changes).
-struct LinkChange {
+struct RequestedLinkChange {
   int sensor_id = 0;
   std::optional<LinkKeys> keys;
   LinkSpec link;        // the link after the change (when keys is set)
@@ -83,6 +88,6 @@ struct LinkChange {
 /// Group a setParameters by link and check each link's keys against its current link.
 /// Names that are not link.ID.NAME of a known link and parameter are refused (sensor_id
 /// then is the id named, or -1 when none could be read).
-std::vector<LinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links);
+std::vector<RequestedLinkChange> link_changes(const SetParameters& request, const std::vector<LinkView>& links);
 
 }  // namespace netkf::cli::dashboard

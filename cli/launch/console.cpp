@@ -73,7 +73,7 @@ std::uint64_t LiveConsole::wall_ns() {
       std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count());
 }
 
-void LiveConsole::truth(const TruthRecord& truth) {
+void LiveConsole::truth(const Truth& truth) {
   model_.add_truth(truth);
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::truth, catalogue::truth_message(truth), wall_ns());
 }
@@ -89,7 +89,7 @@ void LiveConsole::estimate(const Estimate& estimate) {
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
 }
 
-void LiveConsole::link_status(const LinkStatusRecord& status) {
+void LiveConsole::link_status(const LinkStatus& status) {
   // This link only: every link reports once a second (a copy of all links per report was
   // quadratic, the launch's whole thread at 4096 links).
   const LinkView* link = model_.find_link(status.sensor_id);
@@ -108,7 +108,7 @@ void LiveConsole::link_status(const LinkStatusRecord& status) {
   emit_events();
 }
 
-void LiveConsole::link_reply(const LinkReplyRecord& reply) {
+void LiveConsole::link_reply(const LinkReply& reply) {
   auto it = pending_.find(reply.request_id);
   if (it == pending_.end()) return;  // another client's request
   PendingChange& change = it->second;
@@ -131,10 +131,10 @@ void LiveConsole::link_reply(const LinkReplyRecord& reply) {
   send_waiting_changes();
 }
 
-void LiveConsole::link_change(const LinkChangeRecord& change) {
+void LiveConsole::link_change(const LinkChange& change) {
   model_.add_link_change(change);
   emit_events();
-  if (change.origin != "request") return;
+  if (change.origin != LinkChange::Origin::request) return;
   if (auto it = pending_.find(change.request_id); it != pending_.end()) {
     if (!it->second.answered) {
       it->second.took_effect = true;  // the answer is still on its way

@@ -19,7 +19,12 @@
 #include "dashboard_server.hpp"
 #include "live_metrics.hpp"
 #include "live_model.hpp"
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/log_throttle.hpp"
 #include "theory_worker.hpp"
 
@@ -42,11 +47,11 @@ class LiveConsole {
             SendLinkControl send_link_control);
   ~LiveConsole();
 
-  void truth(const TruthRecord& truth);
+  void truth(const Truth& truth);
   void estimate(const Estimate& estimate);
-  void link_status(const LinkStatusRecord& status);
-  void link_reply(const LinkReplyRecord& reply);
-  void link_change(const LinkChangeRecord& change);
+  void link_status(const LinkStatus& status);
+  void link_reply(const LinkReply& reply);
+  void link_change(const LinkChange& change);
   void invalid_sample(const std::string& what);
 
   /// A line of the launch's own log (supervisor events): printed, or kept on the screen.

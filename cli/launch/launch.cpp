@@ -76,7 +76,7 @@ Scenario load_or_default(const std::optional<std::string>& file) {
 BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSummaryBuilder* summary,
                                std::uint64_t& invalid) {
   BusHandlers h;
-  h.truth = [&recording, console, summary](TruthRecord&& t) {
+  h.truth = [&recording, console, summary](Truth&& t) {
     recording.truth(t);
     if (console) console->truth(t);
     if (summary) summary->add_truth(t);
@@ -88,9 +88,9 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
     if (console) console->estimate(e);
     if (summary) summary->add_estimate(e);
   };
-  if (recording.wants_samples()) h.delivered = [&recording](DeliveredRecord&& d) { recording.delivered(d); };
+  if (recording.wants_samples()) h.delivered = [&recording](DeliveredMeasurement&& d) { recording.delivered(d); };
   if (recording.journals_changes() || console) {
-    h.link_change = [&recording, console](LinkChangeRecord&& c) {
+    h.link_change = [&recording, console](LinkChange&& c) {
       // A netkf relay's topic on the same domain is not one of the scenario's links: its
       // journal counts samples of a topic, not periods (ctl status shows it; docs/relay.md).
       if (!c.topic.empty()) return;
@@ -99,14 +99,14 @@ BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSu
     };
   }
   if (console || summary || recording.wants_link_status()) {
-    h.link_status = [&recording, console, summary](LinkStatusRecord&& l) {
+    h.link_status = [&recording, console, summary](LinkStatus&& l) {
       if (!l.topic.empty()) return;  // a netkf relay's topic (above)
       recording.link_status(l);
       if (summary) summary->add_link_status(l);
       if (console) console->link_status(l);
     };
   }
-  if (console) h.link_reply = [console](LinkReplyRecord&& r) { console->link_reply(r); };
+  if (console) h.link_reply = [console](LinkReply&& r) { console->link_reply(r); };
   h.invalid = [console, &invalid](const std::string& what) {
     ++invalid;
     if (console) console->invalid_sample(what);
@@ -254,7 +254,7 @@ void Launch::open_console() {
 void Launch::open_bus() {
   BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
   outages_ = std::make_unique<OutageWatch>(std::chrono::milliseconds(scenario_.period_ms));
-  handlers.truth = [record = std::move(handlers.truth), this](TruthRecord&& t) {
+  handlers.truth = [record = std::move(handlers.truth), this](Truth&& t) {
     outages_->truth(t.k, Clock::now());
     record(std::move(t));
   };

@@ -92,94 +92,112 @@ json link_status_schema_properties(json status_props) {
   return status_props;
 }
 
+Channel scenario_channel(const json& link_props) {
+  return Channel{ChannelId::scenario, "netkf/scenario", "netkf.Scenario",
+                 schema_object({{"name", {{"type", "string"}}},
+                                {"period_ms", {{"type", "number"}}},
+                                {"state_dim", {{"type", "integer"}}},
+                                {"seed", {{"type", "integer"}}},
+                                {"late_policy", {{"type", "string"}}},
+                                {"max_delay_periods", {{"type", json::array({"integer", "null"})}}},
+                                {"sensors",
+                                 {{"type", "array"},
+                                  {"items", schema_object({{"id", {{"type", "integer"}}},
+                                                           {"measurement_dim", {{"type", "integer"}}},
+                                                           {"link", schema_object(link_props, {"model"})}},
+                                                          {"id", "link"})}}},
+                                {"actuation",
+                                 {{"type", json::array({"object", "null"})},
+                                  {"properties",
+                                   {{"link", schema_object(link_props, {"model"})},
+                                    {"on_loss", {{"type", "string"}, {"enum", {"zero", "hold"}}}},
+                                    {"acknowledged", {{"type", "boolean"}}}}}}}},
+                               {"name", "period_ms", "state_dim", "sensors"})};
+}
+
+Channel estimate_channel() {
+  return Channel{ChannelId::estimate, "netkf/estimate", "netkf.wire.Estimate",
+                 schema_object({{"k", {{"type", "integer"}}},
+                                {"revision", {{"type", "integer"}}},
+                                {"t", {{"type", "number"}}},
+                                {"x_hat", number_array()},
+                                {"P", number_array()},
+                                {"fused", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+                                {"late", {{"type", "integer"}}},
+                                {"late_samples",
+                                 {{"type", "array"},
+                                  {"items", schema_object({{"k", {{"type", "integer"}}},
+                                                           {"sensor_id", {{"type", "integer"}}}},
+                                                          {"k", "sensor_id"})}}},
+                                {"late_total", {{"type", "integer"}}},
+                                {"rejected_total", {{"type", "integer"}}},
+                                {"state", {{"type", "string"}, {"enum", {"ok", "diverging"}}}},
+                                {"trace_P", {{"type", "number"}}},
+                                {"trace_P_pred", {{"type", "number"}}}},
+                               {"k", "t", "x_hat", "P", "fused", "state", "trace_P", "trace_P_pred"})};
+}
+
+Channel truth_channel() {
+  return Channel{ChannelId::truth, "netkf/truth", "netkf.wire.Truth",
+                 schema_object({{"k", {{"type", "integer"}}},
+                                {"t", {{"type", "number"}}},
+                                {"x", number_array()},
+                                {"u", number_array()},
+                                {"input_arrived", {{"type", "boolean"}}}},
+                               {"k", "t", "x"})};
+}
+
+Channel theory_channel() {
+  return Channel{ChannelId::theory, "netkf/theory", "netkf.Theory",
+                 schema_object({{"k", {{"type", "integer"}}},
+                                {"configured", assessment_schema()},
+                                {"observed", assessment_schema()},
+                                {"final_estimate", assessment_schema()},
+                                {"observed_rates_from", {{"type", "string"}}},
+                                {"region",
+                                 {{"type", json::array({"array", "null"})},
+                                  {"items", schema_object({{"lambda1", {{"type", "number"}}},
+                                                           {"lambda2_lower", nullable_number()},
+                                                           {"lambda2_upper", nullable_number()}},
+                                                          {"lambda1", "lambda2_lower"})}}}},
+                               {"k", "configured"})};
+}
+
+Channel network_channel() {
+  return Channel{ChannelId::network, "netkf/network", "netkf.Network",
+                 schema_object({{"k", {{"type", json::array({"integer", "null"})}}},
+                                {"estimates", {{"type", "integer"}}},
+                                {"rms_error", nullable_number()},
+                                {"mean_trace_P", {{"type", "number"}}},
+                                {"mean_trace_P_pred", {{"type", "number"}}},
+                                {"late_total", {{"type", "integer"}}},
+                                {"rejected_total", {{"type", "integer"}}},
+                                {"invalid_samples", {{"type", "integer"}}},
+                                {"estimator_restarts", {{"type", "integer"}}},
+                                {"restart_gap_periods", {{"type", "integer"}}},
+                                {"mean_cost", nullable_number()},
+                                {"periods_costed", {{"type", "integer"}}},
+                                {"processes",
+                                 {{"type", "array"},
+                                  {"items", schema_object({{"name", {{"type", "string"}}},
+                                                           {"pid", {{"type", "integer"}}},
+                                                           {"running", {{"type", "boolean"}}},
+                                                           {"restarts", {{"type", "integer"}}},
+                                                           {"host", {{"type", "string"}}}},
+                                                          {"name"})}}}},
+                               {"estimates", "processes"})};
+}
+
 std::vector<Channel> make_channels() {
-  std::vector<Channel> c;
-  json link_props = link_model_schema();
-  c.push_back({ChannelId::scenario, "netkf/scenario", "netkf.Scenario",
-               schema_object({{"name", {{"type", "string"}}},
-                              {"period_ms", {{"type", "number"}}},
-                              {"state_dim", {{"type", "integer"}}},
-                              {"seed", {{"type", "integer"}}},
-                              {"late_policy", {{"type", "string"}}},
-                              {"max_delay_periods", {{"type", json::array({"integer", "null"})}}},
-                              {"sensors",
-                               {{"type", "array"},
-                                {"items", schema_object({{"id", {{"type", "integer"}}},
-                                                         {"measurement_dim", {{"type", "integer"}}},
-                                                         {"link", schema_object(link_props, {"model"})}},
-                                                        {"id", "link"})}}},
-                              {"actuation",
-                               {{"type", json::array({"object", "null"})},
-                                {"properties",
-                                 {{"link", schema_object(link_props, {"model"})},
-                                  {"on_loss", {{"type", "string"}, {"enum", {"zero", "hold"}}}},
-                                  {"acknowledged", {{"type", "boolean"}}}}}}}},
-                             {"name", "period_ms", "state_dim", "sensors"})});
-  c.push_back({ChannelId::estimate, "netkf/estimate", "netkf.wire.Estimate",
-               schema_object({{"k", {{"type", "integer"}}},
-                              {"revision", {{"type", "integer"}}},
-                              {"t", {{"type", "number"}}},
-                              {"x_hat", number_array()},
-                              {"P", number_array()},
-                              {"fused", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-                              {"late", {{"type", "integer"}}},
-                              {"late_samples",
-                               {{"type", "array"},
-                                {"items", schema_object({{"k", {{"type", "integer"}}},
-                                                         {"sensor_id", {{"type", "integer"}}}},
-                                                        {"k", "sensor_id"})}}},
-                              {"late_total", {{"type", "integer"}}},
-                              {"rejected_total", {{"type", "integer"}}},
-                              {"state", {{"type", "string"}, {"enum", {"ok", "diverging"}}}},
-                              {"trace_P", {{"type", "number"}}},
-                              {"trace_P_pred", {{"type", "number"}}}},
-                             {"k", "t", "x_hat", "P", "fused", "state", "trace_P", "trace_P_pred"})});
-  c.push_back({ChannelId::truth, "netkf/truth", "netkf.wire.Truth",
-               schema_object({{"k", {{"type", "integer"}}},
-                              {"t", {{"type", "number"}}},
-                              {"x", number_array()},
-                              {"u", number_array()},
-                              {"input_arrived", {{"type", "boolean"}}}},
-                             {"k", "t", "x"})});
+  const json link_props = link_model_schema();
   const json status_props = link_status_schema_properties(link_props);
-  c.push_back({ChannelId::link_status, "netkf/link/status", "netkf.wire.LinkStatus",
-               schema_object(status_props, {"sensor_id", "model", "samples_in", "delivered", "dropped"})});
-  c.push_back({ChannelId::theory, "netkf/theory", "netkf.Theory",
-               schema_object({{"k", {{"type", "integer"}}},
-                              {"configured", assessment_schema()},
-                              {"observed", assessment_schema()},
-                              {"final_estimate", assessment_schema()},
-                              {"observed_rates_from", {{"type", "string"}}},
-                              {"region",
-                               {{"type", json::array({"array", "null"})},
-                                {"items", schema_object({{"lambda1", {{"type", "number"}}},
-                                                         {"lambda2_lower", nullable_number()},
-                                                         {"lambda2_upper", nullable_number()}},
-                                                        {"lambda1", "lambda2_lower"})}}}},
-                             {"k", "configured"})});
-  c.push_back({ChannelId::network, "netkf/network", "netkf.Network",
-               schema_object({{"k", {{"type", json::array({"integer", "null"})}}},
-                              {"estimates", {{"type", "integer"}}},
-                              {"rms_error", nullable_number()},
-                              {"mean_trace_P", {{"type", "number"}}},
-                              {"mean_trace_P_pred", {{"type", "number"}}},
-                              {"late_total", {{"type", "integer"}}},
-                              {"rejected_total", {{"type", "integer"}}},
-                              {"invalid_samples", {{"type", "integer"}}},
-                              {"estimator_restarts", {{"type", "integer"}}},
-                              {"restart_gap_periods", {{"type", "integer"}}},
-                              {"mean_cost", nullable_number()},
-                              {"periods_costed", {{"type", "integer"}}},
-                              {"processes",
-                               {{"type", "array"},
-                                {"items", schema_object({{"name", {{"type", "string"}}},
-                                                         {"pid", {{"type", "integer"}}},
-                                                         {"running", {{"type", "boolean"}}},
-                                                         {"restarts", {{"type", "integer"}}},
-                                                         {"host", {{"type", "string"}}}},
-                                                        {"name"})}}}},
-                             {"estimates", "processes"})});
-  return c;
+  return {scenario_channel(link_props),
+          estimate_channel(),
+          truth_channel(),
+          {ChannelId::link_status, "netkf/link/status", "netkf.wire.LinkStatus",
+           schema_object(status_props, {"sensor_id", "model", "samples_in", "delivered", "dropped"})},
+          theory_channel(),
+          network_channel()};
 }
 
 // Channels of the recordings only (their topics are the DDS topics of the records).
@@ -331,7 +349,7 @@ json estimate_message(const Estimate& e) {
               {"trace_P_pred", number_or_null(e.trace_P_pred)}};
 }
 
-json truth_message(const TruthRecord& t) {
+json truth_message(const Truth& t) {
   json j{{"k", t.k}, {"t", t.t}, {"x", t.x}};
   if (!t.u.empty()) {
     j["u"] = t.u;  // closed loop: the input u_{k-1} the plant applied to produce x_k
@@ -340,7 +358,7 @@ json truth_message(const TruthRecord& t) {
   return j;
 }
 
-json link_status_json(const LinkStatusRecord& l) {
+json link_status_json(const LinkStatus& l) {
   json j = link_json(l.link);
   j["sensor_id"] = l.sensor_id;
   j["stationary_loss"] = number_or_null(stationary_loss(l.link.loss));
@@ -394,17 +412,17 @@ json link_status_message(const LinkView& l) {
   return j;
 }
 
-json delivered_message(const DeliveredRecord& d) {
+json delivered_message(const DeliveredMeasurement& d) {
   json y = json::array();
   for (double v : d.y) y.push_back(number_or_null(v));
   return json{{"sensor_id", d.sensor_id}, {"k", d.k}, {"stamp", number_or_null(d.stamp)}, {"y", std::move(y)}};
 }
 
-json link_change_message(const LinkChangeRecord& c) {
+json link_change_message(const LinkChange& c) {
   json j = link_json(c.link);
   j["sensor_id"] = c.sensor_id;
   j["at_period"] = c.at_period;
-  j["origin"] = c.origin;
+  j["origin"] = to_string(c.origin);
   j["request_id"] = c.request_id;
   if (!c.topic.empty()) j["topic"] = c.topic;
   return j;

@@ -9,7 +9,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "live_snapshot.hpp"
 #include "netkf/scenario.hpp"
 
@@ -39,19 +44,19 @@ nlohmann::json link_json(const LinkSpec& link);
 // ---- channel messages
 nlohmann::json scenario_message(const Scenario& scenario);
 nlohmann::json estimate_message(const Estimate& estimate);
-nlohmann::json truth_message(const TruthRecord& truth);
+nlohmann::json truth_message(const Truth& truth);
 /// The one link-status JSON shape (docs/cli.md, "Link status keys"): a link as its channel
 /// reported it, with the observed arrival rate since change; `netkf ctl status --json` prints
 /// it. The dashboard's and the recording's message adds what needs the earlier reports or the
 /// estimator side (late_total, late_fraction, the observed arrival rate over the window).
-nlohmann::json link_status_json(const LinkStatusRecord& link);
+nlohmann::json link_status_json(const LinkStatus& link);
 /// A link's recent-samples fit (`recent_fit` of the link status keys, docs/cli.md).
 nlohmann::json recent_fit_json(const analysis::RecentLossFit& fit);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the
 /// link after the change, keys as in link_status_message).
-nlohmann::json delivered_message(const DeliveredRecord& sample);
-nlohmann::json link_change_message(const LinkChangeRecord& change);
+nlohmann::json delivered_message(const DeliveredMeasurement& sample);
+nlohmann::json link_change_message(const LinkChange& change);
 /// Recordings: an event of the live model (the dashboard's event log) as Foxglove's
 /// well-known foxglove.Log, so Foxglove's Log panel lists it; `time_ns` on the run's clock.
 nlohmann::json log_message(const LiveEvent& event, std::uint64_t time_ns);

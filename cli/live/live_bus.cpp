@@ -10,61 +10,13 @@ namespace netkf::cli {
 
 namespace {
 
-double ns_to_s(std::int64_t ns) { return static_cast<double>(ns) * 1e-9; }
-
-/// A link status from the wire; throws when its link is not valid.
-LinkStatusRecord to_record(const wire::LinkStatus& w) {
-  LinkStatusRecord r;
-  r.sensor_id = w.sensor_id();
-  r.link = dds::link_of(w);  // validated
-  r.samples_in = w.samples_in();
-  r.delivered = w.delivered();
-  r.dropped = w.dropped();
-  r.observed_loss = w.observed_loss();
-  r.mean_burst_length = w.mean_burst_length();
-  r.samples_total = w.samples_total();
-  r.delivered_total = w.delivered_total();
-  r.dropped_total = w.dropped_total();
-  r.last_request_id = w.last_request_id();
-  r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
-  r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
-  r.held = w.held();
-  r.past_deadline = w.past_deadline();
-  r.recent_fit = dds::recent_fit_of(w);
-  r.topic = dds::relayed_topic_of(w.sensor_id(), w.topic());
-  return r;
-}
-
-/// A link journal entry from the wire; throws when its link is not valid.
-LinkChangeRecord to_record(const wire::LinkChange& w) {
-  LinkChangeRecord r;
-  r.sensor_id = w.sensor_id();
-  r.at_period = static_cast<std::int64_t>(w.at_period());
-  r.origin = w.origin();
-  r.request_id = w.request_id();
-  r.link = dds::from_wire(w.link());
-  r.topic = dds::relayed_topic_of(w.sensor_id(), w.topic());
-  return r;
-}
-
-TruthRecord to_truth(const wire::Truth& w) {
-  if (!dds::all_finite(w.x()) || !dds::all_finite(w.applied_input()))
-    throw dds::ConversionError("truth with a non-finite value");
-  return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
-}
-
+// The readers' conversions: the wire types' own (dds/conversions.hpp), named per topic.
+LinkStatus to_link_status(const wire::LinkStatus& w) { return dds::from_wire(w); }
+LinkChange to_link_change(const wire::LinkChange& w) { return dds::from_wire(w); }
+LinkReply to_link_reply(const wire::LinkControlReply& w) { return dds::from_wire(w); }
+Truth to_truth(const wire::Truth& w) { return dds::from_wire(w); }
 Estimate to_estimate(const wire::Estimate& w) { return dds::from_wire(w); }
-
-DeliveredRecord to_delivered(const wire::Measurement& w) {
-  if (!dds::all_finite(w.y())) throw dds::ConversionError("measurement with a non-finite value");
-  return DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), ns_to_s(w.stamp_ns()), w.y()};
-}
-
-LinkStatusRecord to_link_status(const wire::LinkStatus& w) { return to_record(w); }
-LinkChangeRecord to_link_change(const wire::LinkChange& w) { return to_record(w); }
-LinkReplyRecord to_link_reply(const wire::LinkControlReply& w) {
-  return LinkReplyRecord{w.request_id(), w.sensor_id(), w.applied(), w.reason()};
-}
+DeliveredMeasurement to_delivered(const wire::Measurement& w) { return dds::delivered_of(w); }
 
 /// One sample converted and handed on; one that fails its conversion is reported as invalid
 /// (`what` + why) instead.
@@ -99,7 +51,7 @@ std::unique_ptr<dds::Reader<Wire>> open_reader(dds::Participant& participant, co
 /// handled as if it had come alone on the delivered topic.
 std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
     dds::Participant& participant, boost::asio::io_context::executor_type ex,
-    const std::function<void(DeliveredRecord&&)>& handler, const std::function<void(const std::string&)>& invalid) {
+    const std::function<void(DeliveredMeasurement&&)>& handler, const std::function<void(const std::string&)>& invalid) {
   if (!handler) return nullptr;
   return std::make_unique<dds::Reader<wire::MeasurementBatch>>(
       participant, dds::topics::delivered_measurement_batch,
@@ -109,8 +61,6 @@ std::unique_ptr<dds::Reader<wire::MeasurementBatch>> open_batch_reader(
 }
 
 }  // namespace
-
-LinkStatusRecord link_status_record(const wire::LinkStatus& status) { return to_record(status); }
 
 struct LiveBus::Impl {
   dds::Participant participant;

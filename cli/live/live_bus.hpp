@@ -14,7 +14,12 @@
 #include <optional>
 #include <string>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/dds/security.hpp"
 #include "netkf/scenario.hpp"
@@ -69,17 +74,13 @@ struct NetworkSettings {
   }
 };
 
-/// A link status from the wire (throws dds::ConversionError when it is not valid): the one
-/// conversion every reader of link statuses uses (`netkf relay --dashboard` too).
-LinkStatusRecord link_status_record(const wire::LinkStatus& status);
-
 struct BusHandlers {
-  std::function<void(TruthRecord&&)> truth;
+  std::function<void(Truth&&)> truth;
   std::function<void(Estimate&&)> estimate;
-  std::function<void(DeliveredRecord&&)> delivered;
-  std::function<void(LinkStatusRecord&&)> link_status;
-  std::function<void(LinkChangeRecord&&)> link_change;
-  std::function<void(LinkReplyRecord&&)> link_reply;
+  std::function<void(DeliveredMeasurement&&)> delivered;
+  std::function<void(LinkStatus&&)> link_status;
+  std::function<void(LinkChange&&)> link_change;
+  std::function<void(LinkReply&&)> link_reply;
   /// Called with a message when a sample failed validation (counted, not used).
   std::function<void(const std::string&)> invalid;
 };

@@ -34,7 +34,7 @@ const LinkView* LiveModel::find_link(int sensor_id) const {
   return it == link_index_.end() ? nullptr : &snapshot_.links[it->second];
 }
 
-void LiveModel::add_truth(const TruthRecord& truth) {
+void LiveModel::add_truth(const Truth& truth) {
   if (snapshot_.period && static_cast<std::int64_t>(snapshot_.period->estimate.k) == truth.k)
     snapshot_.period->truth = truth.x;
   score(join_.add_truth(truth.k, truth.x));
@@ -139,7 +139,7 @@ void LiveModel::note_own_request(std::uint64_t request_id, std::string source) {
   while (own_requests_.size() > 1000) own_requests_.erase(own_requests_.begin());
 }
 
-void LiveModel::add_link_status(const LinkStatusRecord& status) {
+void LiveModel::add_link_status(const LinkStatus& status) {
   LinkView* view = link(status.sensor_id);
   if (!view) {
     raise(LiveEvent::Level::warning,
@@ -162,13 +162,13 @@ void LiveModel::add_link_status(const LinkStatusRecord& status) {
   view->observed_rate_since_change = observed_rate_since_change(status);
   view->observed_rate_window = window.rate();
   view->observed_window_samples = window.samples();
-  static_cast<LinkStatusRecord&>(*view) = status;
+  static_cast<LinkStatus&>(*view) = status;
   view->reported = true;
 }
 
-void LiveModel::add_link_change(const LinkChangeRecord& change) {
+void LiveModel::add_link_change(const LinkChange& change) {
   // Requests are announced by the status that answers them; the timeline only here.
-  if (change.origin != "timeline") return;
+  if (change.origin != LinkChange::Origin::timeline) return;
   raise(LiveEvent::Level::info, "timeline: link " + link_name(change.sensor_id) + " from period " +
                                     std::to_string(change.at_period) + ": " + describe_link(change.link));
 }

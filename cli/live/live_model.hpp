@@ -9,7 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "live_snapshot.hpp"
 #include "observed_rate.hpp"
 #include "period_join.hpp"
@@ -31,11 +36,11 @@ class LiveModel {
 
   explicit LiveModel(Scenario scenario);
 
-  void add_truth(const TruthRecord& truth);
+  void add_truth(const Truth& truth);
   void add_estimate(const Estimate& estimate);
-  void add_link_status(const LinkStatusRecord& status);
+  void add_link_status(const LinkStatus& status);
   /// A journaled link change (the timeline's show up in the event log).
-  void add_link_change(const LinkChangeRecord& change);
+  void add_link_change(const LinkChange& change);
   void count_invalid() { ++snapshot_.invalid_samples; }
 
   /// Request ids that this process sent itself, so that a change can name its source.

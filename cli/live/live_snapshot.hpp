@@ -6,11 +6,16 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "observed_rate.hpp"
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/operating_point.hpp"
-#include "netkf/estimate.hpp"
+#include "netkf/records/estimate.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -24,7 +29,7 @@ struct PeriodView {
 /// One link as the channel last reported it (the scenario's link until then), with what the
 /// estimator side adds: its late count, and the observed arrival rate over its two windows
 /// (observed_rate.hpp defines them; null until the link's first sample since the change).
-struct LinkView : LinkStatusRecord {
+struct LinkView : LinkStatus {
   bool reported = false;                          // a status from the channel has arrived
   std::uint64_t late_total = 0;                   // delivered but after the estimator fused their period (the estimator's count)
   std::optional<double> observed_rate_since_change;

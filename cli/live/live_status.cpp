@@ -130,7 +130,7 @@ std::string describe_recent_fit(const analysis::RecentLossFit& f) {
   return out.str();
 }
 
-std::string render_link_table(const std::vector<LinkStatusRecord>& links) {
+std::string render_link_table(const std::vector<LinkStatus>& links) {
   std::ostringstream out;
   char line[512];
   // printf pads bytes, not glyphs: a header with "λ" (2 bytes) gets one more byte of width.

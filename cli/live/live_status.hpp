@@ -5,14 +5,19 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "live_snapshot.hpp"
 
 namespace netkf::cli {
 
 /// Table of links (used by `ctl status`).
-std::string render_link_table(const std::vector<LinkStatusRecord>& links);
-/// One line: the model a link's recent samples show (LinkStatusRecord::recent_fit).
+std::string render_link_table(const std::vector<LinkStatus>& links);
+/// One line: the model a link's recent samples show (LinkStatus::recent_fit).
 std::string describe_recent_fit(const analysis::RecentLossFit& fit);
 
 /// Multi-line status text. `theory_pending`: an assessment is being computed.

@@ -3,16 +3,16 @@
 
 namespace netkf::cli {
 
-std::uint64_t delivered_in_time(const LinkStatusRecord& status) {
+std::uint64_t delivered_in_time(const LinkStatus& status) {
   return status.delivered >= status.past_deadline ? status.delivered - status.past_deadline : 0;
 }
 
-std::optional<double> observed_rate_since_change(const LinkStatusRecord& status) {
+std::optional<double> observed_rate_since_change(const LinkStatus& status) {
   if (status.samples_in == 0) return std::nullopt;
   return static_cast<double>(delivered_in_time(status)) / static_cast<double>(status.samples_in);
 }
 
-void ObservedRateWindow::add(const LinkStatusRecord& status) {
+void ObservedRateWindow::add(const LinkStatus& status) {
   const Counts now{status.samples_in, delivered_in_time(status)};
   // The channel counts every sample both since the change and over its lifetime; the counts
   // since the change started again (a model was set, by request or timeline, or the channel

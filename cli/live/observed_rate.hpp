@@ -20,7 +20,12 @@
 #include <deque>
 #include <optional>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
 
@@ -28,14 +33,14 @@ namespace netkf::cli {
 inline constexpr std::uint64_t kWindowSamples = 1000;
 
 /// Samples delivered and not delayed beyond the deadline, since the model was set.
-std::uint64_t delivered_in_time(const LinkStatusRecord& status);
+std::uint64_t delivered_in_time(const LinkStatus& status);
 /// delivered_in_time / samples_in; nullopt before the first sample since the change.
-std::optional<double> observed_rate_since_change(const LinkStatusRecord& status);
+std::optional<double> observed_rate_since_change(const LinkStatus& status);
 
 /// The window rate of one link, fed the link's reports in the order the channel sent them.
 class ObservedRateWindow {
  public:
-  void add(const LinkStatusRecord& status);
+  void add(const LinkStatus& status);
   /// In time / samples over the window; nullopt before the first sample since the change.
   std::optional<double> rate() const;
   /// Samples the window spans (0 without a rate).

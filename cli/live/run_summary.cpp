@@ -252,7 +252,7 @@ LinkSummary* RunSummaryBuilder::link(int sensor_id) {
   return nullptr;
 }
 
-void RunSummaryBuilder::add_truth(const TruthRecord& truth) {
+void RunSummaryBuilder::add_truth(const Truth& truth) {
   score(join_.add_truth(truth.k, truth.x));
   score_final(truth.k);
   summary_.cost.add(truth);
@@ -318,7 +318,7 @@ void RunSummaryBuilder::score(std::optional<double> squared_error) {
   ++summary_.periods_scored;
 }
 
-void RunSummaryBuilder::add_link_status(const LinkStatusRecord& status) {
+void RunSummaryBuilder::add_link_status(const LinkStatus& status) {
   LinkSummary* l = link(status.sensor_id);
   if (!l) return;  // not in the scenario (the live view warns about it)
   auto& last = last_[status.sensor_id];

@@ -43,7 +43,12 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/types.hpp"
 #include "observed_rate.hpp"
 #include "period_join.hpp"
@@ -108,9 +113,9 @@ class RunSummaryBuilder {
  public:
   explicit RunSummaryBuilder(const Scenario& scenario);
 
-  void add_truth(const TruthRecord& truth);
+  void add_truth(const Truth& truth);
   void add_estimate(const Estimate& estimate);
-  void add_link_status(const LinkStatusRecord& status);
+  void add_link_status(const LinkStatus& status);
 
   const RunSummary& summary() const { return summary_; }
 

@@ -13,7 +13,7 @@ RunningCost::RunningCost(const Scenario& scenario) {
   input_weight_ = control->lqr_Ru.value_or(Matrix(Matrix::Identity(m, m)));
 }
 
-void RunningCost::add(const TruthRecord& truth) {
+void RunningCost::add(const Truth& truth) {
   if (!state_weight_ || static_cast<Eigen::Index>(truth.x.size()) != state_weight_->rows() ||
       static_cast<Eigen::Index>(truth.u.size()) != input_weight_->rows())
     return;

@@ -5,7 +5,12 @@
 #include <cstdint>
 #include <optional>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::cli {
@@ -16,7 +21,7 @@ class RunningCost {
   RunningCost() = default;
   explicit RunningCost(const Scenario& scenario);
   /// Adds the truth's stage cost when its sizes fit the weights and it is finite.
-  void add(const TruthRecord& truth);
+  void add(const Truth& truth);
   /// The mean over the periods costed (nullopt: an open loop, or none yet).
   std::optional<double> mean() const;
   std::uint64_t periods() const { return periods_; }

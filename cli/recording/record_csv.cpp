@@ -41,7 +41,7 @@ std::string PeriodCsvRecorder::header(int state_dim, int max_delay_periods, int 
   return h;
 }
 
-void PeriodCsvRecorder::add_truth(const TruthRecord& truth) {
+void PeriodCsvRecorder::add_truth(const Truth& truth) {
   if (static_cast<int>(truth.x.size()) != n_ || (m_ > 0 && static_cast<int>(truth.u.size()) != m_)) {
     ++rejected_;
     return;
@@ -105,7 +105,7 @@ void PeriodCsvRecorder::emit(bool finishing) {
   }
 }
 
-void PeriodCsvRecorder::write_row(std::int64_t k, const TruthRecord& truth, const Estimate* e) {
+void PeriodCsvRecorder::write_row(std::int64_t k, const Truth& truth, const Estimate* e) {
   std::ostringstream row;
   // t is the plant's time of period k (the truth's clock).
   row << k << ',' << format_double(truth.t);
@@ -159,7 +159,7 @@ std::string SampleCsvRecorder::header(int max_measurement_dim, int max_delay_per
   return h;
 }
 
-void SampleCsvRecorder::write_row(const DeliveredRecord& sample, bool fused, bool fused_in_time) {
+void SampleCsvRecorder::write_row(const DeliveredMeasurement& sample, bool fused, bool fused_in_time) {
   std::ostringstream row;
   row << sample.k << ',' << sample.sensor_id << ',' << format_double(sample.stamp) << ',' << (fused ? 1 : 0);
   if (max_delay_periods_ > 0) row << ',' << (fused_in_time ? 1 : 0);
@@ -168,7 +168,7 @@ void SampleCsvRecorder::write_row(const DeliveredRecord& sample, bool fused, boo
   ready_.push_back(row.str());
 }
 
-void SampleCsvRecorder::add_delivered(const DeliveredRecord& sample) {
+void SampleCsvRecorder::add_delivered(const DeliveredMeasurement& sample) {
   auto f = fused_.find(sample.k);
   if (max_delay_periods_ > 0 || f == fused_.end()) {
     pending_[sample.k].push_back(sample);  // D > 0: until k is final

@@ -10,7 +10,12 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
 
@@ -42,7 +47,7 @@ class PeriodCsvRecorder {
   explicit PeriodCsvRecorder(int state_dim, int max_delay_periods = 0, int input_dim = 0, bool actuation_link = false);
   static std::string header(int state_dim, int max_delay_periods = 0, int input_dim = 0, bool actuation_link = false);
 
-  void add_truth(const TruthRecord& truth);
+  void add_truth(const Truth& truth);
   void add_estimate(const Estimate& estimate);
   /// Append the completed rows (in order of k) to `out` and forget them.
   std::size_t flush(std::ostream& out);
@@ -57,12 +62,12 @@ class PeriodCsvRecorder {
 
  private:
   void emit(bool finishing);  // the rows that can be written now, in order of k
-  void write_row(std::int64_t k, const TruthRecord& truth, const Estimate* estimate);
+  void write_row(std::int64_t k, const Truth& truth, const Estimate* estimate);
   int n_;
   int max_delay_periods_;
   int m_;
   bool actuation_link_;
-  std::map<std::int64_t, TruthRecord> truth_;
+  std::map<std::int64_t, Truth> truth_;
   std::map<std::int64_t, Estimate> estimates_;  // the first (in-time) estimate of k
   std::map<std::int64_t, Estimate> finals_;     // D > 0: the newest revision of k
   std::optional<std::int64_t> newest_truth_;
@@ -85,19 +90,19 @@ class SampleCsvRecorder {
   explicit SampleCsvRecorder(int max_measurement_dim, int max_delay_periods = 0);
   static std::string header(int max_measurement_dim, int max_delay_periods = 0);
 
-  void add_delivered(const DeliveredRecord& sample);
+  void add_delivered(const DeliveredMeasurement& sample);
   void add_estimate(const Estimate& estimate);
   std::size_t flush(std::ostream& out);
   /// The run ended: write the samples still waiting for their period to be final.
   void finish_pending();
 
  private:
-  void write_row(const DeliveredRecord& sample, bool fused, bool fused_in_time);
+  void write_row(const DeliveredMeasurement& sample, bool fused, bool fused_in_time);
   void write_final(std::int64_t k);
   int m_;
   int max_delay_periods_;
   std::map<std::int64_t, std::set<int>> fused_in_time_;  // D > 0: k -> ids of the in-time estimate
-  std::map<std::int64_t, std::vector<DeliveredRecord>> pending_;
+  std::map<std::int64_t, std::vector<DeliveredMeasurement>> pending_;
   std::map<std::int64_t, std::set<int>> fused_;  // k -> fused ids, once the estimate is known
   std::vector<std::string> ready_;
 };

@@ -114,7 +114,7 @@ void McapRecorder::write_events() {
   }
 }
 
-void McapRecorder::truth(const TruthRecord& t) {
+void McapRecorder::truth(const Truth& t) {
   if (finished()) return;
   model_.add_truth(t);
   note_time(t.t);
@@ -159,12 +159,12 @@ void McapRecorder::finish() {
   writer_.finish();
 }
 
-void McapRecorder::delivered(const DeliveredRecord& d) {
+void McapRecorder::delivered(const DeliveredMeasurement& d) {
   if (finished() || !with_delivered_) return;
   write(delivered_, period_time_ns(d.k), ros2() ? options_.codec->delivered(d) : catalogue::delivered_message(d).dump());
 }
 
-void McapRecorder::link_status(const LinkStatusRecord& l) {
+void McapRecorder::link_status(const LinkStatus& l) {
   if (finished()) return;
   model_.add_link_status(l);
   write_events();
@@ -176,7 +176,7 @@ void McapRecorder::link_status(const LinkStatusRecord& l) {
     if (view.sensor_id == l.sensor_id) write(link_status_, latest_ns_, catalogue::link_status_message(view).dump());
 }
 
-void McapRecorder::link_change(const LinkChangeRecord& c) {
+void McapRecorder::link_change(const LinkChange& c) {
   if (finished()) return;
   std::string json = catalogue::link_change_message(c).dump();
   if (!changes_seen_.insert(json).second) return;

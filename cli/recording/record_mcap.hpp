@@ -27,7 +27,12 @@
 #include <string>
 
 #include "live_model.hpp"
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "mcap_writer.hpp"
 #include "ros2_bag.hpp"
 #include "netkf/scenario.hpp"
@@ -52,11 +57,11 @@ class McapRecorder {
   /// std::invalid_argument for the ros2 profile without a codec.
   McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered, McapOptions options = {});
 
-  void truth(const TruthRecord& t);
+  void truth(const Truth& t);
   void estimate(const Estimate& e);
-  void delivered(const DeliveredRecord& d);
-  void link_status(const LinkStatusRecord& l);
-  void link_change(const LinkChangeRecord& c);
+  void delivered(const DeliveredMeasurement& d);
+  void link_status(const LinkStatus& l);
+  void link_change(const LinkChange& c);
   /// DataEnd, Footer, closing magic (the file is complete), after the final estimates still
   /// held (late_policy fuse_within). Idempotent.
   void finish();

@@ -92,7 +92,7 @@ Recording::~Recording() {
   }
 }
 
-void Recording::truth(const TruthRecord& t) {
+void Recording::truth(const Truth& t) {
   if (periods_out_) periods_.add_truth(t);
   if (mcap_) mcap_->truth(t);
 }
@@ -103,18 +103,18 @@ void Recording::estimate(const Estimate& e) {
   if (mcap_) mcap_->estimate(e);
 }
 
-void Recording::delivered(const DeliveredRecord& d) {
+void Recording::delivered(const DeliveredMeasurement& d) {
   if (samples_out_) samples_.add_delivered(d);
   if (mcap_) mcap_->delivered(d);
 }
 
-void Recording::link_status(const LinkStatusRecord& l) {
+void Recording::link_status(const LinkStatus& l) {
   if (mcap_) mcap_->link_status(l);
 }
 
-void Recording::link_change(const LinkChangeRecord& c) {
+void Recording::link_change(const LinkChange& c) {
   if (mcap_) mcap_->link_change(c);
-  if (!events_file_ || c.origin != "request") return;
+  if (!events_file_ || c.origin != LinkChange::Origin::request) return;
   LinkEvent e;
   e.at_period = c.at_period;
   e.link = c.sensor_id;

@@ -15,7 +15,12 @@
 #include <string>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/scenario.hpp"
 #include "output_file.hpp"
 #include "record_csv.hpp"
@@ -33,12 +38,12 @@ class Recording {
   Recording& operator=(const Recording&) = delete;
   ~Recording();
 
-  void truth(const TruthRecord& t);
+  void truth(const Truth& t);
   void estimate(const Estimate& e);
-  void delivered(const DeliveredRecord& d);
-  void link_status(const LinkStatusRecord& l);
+  void delivered(const DeliveredMeasurement& d);
+  void link_status(const LinkStatus& l);
   /// A live change (ctl, dashboard) with the period it applied from: journaled.
-  void link_change(const LinkChangeRecord& c);
+  void link_change(const LinkChange& c);
 
   /// The files a recording of `periods_file` and `samples_file` writes, with the options
   /// that named them (`periods_option`: "--record" or "--out"): for check_output_files and

@@ -15,7 +15,12 @@
 #include <string_view>
 #include <vector>
 
-#include "live_records.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
 
@@ -84,17 +89,17 @@ class Ros2Codec {
  public:
   virtual ~Ros2Codec() = default;
   virtual Qos qos(Channel c) const = 0;
-  virtual std::string truth(const TruthRecord& t) const = 0;
+  virtual std::string truth(const Truth& t) const = 0;
   virtual std::string estimate(const Estimate& e) const = 0;
-  virtual std::string delivered(const DeliveredRecord& d) const = 0;
-  virtual std::string link_status(const LinkStatusRecord& l) const = 0;
-  virtual std::string link_change(const LinkChangeRecord& c) const = 0;
+  virtual std::string delivered(const DeliveredMeasurement& d) const = 0;
+  virtual std::string link_status(const LinkStatus& l) const = 0;
+  virtual std::string link_change(const LinkChange& c) const = 0;
   /// rcl_interfaces/msg/Log: an event at `stamp_ns` (level kLogInfo, ...), logger `name`.
   virtual std::string log(std::uint64_t stamp_ns, std::uint8_t level, std::string_view name,
                           std::string_view text) const = 0;
   /// Decoding: throws std::runtime_error for bytes that are not the type's CDR.
-  virtual TruthRecord decode_truth(std::string_view cdr) const = 0;
-  virtual DeliveredRecord decode_delivered(std::string_view cdr) const = 0;
+  virtual Truth decode_truth(std::string_view cdr) const = 0;
+  virtual DeliveredMeasurement decode_delivered(std::string_view cdr) const = 0;
 };
 
 }  // namespace ros2

@@ -62,48 +62,22 @@ class FastCdrCodec final : public Ros2Codec {
     throw std::logic_error("unknown ROS 2 channel");
   }
 
-  std::string truth(const TruthRecord& t) const override {
+  std::string truth(const Truth& t) const override {
     return serialize(dds::make_truth(static_cast<std::uint64_t>(t.k), t.t, as_vector(t.x), as_vector(t.u),
                                      t.input_arrived));
   }
 
   std::string estimate(const Estimate& e) const override { return serialize(dds::to_wire(e)); }
 
-  std::string delivered(const DeliveredRecord& d) const override {
+  std::string delivered(const DeliveredMeasurement& d) const override {
     // The record keeps the stamp in seconds.
     return serialize(dds::make_measurement(d.sensor_id, static_cast<std::uint64_t>(d.k),
                                            static_cast<std::int64_t>(std::llround(d.stamp * 1e9)), as_vector(d.y)));
   }
 
-  std::string link_status(const LinkStatusRecord& l) const override {
-    dds::LinkStatusFacts f;
-    f.sensor_id = l.sensor_id;
-    f.link = l.link;
-    f.in_time = l.in_time;
-    f.last_request_id = l.last_request_id;
-    f.last_request_rejected = !l.rejection_reason.empty();
-    f.reject_reason = l.rejection_reason;
-    f.held = l.held;
-    f.past_deadline = l.past_deadline;
-    f.recent_fit = l.recent_fit;
-    f.topic = l.topic;
-    wire::LinkStatus s = dds::make_link_status(f, 0);
-    // The record keeps the counts, not the running statistics they came from.
-    s.samples_in(l.samples_in);
-    s.delivered(l.delivered);
-    s.dropped(l.dropped);
-    s.observed_loss(l.observed_loss);
-    s.mean_burst_length(l.mean_burst_length);
-    s.samples_total(l.samples_total);
-    s.delivered_total(l.delivered_total);
-    s.dropped_total(l.dropped_total);
-    return serialize(s);
-  }
+  std::string link_status(const LinkStatus& l) const override { return serialize(dds::to_wire(l, 0)); }
 
-  std::string link_change(const LinkChangeRecord& c) const override {
-    return serialize(dds::make_link_change(c.sensor_id, static_cast<std::uint64_t>(c.at_period), c.origin,
-                                           c.request_id, c.link, 0, c.topic));
-  }
+  std::string link_change(const LinkChange& c) const override { return serialize(dds::to_wire(c, 0)); }
 
   // rcl_interfaces/msg/Log has no wire type in idl/netkf.idl: its fields are serialized one by
   // one with Fast CDR (the alignment and encapsulation its generated types use).
@@ -120,14 +94,14 @@ class FastCdrCodec final : public Ros2Codec {
     return buffer;
   }
 
-  TruthRecord decode_truth(std::string_view cdr) const override {
+  Truth decode_truth(std::string_view cdr) const override {
     const auto w = deserialize<wire::Truth>(cdr, "netkf_msgs/msg/Truth");
-    return TruthRecord{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
+    return Truth{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
   }
 
-  DeliveredRecord decode_delivered(std::string_view cdr) const override {
+  DeliveredMeasurement decode_delivered(std::string_view cdr) const override {
     const auto w = deserialize<wire::Measurement>(cdr, "netkf_msgs/msg/Measurement");
-    return DeliveredRecord{w.sensor_id(), static_cast<std::int64_t>(w.k()), static_cast<double>(w.stamp_ns()) * 1e-9,
+    return DeliveredMeasurement{w.sensor_id(), static_cast<std::int64_t>(w.k()), static_cast<double>(w.stamp_ns()) * 1e-9,
                            w.y()};
   }
 };

@@ -212,7 +212,7 @@ DeliveredSamples read_inputs_mcap(std::istream& in, const std::string& path, con
   read_mcap_messages(in, path, [&](const McapMessage& m) {
     if (m.topic == ros2::topic_info(ros2::Channel::truth).topic) {
       const auto& c = cdr_codec(codec, path);
-      const TruthRecord t = decoded([&] { return c.decode_truth(m.data); }, path);
+      const Truth t = decoded([&] { return c.decode_truth(m.data); }, path);
       if (!t.u.empty()) add_input(s, t.k, t.input_arrived, path);  // no input: an open loop
       return;
     }
@@ -232,7 +232,7 @@ DeliveredSamples read_samples_mcap(std::istream& in, const std::string& path, co
   read_mcap_messages(in, path, [&](const McapMessage& m) {
     if (m.topic == ros2::topic_info(ros2::Channel::delivered).topic) {
       const auto& c = cdr_codec(codec, path);
-      const DeliveredRecord d = decoded([&] { return c.decode_delivered(m.data); }, path);
+      const DeliveredMeasurement d = decoded([&] { return c.decode_delivered(m.data); }, path);
       add(s, d.sensor_id, d.k, path);
       return;
     }

@@ -140,9 +140,9 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     std::vector<RelayTopicCounts> out;
     for (const auto& [name, c] : counts_) {
       out.push_back(c);
-      if (const auto report = links_.report(name)) {
-        out.back().lifetime = report->lifetime;
-        out.back().since_change = report->stats;
+      if (const auto statistics = links_.statistics(name)) {
+        out.back().lifetime = statistics->lifetime;
+        out.back().since_change = statistics->since_change;
       }
     }
     return out;
@@ -409,7 +409,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       }
       spdlog::warn("request {}: {} link change rejected: {}", c.request_id(), topic, reason);
     }
-    reply_->write(dds::make_link_control_reply(c.request_id(), c.sensor_id(), reason.empty(), reason));
+    reply_->write(dds::to_wire(LinkReply{c.request_id(), c.sensor_id(), reason.empty(), reason}));
     publish_status();  // acknowledges the request
   }
 
@@ -442,16 +442,15 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     bool journaled = false;
     for (const auto& c : changes) {
       if (!c.failure.empty()) {
-        spdlog::warn("timeline: {} event at its sample {} not applied: {}", c.topic, c.at_sample, c.failure);
+        spdlog::warn("timeline: {} event at its sample {} not applied: {}", c.topic, c.at_period, c.failure);
         continue;
       }
-      if (c.origin == "timeline")
-        spdlog::info("timeline: {} from its sample {}: {}", c.topic, c.at_sample, describe_link(c.link));
+      if (c.origin == LinkChange::Origin::timeline)
+        spdlog::info("timeline: {} from its sample {}: {}", c.topic, c.at_period, describe_link(c.link));
       else
         spdlog::info("request {}: {} now has a {} link (from its sample {} on)", c.request_id, c.topic,
-                     link_kind(c.link), c.at_sample);
-      journal_->write(dds::make_link_change(relay_topic_link_id(c.topic), c.at_sample, c.origin, c.request_id, c.link,
-                                            dds::steady_now_ns(), c.topic));
+                     link_kind(c.link), c.at_period);
+      journal_->write(dds::to_wire(c, dds::steady_now_ns()));
       if (c.replay && journal_file_) {
         journal_events_.push_back(*c.replay);
         journaled = true;
@@ -482,7 +481,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Relay thread: a WebSocket client's setParameters (link.ID.KEY, ID a topic's link id), checked
   // as the launch's dashboard checks them; the answer is the link's parameters after it.
   void on_set_parameters(DashboardServer::ClientId client, const dashboard::SetParameters& request) {
-    const auto views = link_views(status_facts());
+    const auto views = link_views(statuses());
     for (const auto& change : dashboard::link_changes(request, views)) {
       const auto view = std::find_if(views.begin(), views.end(), [&](const LinkView& v) { return v.sensor_id == change.sensor_id; });
       if (change.keys && view != views.end()) {
@@ -496,7 +495,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       }
     }
     publish_status();
-    for (const auto& v : link_views(status_facts()))
+    for (const auto& v : link_views(statuses()))
       if (request.id) metrics_server_->send_to(client, dashboard::link_parameter_values(v, request.id));
   }
 
@@ -514,7 +513,7 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
       on_set_parameters(c, r);
     };
     hooks.get_parameters = [this](const dashboard::GetParameters& r) {
-      return dashboard::parameter_values(link_views(status_facts()), r.names, r.id);
+      return dashboard::parameter_values(link_views(statuses()), r.names, r.id);
     };
     hooks.refused = [](const std::string& what) { spdlog::debug("metrics: {}", what); };
     const nlohmann::json info{{"op", "serverInfo"}, {"name", "netkf relay"}, {"capabilities", {"parameters"}}};
@@ -526,17 +525,17 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
 
   std::string metrics_text() {
     LiveSnapshot snapshot;
-    snapshot.links = link_views(status_facts());
+    snapshot.links = link_views(statuses());
     metrics_.update(snapshot);
     return metrics_.serialize();
   }
 
-  // The links as the launch's live views hold them (through the wire's conversion: one place).
-  static std::vector<LinkView> link_views(const std::vector<dds::LinkStatusFacts>& facts) {
+  // The links as the launch's live views hold them.
+  static std::vector<LinkView> link_views(const std::vector<LinkStatus>& statuses) {
     std::vector<LinkView> views;
-    for (const auto& f : facts) {
+    for (const auto& status : statuses) {
       LinkView view;
-      static_cast<LinkStatusRecord&>(view) = link_status_record(dds::make_link_status(f, 0));
+      static_cast<LinkStatus&>(view) = status;
       view.observed_rate_since_change = observed_rate_since_change(view);
       views.push_back(std::move(view));
     }
@@ -552,13 +551,13 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
   // Relay thread (and the end): every topic's link as a LinkStatus, keyed by its topic's id.
   // There is no estimator's deadline here: P(in time) is 1 and nothing is past a deadline.
   void publish_status() {
-    const auto facts = status_facts();
+    const auto all = statuses();
     const auto now = dds::steady_now_ns();
-    for (const auto& f : facts) status_->write(dds::make_link_status(f, now));
+    for (const auto& status : all) status_->write(dds::to_wire(status, now));
     // The same on the Foxglove WebSocket (--dashboard), latched per link, with the topic's type
     // as discovered (the page shows it; the DDS status has no field for it).
     if (metrics_server_)
-      for (const auto& v : link_views(facts)) {
+      for (const auto& v : link_views(all)) {
         auto message = catalogue::link_status_message(v);
         if (auto type = discovered_type(v.topic); !type.empty()) message["type"] = std::move(type);
         metrics_server_->publish(catalogue::ChannelId::link_status, message, wall_ns(), v.sensor_id);
@@ -572,21 +571,18 @@ class RelayApp::Impl : private fdds::DomainParticipantListener {
     return c == counts_.end() ? std::string() : c->second.type;
   }
 
-  std::vector<dds::LinkStatusFacts> status_facts() const {
-    std::vector<dds::LinkStatusFacts> facts;
-    {
-      const std::lock_guard lock(mutex_);
-      for (auto& r : links_.reports()) {
-        const auto relayed = relayed_.find(r.topic);
-        const auto writer = link_index_.find(r.topic);  // a writer's link
-        const std::uint64_t held = writer != link_index_.end() ? held_.held(writer->second)
-                                   : relayed == relayed_.end() ? 0
-                                                               : held_.held(relayed->second->index);
-        facts.push_back({relay_topic_link_id(r.topic), r.link, 1.0, r.stats, r.lifetime, r.last_request_id,
-                         !r.reject_reason.empty(), r.reject_reason, held, 0, std::move(r.recent_fit), r.topic});
-      }
+  std::vector<LinkStatus> statuses() const {
+    std::vector<LinkStatus> out;
+    const std::lock_guard lock(mutex_);
+    for (auto& r : links_.reports()) {
+      const auto relayed = relayed_.find(r.topic);
+      const auto writer = link_index_.find(r.topic);  // a writer's link
+      r.held = writer != link_index_.end() ? held_.held(writer->second)
+               : relayed == relayed_.end() ? 0
+                                           : held_.held(relayed->second->index);
+      out.push_back(std::move(r));
     }
-    return facts;
+    return out;
   }
 
   void send(Relayed& r, dds::RawSample& sample) {

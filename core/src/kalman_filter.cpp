@@ -108,13 +108,15 @@ void check_blocks(const Vector& x, const Matrix& P, std::span<const ReceivedBloc
 
 const char* to_string(FilterState state) { return state == FilterState::ok ? "ok" : "diverging"; }
 
-const char* to_string(RejectReason reason) {
+const char* to_string(SampleRejection reason) {
   switch (reason) {
-    case RejectReason::unknown_sensor: return "unknown_sensor";
-    case RejectReason::wrong_size: return "wrong_size";
-    case RejectReason::non_finite: return "non_finite";
-    case RejectReason::duplicate: return "duplicate";
-    case RejectReason::count_: break;
+    case SampleRejection::unknown_sensor: return "unknown_sensor";
+    case SampleRejection::wrong_size: return "wrong_size";
+    case SampleRejection::non_finite: return "non_finite";
+    case SampleRejection::duplicate: return "duplicate";
+    case SampleRejection::buffer_full: return "buffer_full";
+    case SampleRejection::stale_tick: return "stale_tick";
+    case SampleRejection::count_: break;
   }
   return "invalid";
 }
@@ -204,8 +206,24 @@ int IntermittentKalmanFilter::sensor_index(int id) const {
   return it != id_index_.end() && it->first == id ? it->second : -1;
 }
 
+std::optional<SampleRejection> IntermittentKalmanFilter::check(int sensor_id, const Vector& y) const {
+  const int s = sensor_index(sensor_id);
+  if (s < 0) return SampleRejection::unknown_sensor;
+  if (y.size() != model_.sensors[static_cast<std::size_t>(s)].C.rows()) return SampleRejection::wrong_size;
+  if (!y.allFinite()) return SampleRejection::non_finite;
+  return std::nullopt;
+}
+
 FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample> received) {
   FusedUpdateResult result;
+  accept(received, result);
+  if (!accepted_.empty()) fuse_accepted(received, result);
+  saturate();
+  refresh_state();
+  return result;
+}
+
+void IntermittentKalmanFilter::accept(std::span<const SensorSample> received, FusedUpdateResult& result) {
   accepted_.clear();
   // Validate every sample before touching the state, so a bad sample cannot change
   // it. Checks in order: unknown id, wrong size, non-finite values; a further sample
@@ -213,17 +231,9 @@ FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample>
   // valid sample is fused).
   for (std::size_t k = 0; k < received.size(); ++k) {
     const SensorSample& sample = received[k];
+    std::optional<SampleRejection> reason = check(sample.sensor_id, sample.y);
     const int s = sensor_index(sample.sensor_id);
-    std::optional<RejectReason> reason;
-    if (s < 0) {
-      reason = RejectReason::unknown_sensor;
-    } else if (sample.y.size() != model_.sensors[static_cast<std::size_t>(s)].C.rows()) {
-      reason = RejectReason::wrong_size;
-    } else if (!sample.y.allFinite()) {
-      reason = RejectReason::non_finite;
-    } else if (taken_[static_cast<std::size_t>(s)] >= 0) {
-      reason = RejectReason::duplicate;
-    }
+    if (!reason && taken_[static_cast<std::size_t>(s)] >= 0) reason = SampleRejection::duplicate;
     if (reason) {
       ++rejections_.by_reason[static_cast<int>(*reason)];
       result.rejected.emplace_back(sample.sensor_id, *reason);
@@ -236,71 +246,68 @@ FusedUpdateResult IntermittentKalmanFilter::update(std::span<const SensorSample>
   std::sort(accepted_.begin(), accepted_.end(), [this](int a, int b) {
     return model_.sensors[static_cast<std::size_t>(a)].id < model_.sensors[static_cast<std::size_t>(b)].id;
   });
+}
+
+void IntermittentKalmanFilter::fuse_accepted(std::span<const SensorSample> received, FusedUpdateResult& result) {
   result.fused_ids.reserve(accepted_.size());
-
-  if (!accepted_.empty()) {
-    // Information terms of the received sensors: Lambda = Σ C_i'R_i^-1 C_i,
-    // h = Σ C_i'R_i^-1 y_i   (the received rows of the stacked update).
-    lambda_sum_.setZero();
-    info_vector_.setZero();
-    for (const int s : accepted_) {
-      const auto si = static_cast<std::size_t>(s);
-      const SensorModel& sensor = model_.sensors[si];
-      const Vector& y = received[static_cast<std::size_t>(taken_[si])].y;
-      lambda_sum_ += terms_[si].Lambda;
-      info_vector_.noalias() += terms_[si].H * y;
-      result.fused_ids.push_back(sensor.id);
-      taken_[si] = -1;
-    }
-
-    // P = F F' with F = Pi' L D^1/2 (pivoted LDLT; tiny negative pivots of a
-    // semidefinite P are rounding and are clamped to 0).
-    ldlt_.compute(P_);
-    factor_.setIdentity();
-    factor_.triangularView<Eigen::StrictlyLower>() = ldlt_.matrixLDLT().triangularView<Eigen::StrictlyLower>();
-    const auto& D = ldlt_.vectorD();
-    for (Eigen::Index j = 0; j < factor_.cols(); ++j) factor_.col(j) *= std::sqrt(std::max(D(j), 0.0));
-    work_a_ = ldlt_.transpositionsP().transpose() * factor_;
-    factor_.swap(work_a_);
-
-    // When P is positive definite, z = F^-1 x̂ = D^-1/2 L^-1 Pi x̂ exists; it is
-    // needed by the information form of the mean below.
-    work_x_ = ldlt_.transpositionsP() * x_;
-    ldlt_.matrixL().solveInPlace(work_x_);
-    bool prior_invertible = true;
-    for (Eigen::Index j = 0; j < work_x_.size(); ++j) {
-      prior_invertible = prior_invertible && D(j) > 0.0;
-      work_x_(j) = prior_invertible ? work_x_(j) / std::sqrt(D(j)) : 0.0;
-    }
-    prior_invertible = prior_invertible && work_x_.allFinite();
-
-    // M = I + F' Lambda F = G G';  W' = G^-1 F';  P+ = W W'.
-    work_a_.noalias() = lambda_sum_ * factor_;
-    work_b_.noalias() = factor_.transpose() * work_a_;
-    work_b_.diagonal().array() += 1.0;
-    llt_.compute(work_b_);
-    work_a_ = factor_.transpose();
-    llt_.matrixL().solveInPlace(work_a_);
-    P_.noalias() = work_a_.transpose() * work_a_;
-    symmetrise(P_);
-    if (prior_invertible) {
-      // Information form of the mean: x̂+ = P+ (P^-1 x̂ + h) = W G^-1 (z + F' h).
-      // Unlike the innovation form x̂ + P+ Σ C_i'R_i^-1 (y_i - C_i x̂) it does not
-      // subtract nearly equal numbers when the prior is huge (after a long outage,
-      // P ~ x̂^2 ~ ceiling): y then still counts.
-      work_x_.noalias() += factor_.transpose() * info_vector_;
-      llt_.matrixL().solveInPlace(work_x_);
-      x_.noalias() = work_a_.transpose() * work_x_;
-    } else {
-      // Singular prior (some states known exactly): innovation form
-      // x̂+ = x̂ + P+ b,  b = Σ C_i'R_i^-1 (y_i - C_i x̂) = h - Lambda x̂  (K = P+ C' R^-1).
-      info_vector_.noalias() -= lambda_sum_ * x_;
-      x_.noalias() += P_ * info_vector_;
-    }
+  // Information terms of the received sensors: Lambda = Σ C_i'R_i^-1 C_i,
+  // h = Σ C_i'R_i^-1 y_i   (the received rows of the stacked update).
+  lambda_sum_.setZero();
+  info_vector_.setZero();
+  for (const int s : accepted_) {
+    const auto si = static_cast<std::size_t>(s);
+    const SensorModel& sensor = model_.sensors[si];
+    const Vector& y = received[static_cast<std::size_t>(taken_[si])].y;
+    lambda_sum_ += terms_[si].Lambda;
+    info_vector_.noalias() += terms_[si].H * y;
+    result.fused_ids.push_back(sensor.id);
+    taken_[si] = -1;
   }
-  saturate();
-  refresh_state();
-  return result;
+
+  // P = F F' with F = Pi' L D^1/2 (pivoted LDLT; tiny negative pivots of a
+  // semidefinite P are rounding and are clamped to 0).
+  ldlt_.compute(P_);
+  factor_.setIdentity();
+  factor_.triangularView<Eigen::StrictlyLower>() = ldlt_.matrixLDLT().triangularView<Eigen::StrictlyLower>();
+  const auto& D = ldlt_.vectorD();
+  for (Eigen::Index j = 0; j < factor_.cols(); ++j) factor_.col(j) *= std::sqrt(std::max(D(j), 0.0));
+  work_a_ = ldlt_.transpositionsP().transpose() * factor_;
+  factor_.swap(work_a_);
+
+  // When P is positive definite, z = F^-1 x̂ = D^-1/2 L^-1 Pi x̂ exists; it is
+  // needed by the information form of the mean below.
+  work_x_ = ldlt_.transpositionsP() * x_;
+  ldlt_.matrixL().solveInPlace(work_x_);
+  bool prior_invertible = true;
+  for (Eigen::Index j = 0; j < work_x_.size(); ++j) {
+    prior_invertible = prior_invertible && D(j) > 0.0;
+    work_x_(j) = prior_invertible ? work_x_(j) / std::sqrt(D(j)) : 0.0;
+  }
+  prior_invertible = prior_invertible && work_x_.allFinite();
+
+  // M = I + F' Lambda F = G G';  W' = G^-1 F';  P+ = W W'.
+  work_a_.noalias() = lambda_sum_ * factor_;
+  work_b_.noalias() = factor_.transpose() * work_a_;
+  work_b_.diagonal().array() += 1.0;
+  llt_.compute(work_b_);
+  work_a_ = factor_.transpose();
+  llt_.matrixL().solveInPlace(work_a_);
+  P_.noalias() = work_a_.transpose() * work_a_;
+  symmetrise(P_);
+  if (prior_invertible) {
+    // Information form of the mean: x̂+ = P+ (P^-1 x̂ + h) = W G^-1 (z + F' h).
+    // Unlike the innovation form x̂ + P+ Σ C_i'R_i^-1 (y_i - C_i x̂) it does not
+    // subtract nearly equal numbers when the prior is huge (after a long outage,
+    // P ~ x̂^2 ~ ceiling): y then still counts.
+    work_x_.noalias() += factor_.transpose() * info_vector_;
+    llt_.matrixL().solveInPlace(work_x_);
+    x_.noalias() = work_a_.transpose() * work_x_;
+  } else {
+    // Singular prior (some states known exactly): innovation form
+    // x̂+ = x̂ + P+ b,  b = Σ C_i'R_i^-1 (y_i - C_i x̂) = h - Lambda x̂  (K = P+ C' R^-1).
+    info_vector_.noalias() -= lambda_sum_ * x_;
+    x_.noalias() += P_ * info_vector_;
+  }
 }
 
 void IntermittentKalmanFilter::predict(const Vector* input) { predict_with(input, nullptr); }

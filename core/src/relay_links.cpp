@@ -20,6 +20,22 @@ std::uint64_t name_hash(std::string_view name) {
   return h;
 }
 
+// A journal entry of the link `name` made at its topic's sample `n`.
+RelayLinkChange journal_entry(const std::string& name, std::uint64_t n, LinkChange::Origin origin,
+                              std::uint64_t request_id, const LinkSpec& link, std::string failure,
+                              std::optional<RelayEvent> replay) {
+  RelayLinkChange entry;
+  entry.sensor_id = relay_topic_link_id(name);
+  entry.at_period = static_cast<std::int64_t>(n);
+  entry.origin = origin;
+  entry.request_id = request_id;
+  entry.link = link;
+  entry.topic = name;
+  entry.failure = std::move(failure);
+  entry.replay = std::move(replay);
+  return entry;
+}
+
 }  // namespace
 
 int relay_topic_link_id(const std::string& topic) {
@@ -95,8 +111,8 @@ std::optional<std::string> RelayLinks::add_writer_link(const std::string& topic,
                    [](const RelayEvent& a, const RelayEvent& b) { return a.at_sample < b.at_sample; });
   // Its first link is not the file's: the journal says so, at its sample 0.
   if (model.changed_live)
-    changes_.push_back({name, 0, "request", 0, model.spec, {},
-                        RelayEvent{0, name, LinkEvent::Kind::set, link_keys(model.spec), 0}});
+    changes_.push_back(journal_entry(name, 0, LinkChange::Origin::request, 0, model.spec, {},
+                                     RelayEvent{0, name, LinkEvent::Kind::set, link_keys(model.spec), 0}));
   links_.emplace(name, std::move(link));
   it->second.writers.push_back(name);
   return name;
@@ -128,7 +144,7 @@ void RelayLinks::apply_due(const std::string& topic, Link& link) {
   const std::uint64_t n = link.samples;
   while (link.next_event < link.timeline.size() && link.timeline[link.next_event].at_sample <= n) {
     const RelayEvent& e = link.timeline[link.next_event++];
-    RelayLinkChange entry{topic, n, "timeline", 0, link.spec, {}, std::nullopt};
+    RelayLinkChange entry = journal_entry(topic, n, LinkChange::Origin::timeline, 0, link.spec, {}, std::nullopt);
     try {
       if (e.kind == LinkEvent::Kind::set || e.ramp_samples == 0) {
         entry.link = apply_link_keys(link.spec, e.keys, &timeline_traces_);
@@ -164,12 +180,12 @@ void RelayLinks::step_ramp(const std::string& topic, Link& link) {
   try {
     change(link, apply_link_keys(link.spec, keys), false);
   } catch (const LinkError& err) {
-    changes_.push_back({topic, n, "timeline", 0, link.spec, err.what(), std::nullopt});
+    changes_.push_back(journal_entry(topic, n, LinkChange::Origin::timeline, 0, link.spec, err.what(), std::nullopt));
     link.ramp.reset();
     return;
   }
   if (fraction >= 1.0) {
-    changes_.push_back({topic, n, "timeline", 0, link.spec, {}, std::nullopt});  // the ramp's end
+    changes_.push_back(journal_entry(topic, n, LinkChange::Origin::timeline, 0, link.spec, {}, std::nullopt));  // the ramp's end
     link.ramp.reset();
   }
 }
@@ -210,8 +226,8 @@ bool RelayLinks::set_link(const std::string& name, const LinkSpec& spec, std::ui
     return true;
   }
   const std::uint64_t n = link.samples;
-  changes_.push_back({name, n, "request", request_id, spec, {},
-                      RelayEvent{n, name, LinkEvent::Kind::set, link_keys(spec), 0}});
+  changes_.push_back(journal_entry(name, n, LinkChange::Origin::request, request_id, spec, {},
+                                   RelayEvent{n, name, LinkEvent::Kind::set, link_keys(spec), 0}));
   return true;
 }
 
@@ -239,8 +255,22 @@ std::optional<RelayLinks::Report> RelayLinks::report(const std::string& name) co
   const auto it = links_.find(name);
   if (it == links_.end() || it->second.per_writer) return std::nullopt;
   const Link& link = it->second;
-  return Report{name, link.spec, link.stats, link.lifetime, link.samples, link.last_request_id, link.reject_reason,
-                link.recent.fit()};
+  Report r;
+  r.sensor_id = relay_topic_link_id(name);
+  r.topic = name;
+  r.link = link.spec;
+  r.count(link.stats, link.lifetime);
+  r.last_request_id = link.last_request_id;
+  r.rejection_reason = link.reject_reason;
+  r.recent_fit = link.recent.fit();
+  r.next_sample = link.samples;
+  return r;
+}
+
+std::optional<RelayLinks::Statistics> RelayLinks::statistics(const std::string& name) const {
+  const auto it = links_.find(name);
+  if (it == links_.end() || it->second.per_writer) return std::nullopt;
+  return Statistics{it->second.stats, it->second.lifetime};
 }
 
 std::vector<RelayLinks::Report> RelayLinks::reports() const {

@@ -117,6 +117,17 @@ wire::ControlInput make_control_input(std::uint64_t k, const Vector& u) {
 
 Vector control_input_u(const wire::ControlInput& c, int input_dim) { return to_vector(c.u(), input_dim, "control u"); }
 
+Truth from_wire(const wire::Truth& w) {
+  if (!all_finite(w.x()) || !all_finite(w.applied_input())) throw ConversionError("truth with a non-finite value");
+  return Truth{static_cast<std::int64_t>(w.k()), w.t(), w.x(), w.applied_input(), w.input_arrived()};
+}
+
+DeliveredMeasurement delivered_of(const wire::Measurement& w) {
+  if (!all_finite(w.y())) throw ConversionError("measurement with a non-finite value");
+  return DeliveredMeasurement{w.sensor_id(), static_cast<std::int64_t>(w.k()),
+                              static_cast<double>(w.stamp_ns()) * 1e-9, w.y()};
+}
+
 FilterState filter_state_from_string(const std::string& s) {
   if (s == "ok") return FilterState::ok;
   if (s == "diverging") return FilterState::diverging;
@@ -295,24 +306,24 @@ LinkKeys link_keys_of(const wire::LinkControl& control) {
   return keys;
 }
 
-wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_ns) {
+wire::LinkStatus to_wire(const LinkStatus& f, std::int64_t stamp_ns) {
   wire::LinkStatus s;
   s.sensor_id(f.sensor_id);
   s.link(to_wire(f.link));
   s.stationary_loss(stationary_loss(f.link.loss));
   s.theory_mean_burst(mean_burst_length(f.link.loss));
   s.in_time(f.in_time);
-  s.samples_in(f.stats.samples());
-  s.delivered(f.stats.delivered());
-  s.dropped(f.stats.dropped());
-  s.observed_loss(f.stats.observed_loss());
-  s.mean_burst_length(f.stats.mean_burst_length());
-  s.samples_total(f.lifetime.samples());
-  s.delivered_total(f.lifetime.delivered());
-  s.dropped_total(f.lifetime.dropped());
+  s.samples_in(f.samples_in);
+  s.delivered(f.delivered);
+  s.dropped(f.dropped);
+  s.observed_loss(f.observed_loss);
+  s.mean_burst_length(f.mean_burst_length);
+  s.samples_total(f.samples_total);
+  s.delivered_total(f.delivered_total);
+  s.dropped_total(f.dropped_total);
   s.last_request_id(f.last_request_id);
-  s.last_request_rejected(f.last_request_rejected);
-  s.reject_reason(f.reject_reason);
+  s.last_request_rejected(!f.rejection_reason.empty());
+  s.reject_reason(f.rejection_reason);
   s.held(f.held);
   s.past_deadline(f.past_deadline);
   if (f.recent_fit) {
@@ -337,6 +348,28 @@ wire::LinkStatus make_link_status(const LinkStatusFacts& f, std::int64_t stamp_n
   return s;
 }
 
+LinkStatus from_wire(const wire::LinkStatus& w) {
+  LinkStatus r;
+  r.sensor_id = w.sensor_id();
+  r.link = link_of(w);  // validated
+  r.samples_in = w.samples_in();
+  r.delivered = w.delivered();
+  r.dropped = w.dropped();
+  r.observed_loss = w.observed_loss();
+  r.mean_burst_length = w.mean_burst_length();
+  r.samples_total = w.samples_total();
+  r.delivered_total = w.delivered_total();
+  r.dropped_total = w.dropped_total();
+  r.last_request_id = w.last_request_id();
+  r.rejection_reason = w.last_request_rejected() ? w.reject_reason() : std::string();
+  r.in_time = std::isfinite(w.in_time()) ? std::clamp(w.in_time(), 0.0, 1.0) : 1.0;
+  r.held = w.held();
+  r.past_deadline = w.past_deadline();
+  r.recent_fit = recent_fit_of(w);
+  r.topic = relayed_topic_of(w.sensor_id(), w.topic());
+  return r;
+}
+
 std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& s) {
   if (s.fit_family().empty() && s.fit_samples() == 0) return std::nullopt;
   const auto family = analysis::parse_loss_family(s.fit_family());
@@ -358,15 +391,16 @@ std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& s) 
   return fit;
 }
 
-wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
-                                               const std::string& reason) {
+wire::LinkControlReply to_wire(const LinkReply& reply) {
   wire::LinkControlReply r;
-  r.request_id(request_id);
-  r.sensor_id(sensor_id);
-  r.applied(applied);
-  r.reason(reason);
+  r.request_id(reply.request_id);
+  r.sensor_id(reply.sensor_id);
+  r.applied(reply.applied);
+  r.reason(reply.reason);
   return r;
 }
+
+LinkReply from_wire(const wire::LinkControlReply& w) { return LinkReply{w.request_id(), w.sensor_id(), w.applied(), w.reason()}; }
 
 LinkSpec link_of(const wire::LinkStatus& status) { return from_wire(status.link()); }
 
@@ -376,18 +410,29 @@ std::string relayed_topic_of(int sensor_id, const std::string& topic) {
   return topic;
 }
 
-wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
-                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns,
-                                  const std::string& topic) {
+wire::LinkChange to_wire(const LinkChange& change, std::int64_t stamp_ns) {
   wire::LinkChange c;
-  c.sensor_id(sensor_id);
-  c.at_period(at_period);
-  c.origin(origin);
-  c.request_id(request_id);
-  c.link(to_wire(link));
+  c.sensor_id(change.sensor_id);
+  c.at_period(static_cast<std::uint64_t>(std::max<std::int64_t>(change.at_period, 0)));
+  c.origin(to_string(change.origin));
+  c.request_id(change.request_id);
+  c.link(to_wire(change.link));
   c.stamp_ns(stamp_ns);
-  c.topic(topic);
+  c.topic(change.topic);
   return c;
+}
+
+LinkChange from_wire(const wire::LinkChange& w) {
+  LinkChange r;
+  r.sensor_id = w.sensor_id();
+  r.at_period = static_cast<std::int64_t>(w.at_period());
+  const auto origin = parse_link_change_origin(w.origin());
+  if (!origin) throw ConversionError("link change: unknown origin '" + w.origin() + "'");
+  r.origin = *origin;
+  r.request_id = w.request_id();
+  r.link = from_wire(w.link());
+  r.topic = relayed_topic_of(w.sensor_id(), w.topic());
+  return r;
 }
 
 }  // namespace netkf::dds

@@ -6,20 +6,6 @@
 
 namespace netkf::nodes {
 
-const char* to_string(SampleRejection r) {
-  switch (r) {
-    case SampleRejection::unknown_sensor: return "unknown_sensor";
-    case SampleRejection::wrong_size: return "wrong_size";
-    case SampleRejection::non_finite: return "non_finite";
-    case SampleRejection::duplicate: return "duplicate";
-    case SampleRejection::buffer_full: return "buffer_full";
-    case SampleRejection::stale_tick: return "stale_tick";
-    case SampleRejection::count_: break;
-  }
-  return "?";
-}
-
-
 EstimatorCore::EstimatorCore(const Scenario& scenario)
     : filter_(filter_model(scenario), prior_mean(scenario), prior_covariance(scenario), filter_options(scenario)),
       period_s_(scenario.period_s()),
@@ -89,7 +75,23 @@ void EstimatorCore::count_late(int sensor_id, std::uint64_t k) {
   late_periods_since_publish_.push_back(k);
 }
 
-void EstimatorCore::predict_with(const Vector& applied_input) {
+void EstimatorCore::predict_next(const Vector& applied_input) {
+  if (acknowledged_) {
+    keep_input_after(predict_with(applied_input), std::nullopt);
+  } else {
+    auto [mean, covariance] = predict_with_expected_input();
+    keep_input_after(std::move(mean), std::move(covariance));
+  }
+}
+
+void EstimatorCore::keep_input_after(std::optional<Vector> input, std::optional<Matrix> input_covariance) {
+  // A re-run predicts with the same input (the one applied: a re-run never changes the past).
+  if (history_.empty() || !last_fused_ || history_.back().k != *last_fused_) return;
+  history_.back().input_after = std::move(input);
+  history_.back().input_covariance_after = std::move(input_covariance);
+}
+
+Vector EstimatorCore::predict_with(const Vector& applied_input) {
   Vector u;  // stays empty without B
   if (input_dim_ > 0) {
     // x̂_{k|k-1} = A x̂_{k-1|k-1} + B u_{k-1}: an absent input means the plant applied zero.
@@ -98,11 +100,10 @@ void EstimatorCore::predict_with(const Vector& applied_input) {
   } else {
     filter_.predict(nullptr);
   }
-  // A re-run predicts with the same input (the one applied: a re-run never changes the past).
-  if (!history_.empty() && last_fused_ && history_.back().k == *last_fused_) history_.back().input_after = std::move(u);
+  return u;
 }
 
-void EstimatorCore::predict_with_expected_input() {
+std::pair<Vector, Matrix> EstimatorCore::predict_with_expected_input() {
   // u^a_{k-1} = ν u_{k-1} + (1 − ν) h, ν ~ Bernoulli(ν̄) independent of the past, h = 0 (zero) or
   // u^a_{k-2} (hold): its mean and second moment follow by one step of that recursion. The
   // filter takes the spread as extra process noise B Σ_u B' (for zero Schenato et al. 2007,
@@ -118,10 +119,7 @@ void EstimatorCore::predict_with_expected_input() {
   applied_mean_ = mean;
   applied_second_moment_ = second;
   filter_.predict(mean, covariance);
-  if (!history_.empty() && last_fused_ && history_.back().k == *last_fused_) {
-    history_.back().input_after = mean;
-    history_.back().input_covariance_after = std::move(covariance);
-  }
+  return {mean, covariance};
 }
 
 void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
@@ -146,46 +144,40 @@ void EstimatorCore::open(std::uint64_t k, std::int64_t now_ns) {
 
 bool EstimatorCore::complete() const { return open_ && open_->samples.size() == sensor_dims_.size(); }
 
-void EstimatorCore::count_fused_rejections(const FusedUpdateResult& result) {
-  for (const auto& [id, reason] : result.rejected) {
-    switch (reason) {
-      case RejectReason::unknown_sensor: reject(SampleRejection::unknown_sensor); break;
-      case RejectReason::wrong_size: reject(SampleRejection::wrong_size); break;
-      case RejectReason::non_finite: reject(SampleRejection::non_finite); break;
-      default: reject(SampleRejection::duplicate); break;
-    }
-  }
+PeriodEstimate EstimatorCore::step(std::uint64_t k, double t, const std::map<int, SensorSample>& samples,
+                                   std::int64_t last_stamp_ns, std::int64_t now_ns) {
+  std::vector<SensorSample> batch;
+  batch.reserve(samples.size());
+  for (const auto& [id, s] : samples) batch.push_back(s);
+  PeriodEstimate e;
+  e.trace_P_pred = filter_.P().trace();  // Tr P_{k|k-1}, before the fused update
+  const FusedUpdateResult result = filter_.update(batch);
+  // Samples were checked on arrival (filter_.check): only a filter's own verdict can remain.
+  for (const auto& [id, reason] : result.rejected) reject(reason);
+  e.k = k;
+  e.t = t;
+  e.x_hat = filter_.x();
+  e.P = filter_.P();
+  e.fused = result.fused_ids;
+  e.late_total = late_total_;
+  e.rejected_total = rejected_total();
+  e.state = filter_.state();
+  e.fused_at_ns = now_ns;
+  e.restarts = restarts_;
+  e.last_sample_stamp_ns = last_stamp_ns;
+  return e;
 }
 
 PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
-  std::vector<SensorSample> samples;
-  samples.reserve(open_->samples.size());
-  for (auto& [id, s] : open_->samples) samples.push_back(s);
-  std::optional<Vector> x_prior;
-  std::optional<Matrix> P_prior;
-  if (max_delay_periods_ > 0) {
-    x_prior = filter_.x();
-    P_prior = filter_.P();
-  }
-  const double trace_P_pred = filter_.P().trace();  // Tr P_{k|k-1}, before the fused update
-  const FusedUpdateResult result = filter_.update(samples);
-  count_fused_rejections(result);
-  PeriodEstimate e;
-  e.k = open_->k;
-  e.t = open_->t;
-  e.x_hat = filter_.x();
-  e.P = filter_.P();
-  e.trace_P_pred = trace_P_pred;
-  e.fused = result.fused_ids;
+  const Vector x_prior = filter_.x();
+  const Matrix P_prior = filter_.P();
+  PeriodEstimate e = step(open_->k, open_->t, open_->samples, open_->last_stamp_ns, now_ns);
   // One list is the count and the ids: `late` can never disagree with `late_sensors`.
   e.late_sensors = std::move(late_since_publish_);
   late_since_publish_.clear();
   e.late_periods = std::move(late_periods_since_publish_);
   late_periods_since_publish_.clear();
   e.late = static_cast<std::uint32_t>(e.late_sensors.size());
-  e.late_total = late_total_;
-  e.rejected_total = rejected_total();
-  e.state = filter_.state();
   if (gain_) {
     // LQG certainty equivalence: u_k = -L x̂_{k|k}.
     e.control = Vector(-(*gain_) * filter_.x());
@@ -193,11 +185,8 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
   } else if (input_dim_ > 0) {
     last_control_ = Vector::Zero(input_dim_);
   }
-  e.fused_at_ns = now_ns;
-  e.restarts = restarts_;
-  e.last_sample_stamp_ns = open_->last_stamp_ns;
   last_fused_ = open_->k;
-  if (max_delay_periods_ > 0) remember(e, *x_prior, *P_prior);
+  if (max_delay_periods_ > 0) remember(e, x_prior, P_prior);
   open_.reset();
   return e;
 }
@@ -257,25 +246,8 @@ std::vector<PeriodEstimate> EstimatorCore::revise(std::int64_t now_ns) {
     FusedPeriod& f = history_[i];
     f.x_prior = filter_.x();
     f.P_prior = filter_.P();
-    std::vector<SensorSample> samples;
-    samples.reserve(f.samples.size());
-    for (const auto& [id, s] : f.samples) samples.push_back(s);
-    PeriodEstimate e;
-    e.trace_P_pred = filter_.P().trace();
-    const FusedUpdateResult result = filter_.update(samples);
-    count_fused_rejections(result);
-    e.k = f.k;
+    PeriodEstimate e = step(f.k, f.t, f.samples, f.last_stamp_ns, now_ns);
     e.revision = ++f.revision;
-    e.t = f.t;
-    e.x_hat = filter_.x();
-    e.P = filter_.P();
-    e.fused = result.fused_ids;
-    e.late_total = late_total_;
-    e.rejected_total = rejected_total();
-    e.state = filter_.state();
-    e.fused_at_ns = now_ns;
-    e.restarts = restarts_;
-    e.last_sample_stamp_ns = f.last_stamp_ns;
     out.push_back(std::move(e));
     // Into the next period (fused, or the open one): with the input the plant applied.
     if (f.input_after && f.input_covariance_after) filter_.predict(*f.input_after, *f.input_covariance_after);
@@ -299,8 +271,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector
     // buffered for them, predicting with the input we sent (assumed applied).
     const std::uint64_t first_missing = *last_fused_ + 1;
     for (std::uint64_t j = first_missing; j < k; ++j) {
-      if (acknowledged_) predict_with(last_control_.value_or(Vector()));
-      else predict_with_expected_input();
+      predict_next(last_control_.value_or(Vector()));
       open(j, now_ns);
       PeriodEstimate e = fuse(now_ns);
       e.skipped_tick = true;
@@ -308,8 +279,7 @@ std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector
       out.push_back(std::move(e));
     }
     // Unacknowledged: what the tick says was applied is not used (the plant would not say).
-    if (acknowledged_) predict_with(applied_input);
-    else predict_with_expected_input();
+    predict_next(applied_input);
   }
   // else: the first tick seen; the prior x0, P0 stands for this period.
   open(k, now_ns);
@@ -320,17 +290,8 @@ std::vector<PeriodEstimate> EstimatorCore::on_tick(std::uint64_t k, const Vector
 std::vector<PeriodEstimate> EstimatorCore::on_sample(int sensor_id, std::uint64_t k, const Vector& y,
                                                      std::int64_t stamp_ns, std::int64_t now_ns) {
   std::vector<PeriodEstimate> out;
-  auto dim = sensor_dims_.find(sensor_id);
-  if (dim == sensor_dims_.end()) {
-    reject(SampleRejection::unknown_sensor);
-    return out;
-  }
-  if (y.size() != dim->second) {
-    reject(SampleRejection::wrong_size);
-    return out;
-  }
-  if (!y.allFinite()) {
-    reject(SampleRejection::non_finite);
+  if (const auto reason = filter_.check(sensor_id, y)) {
+    reject(*reason);
     return out;
   }
   // A sample for a fused period (or one before the first tick seen) is late: lost, unless

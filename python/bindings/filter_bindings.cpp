@@ -79,8 +79,10 @@ class Filter {
 
   py::dict rejections() const {
     py::dict out;
-    for (int r = 0; r < static_cast<int>(RejectReason::count_); ++r)
-      out[to_string(static_cast<RejectReason>(r))] = filter_.rejections()[static_cast<RejectReason>(r)];
+    // The reasons the filter itself judges (the estimator's period logic adds the others).
+    for (const SampleRejection r : {SampleRejection::unknown_sensor, SampleRejection::wrong_size,
+                                    SampleRejection::non_finite, SampleRejection::duplicate})
+      out[to_string(r)] = filter_.rejections()[r];
     return out;
   }
 

@@ -85,13 +85,13 @@ int main(int argc, char** argv) {
       make_link_control(8, 2, LinkKeys{{"model", std::string("gilbert_elliott")}, {"loss", 0.2}, {"mean_burst", 4.0},
                                        {"delay_distribution", std::string("pareto")}}));
 
-  LinkStatusFacts facts;
+  LinkStatus facts;
   facts.sensor_id = 2;
   facts.link = gilbert;
   facts.in_time = 0.9;
   facts.last_request_id = 8;
-  write<wire::LinkStatusPubSubType>("link_status", WireKind::link_status, make_link_status(facts, 99));
+  write<wire::LinkStatusPubSubType>("link_status", WireKind::link_status, to_wire(facts, 99));
   write<wire::LinkChangePubSubType>("link_change", WireKind::link_change,
-                                    make_link_change(2, 300, "request", 8, bernoulli, 99));
+                                    to_wire(LinkChange{2, 300, LinkChange::Origin::request, 8, bernoulli, {}, {}}, 99));
   return 0;
 }

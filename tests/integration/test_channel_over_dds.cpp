@@ -62,14 +62,9 @@ class Relay {
                                              })),
         control_(participant_, dds::topics::link_control,
                  dds::post_to<wire::LinkControl>(io_.get_executor(), [this](wire::LinkControl c) {
-                   const netkf::nodes::LinkChangeResult r =
-                       links_.request(c.request_id(), c.sensor_id(), dds::link_keys_of(c));
-                   reply_.write(dds::make_link_control_reply(r.request_id, r.sensor_id, r.applied, r.reason));
-                   for (const auto& rep : links_.reports())
-                     status_.write(dds::make_link_status({rep.sensor_id, rep.link, 1.0, rep.stats, rep.lifetime,
-                                                          rep.last_request_id, rep.last_request_rejected,
-                                                          rep.reject_reason, 0},
-                                                         0));
+                   const netkf::LinkReply r = links_.request(c.request_id(), c.sensor_id(), dds::link_keys_of(c));
+                   reply_.write(dds::to_wire(r));
+                   for (const auto& status : links_.statuses()) status_.write(dds::to_wire(status, 0));
                  })),
         work_(io_.get_executor()),
         thread_([this] { io_.run(); }) {}

@@ -144,7 +144,12 @@ TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
   w = dds::to_wire(link);
   w.jitter_ms(-1.0);
   EXPECT_THROW((void)dds::from_wire(w), dds::ConversionError);
-  const auto s = dds::make_link_status({3, netkf::BernoulliLink{0.25}, 0.5, {}, {}, 0, false, {}, 7}, 0);
+  netkf::LinkStatus status;
+  status.sensor_id = 3;
+  status.link = netkf::BernoulliLink{0.25};
+  status.in_time = 0.5;
+  status.held = 7;
+  const auto s = dds::to_wire(status, 0);
   EXPECT_EQ(s.link().model(), "bernoulli");
   EXPECT_DOUBLE_EQ(s.stationary_loss(), 0.25);
   EXPECT_DOUBLE_EQ(s.in_time(), 0.5);
@@ -156,12 +161,15 @@ TEST(Conversions, LinkRequestsCarryTheirKeysAndLinksRoundTrip) {
 // back, is the same fit; none before the first sample; a malformed one is refused.
 TEST(Conversions, ARelayedTopicsStatusAndJournalNameTheTopicOfTheirLinkId) {
   const int id = netkf::relay_topic_link_id("rt/scan");
-  dds::LinkStatusFacts facts{id, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0};
-  facts.topic = "rt/scan";
-  const auto s = dds::make_link_status(facts, 0);
+  netkf::LinkStatus status;
+  status.sensor_id = id;
+  status.link = netkf::BernoulliLink{0.25};
+  status.topic = "rt/scan";
+  const auto s = dds::to_wire(status, 0);
   EXPECT_EQ(s.topic(), "rt/scan");
   EXPECT_EQ(dds::relayed_topic_of(s.sensor_id(), s.topic()), "rt/scan");
-  const auto c = dds::make_link_change(id, 12, "request", 3, netkf::BernoulliLink{0.0}, 0, "rt/scan");
+  const auto c =
+      dds::to_wire(netkf::LinkChange{id, 12, netkf::LinkChange::Origin::request, 3, netkf::BernoulliLink{0.0}, "rt/scan", {}}, 0);
   EXPECT_EQ(dds::relayed_topic_of(c.sensor_id(), c.topic()), "rt/scan");
   EXPECT_EQ(dds::relayed_topic_of(2, ""), "") << "a channel's link";
   EXPECT_THROW(dds::relayed_topic_of(2, "rt/scan"), dds::ConversionError) << "a sensor's id with a topic";
@@ -174,8 +182,11 @@ TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
   for (int i = 0; i < 80; ++i) bursty.record(i % 10 < 4);  // runs of 4 drops, 6 deliveries
   one.record(true);
   for (const auto& window : {bursty, one}) {
-    dds::LinkStatusFacts facts{3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0, 0, window.fit()};
-    const auto back = dds::recent_fit_of(dds::make_link_status(facts, 0));
+    netkf::LinkStatus facts;
+    facts.sensor_id = 3;
+    facts.link = netkf::BernoulliLink{0.25};
+    facts.recent_fit = window.fit();
+    const auto back = dds::recent_fit_of(dds::to_wire(facts, 0));
     ASSERT_TRUE(back.has_value());
     EXPECT_EQ(back->samples, facts.recent_fit->samples);
     EXPECT_EQ(back->dropped, facts.recent_fit->dropped);
@@ -186,9 +197,13 @@ TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
   EXPECT_EQ(bursty.fit()->family, netkf::analysis::LossFamily::simple_gilbert);
   EXPECT_FALSE(one.fit()->aic_gain.has_value());
 
-  auto s = dds::make_link_status({3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0}, 0);
+  netkf::LinkStatus status;
+  status.sensor_id = 3;
+  status.link = netkf::BernoulliLink{0.25};
+  auto s = dds::to_wire(status, 0);
   EXPECT_FALSE(dds::recent_fit_of(s).has_value());
-  s = dds::make_link_status({3, netkf::BernoulliLink{0.25}, 1.0, {}, {}, 0, false, {}, 0, 0, bursty.fit()}, 0);
+  status.recent_fit = bursty.fit();
+  s = dds::to_wire(status, 0);
   auto bad = s;
   bad.fit_family("gilbert_elliott");
   EXPECT_THROW((void)dds::recent_fit_of(bad), dds::ConversionError);
@@ -261,3 +276,53 @@ TEST(Conversions, UnreadablePayloadIsRefusedNotThrown) {
 }
 
 }  // namespace
+
+// The link records cross the wire whole: every field a reader sees is the field the owner set
+// (the one type each of issue 39: no field copied by hand on either side).
+TEST(Conversions, LinkStatusChangeAndReplyRoundTripWhole) {
+  netkf::LinkStatus status;
+  status.sensor_id = netkf::kControlLinkId;
+  status.link = netkf::LinkSpec(netkf::GilbertElliottLink{0.1, 0.4, 0.0, 1.0}, {3.0, 1.0});
+  status.in_time = 0.75;
+  status.held = 2;
+  status.past_deadline = 5;
+  netkf::LinkStatistics since_change, lifetime;
+  for (int i = 0; i < 40; ++i) since_change.record(i % 5 == 0);
+  for (int i = 0; i < 90; ++i) lifetime.record(i % 3 == 0);
+  status.count(since_change, lifetime);
+  status.last_request_id = 11;
+  status.rejection_reason = "loss must be in [0, 1]";
+  netkf::analysis::RecentArrivals recent(50);
+  for (int i = 0; i < 60; ++i) recent.record(i % 10 < 3);
+  status.recent_fit = recent.fit();
+  const netkf::LinkStatus back = dds::from_wire(dds::to_wire(status, 9));
+  EXPECT_EQ(back.sensor_id, status.sensor_id);
+  EXPECT_EQ(back.link, status.link);
+  EXPECT_EQ(back.in_time, 0.75);
+  EXPECT_EQ((std::tuple{back.held, back.past_deadline, back.samples_in, back.delivered, back.dropped}),
+            (std::tuple{2ull, 5ull, 40ull, 32ull, 8ull}));
+  EXPECT_EQ((std::tuple{back.samples_total, back.delivered_total, back.dropped_total}), (std::tuple{90ull, 60ull, 30ull}));
+  EXPECT_DOUBLE_EQ(back.observed_loss, 0.2);
+  EXPECT_DOUBLE_EQ(back.mean_burst_length, 1.0);
+  EXPECT_EQ(back.last_request_id, 11u);
+  EXPECT_EQ(back.rejection_reason, status.rejection_reason);
+  ASSERT_TRUE(back.recent_fit.has_value());
+  EXPECT_EQ(back.recent_fit->samples, status.recent_fit->samples);
+  EXPECT_EQ(back.recent_fit->link, status.recent_fit->link);
+  EXPECT_EQ(back.name(), "control");
+
+  const netkf::LinkChange change{2, 312, netkf::LinkChange::Origin::timeline, 0, netkf::BernoulliLink{0.3}, "", "not sent"};
+  const netkf::LinkChange change_back = dds::from_wire(dds::to_wire(change, 1));
+  EXPECT_EQ((std::tuple{change_back.sensor_id, change_back.at_period, change_back.origin, change_back.request_id}),
+            (std::tuple{2, std::int64_t{312}, netkf::LinkChange::Origin::timeline, std::uint64_t{0}}));
+  EXPECT_EQ(change_back.link, change.link);
+  EXPECT_TRUE(change_back.failure.empty()) << "a failed timeline event is logged, never on the wire";
+  auto unknown_origin = dds::to_wire(change, 1);
+  unknown_origin.origin("operator");
+  EXPECT_THROW((void)dds::from_wire(unknown_origin), dds::ConversionError);
+
+  const netkf::LinkReply reply{17, 2, false, "loss must be in [0,1]"};
+  const netkf::LinkReply reply_back = dds::from_wire(dds::to_wire(reply));
+  EXPECT_EQ((std::tuple{reply_back.request_id, reply_back.sensor_id, reply_back.applied, reply_back.reason}),
+            (std::tuple{reply.request_id, reply.sensor_id, reply.applied, reply.reason}));
+}

@@ -190,7 +190,7 @@ TEST(DdsRoundTrip, LinkControlAndReply) {
   EXPECT_EQ(got.request_id(), 17u);
   EXPECT_EQ(got.sensor_id(), 2);
   EXPECT_EQ(dds::link_keys_of(got), keys);
-  const auto reply = dds::make_link_control_reply(17, 2, false, "loss must be in [0,1]");
+  const auto reply = dds::to_wire(netkf::LinkReply{17, 2, false, "loss must be in [0,1]"});
   EXPECT_EQ(roundtrip(dds::topics::link_control_reply, reply), reply);
 }
 
@@ -201,7 +201,13 @@ TEST(DdsRoundTrip, LinkStatusReachesLateJoiners) {
   netkf::LinkStatistics stats;
   for (bool d : {true, true, false, true, false}) stats.record(d);
   const netkf::LinkSpec link{netkf::BernoulliLink{0.3}, {4.0, 2.0, netkf::DelayDistribution::uniform}};
-  const auto sent = dds::make_link_status({2, link, 0.75, stats, stats, 4, false, "", 0}, 1);
+  netkf::LinkStatus status;
+  status.sensor_id = 2;
+  status.link = link;
+  status.in_time = 0.75;
+  status.count(stats, stats);
+  status.last_request_id = 4;
+  const auto sent = dds::to_wire(status, 1);
   ASSERT_TRUE(writer.write(sent));
   dds::Participant b(options("status-late-joiner"));
   Inbox<wire::LinkStatus> inbox;
@@ -221,8 +227,9 @@ TEST(DdsRoundTrip, LinkJournalReachesLateJoiners) {
   dds::Participant a(options("journal-writer"));
   dds::Writer<wire::LinkChange> writer(a, dds::topics::link_change);
   const netkf::LinkSpec link{netkf::GilbertElliottLink{0.05, 0.2, 0.0, 1.0}, {}};
-  ASSERT_TRUE(writer.write(dds::make_link_change(3, 312, "request", 9, link, 1)));
-  ASSERT_TRUE(writer.write(dds::make_link_change(3, 600, "timeline", 0, netkf::BernoulliLink{0.1}, 2)));
+  using Origin = netkf::LinkChange::Origin;
+  ASSERT_TRUE(writer.write(dds::to_wire(netkf::LinkChange{3, 312, Origin::request, 9, link, {}, {}}, 1)));
+  ASSERT_TRUE(writer.write(dds::to_wire(netkf::LinkChange{3, 600, Origin::timeline, 0, netkf::BernoulliLink{0.1}, {}, {}}, 2)));
   dds::Participant b(options("journal-late-joiner"));
   Inbox<wire::LinkChange> inbox;
   dds::Reader<wire::LinkChange> reader(b, dds::topics::link_change, inbox.callback());

@@ -183,12 +183,12 @@ TEST(NodeApps, TheFourNodesInOneProcessMatchTheOfflineComputation) {
     EXPECT_TRUE(eventually(
         [&] {
           const auto l = channel.app().stats().links;
-          return std::all_of(l.begin(), l.end(), [&](auto& r) { return r.lifetime.samples() >= periods; });
+          return std::all_of(l.begin(), l.end(), [&](auto& r) { return r.samples_total >= periods; });
         },
         5s));
     const auto channel_stats = channel.app().stats();
     ASSERT_EQ(channel_stats.links.size(), 2u);
-    for (const auto& r : channel_stats.links) EXPECT_EQ(r.lifetime.samples(), periods) << "link " << r.sensor_id;
+    for (const auto& r : channel_stats.links) EXPECT_EQ(r.samples_total, periods) << "link " << r.sensor_id;
     EXPECT_EQ(channel_stats.unknown_sensor_samples, 0u);
   }
 

@@ -37,12 +37,12 @@ std::string record(const fs::path& path, McapOptions options) {
   McapRecorder r(out, scenario, /*with_delivered=*/true, std::move(options));
   for (std::int64_t k = 0; k < 12; ++k) {
     const bool arrived = k == 0 || k % 3 != 1;
-    r.truth(TruthRecord{k, static_cast<double>(k) * scenario.period_s(),
+    r.truth(Truth{k, static_cast<double>(k) * scenario.period_s(),
                         std::vector<double>(static_cast<std::size_t>(scenario.state_dim()), 0.25 * k), {-0.5 * k},
                         arrived});
     for (const auto& sensor : scenario.sensors)
       if ((k + sensor.id) % 4 != 0)
-        r.delivered(DeliveredRecord{sensor.id, k, 66000.0 + 0.01 * k, std::vector<double>(1, 0.1 * k)});
+        r.delivered(DeliveredMeasurement{sensor.id, k, 66000.0 + 0.01 * k, std::vector<double>(1, 0.1 * k)});
   }
   r.finish();
   return path.string();

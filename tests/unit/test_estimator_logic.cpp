@@ -15,7 +15,7 @@ namespace {
 using netkf::Matrix;
 using netkf::Vector;
 using netkf::nodes::EstimatorCore;
-using netkf::nodes::SampleRejection;
+using netkf::SampleRejection;
 
 constexpr std::int64_t kMs = 1000000;
 

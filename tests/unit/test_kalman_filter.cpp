@@ -26,7 +26,7 @@ using netkf::FilterState;
 using netkf::IntermittentKalmanFilter;
 using netkf::Matrix;
 using netkf::ReceivedBlock;
-using netkf::RejectReason;
+using netkf::SampleRejection;
 using netkf::SensorModel;
 using netkf::SensorSample;
 using netkf::Vector;
@@ -359,15 +359,15 @@ TEST(IntermittentFilter, MalformedSamplesRejectedCountedStateUntouched) {
   const auto result = filter.update(samples);
   EXPECT_EQ(result.fused_ids, std::vector<int>{10});
   ASSERT_EQ(result.rejected.size(), 5u);
-  EXPECT_EQ(result.rejected[0], std::make_pair(99, RejectReason::unknown_sensor));
-  EXPECT_EQ(result.rejected[1], std::make_pair(13, RejectReason::wrong_size));
-  EXPECT_EQ(result.rejected[2], std::make_pair(16, RejectReason::non_finite));
-  EXPECT_EQ(result.rejected[3], std::make_pair(16, RejectReason::non_finite));
-  EXPECT_EQ(result.rejected[4], std::make_pair(10, RejectReason::duplicate));
-  EXPECT_EQ(filter.rejections()[RejectReason::unknown_sensor], 1u);
-  EXPECT_EQ(filter.rejections()[RejectReason::wrong_size], 1u);
-  EXPECT_EQ(filter.rejections()[RejectReason::non_finite], 2u);
-  EXPECT_EQ(filter.rejections()[RejectReason::duplicate], 1u);
+  EXPECT_EQ(result.rejected[0], std::make_pair(99, SampleRejection::unknown_sensor));
+  EXPECT_EQ(result.rejected[1], std::make_pair(13, SampleRejection::wrong_size));
+  EXPECT_EQ(result.rejected[2], std::make_pair(16, SampleRejection::non_finite));
+  EXPECT_EQ(result.rejected[3], std::make_pair(16, SampleRejection::non_finite));
+  EXPECT_EQ(result.rejected[4], std::make_pair(10, SampleRejection::duplicate));
+  EXPECT_EQ(filter.rejections()[SampleRejection::unknown_sensor], 1u);
+  EXPECT_EQ(filter.rejections()[SampleRejection::wrong_size], 1u);
+  EXPECT_EQ(filter.rejections()[SampleRejection::non_finite], 2u);
+  EXPECT_EQ(filter.rejections()[SampleRejection::duplicate], 1u);
   EXPECT_EQ(filter.rejections().total(), 5u);
 
   // The same as fusing only the good sample.
@@ -387,7 +387,7 @@ TEST(IntermittentFilter, MalformedSamplesRejectedCountedStateUntouched) {
   EXPECT_EQ(filter.x(), x_before);
   EXPECT_EQ(filter.P(), P_before);
   EXPECT_EQ(filter.rejections().total(), 7u);
-  EXPECT_STREQ(netkf::to_string(RejectReason::non_finite), "non_finite");
+  EXPECT_STREQ(netkf::to_string(SampleRejection::non_finite), "non_finite");
 }
 
 TEST(IntermittentFilter, InvalidModelThrowsNamingTheProblem) {

@@ -20,7 +20,7 @@ using netkf::Matrix;
 using netkf::Vector;
 using netkf::nodes::EstimatorCore;
 using netkf::nodes::PeriodEstimate;
-using netkf::nodes::SampleRejection;
+using netkf::SampleRejection;
 
 constexpr std::int64_t kMs = 1000000;
 

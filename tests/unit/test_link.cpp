@@ -1027,7 +1027,7 @@ TEST(LinkEvents, ReplayedEventsApplyBeforeTheScenariosAtTheSamePeriod) {
   EXPECT_EQ(changes[0].at_period, 100);
   EXPECT_EQ(changes[0].link.loss, netkf::LinkModel(BernoulliLink{0.9}));
   EXPECT_EQ(changes[1].link.loss, netkf::LinkModel(BernoulliLink{0.5}));
-  EXPECT_EQ(links.report(1)->link, LinkSpec(BernoulliLink{0.5}, {4.0, 2.0}));  // the delay kept
+  EXPECT_EQ(links.status(1)->link, LinkSpec(BernoulliLink{0.5}, {4.0, 2.0}));  // the delay kept
 
   // The result is validated.
   netkf::Scenario t = base_scenario();
@@ -1072,7 +1072,7 @@ TEST(LinkRamp, GilbertElliottRampOfPMovesLinearlyAndReachesTheTargetExactly) {
   for (std::int64_t k = 0; k < 150; ++k) {
     links.on_sample(3, k);
     ++samples;
-    const LinkSpec& now = links.report(3)->link;
+    const LinkSpec now = links.status(3)->link;
     const GilbertElliottLink& g = ge(now);
     // Only p moves.
     EXPECT_EQ(g.r, start.r);
@@ -1086,7 +1086,7 @@ TEST(LinkRamp, GilbertElliottRampOfPMovesLinearlyAndReachesTheTargetExactly) {
       EXPECT_EQ(g.p, 0.25) << k;  // exactly the target, from period 108 on
     }
     // A ramp's steps do not reset the link's statistics.
-    EXPECT_EQ(links.report(3)->stats.samples(), samples);
+    EXPECT_EQ(links.status(3)->samples_in, samples);
   }
   // Journal: the ramp's start (100) and its end (108).
   const auto changes = links.take_changes();
@@ -1103,13 +1103,13 @@ TEST(LinkRamp, ARampOfLossOnTheUserFormKeepsTheMeanBurst) {
   netkf::nodes::ChannelLinks links(s);
   for (std::int64_t k = 0; k < 130; ++k) {
     links.on_sample(2, k);
-    const LinkSpec& now = links.report(2)->link;
+    const LinkSpec now = links.status(2)->link;
     const double f = std::clamp(static_cast<double>(k - 100) / 10.0, 0.0, 1.0);
     EXPECT_NEAR(netkf::stationary_loss(now.loss), 0.2 + 0.2 * f, 1e-12) << k;
     EXPECT_NEAR(netkf::mean_burst_length(now.loss), 5.0, 1e-9) << k;
     EXPECT_NEAR(now.delay.delay_ms, 10.0 * f, 1e-12) << k;
   }
-  EXPECT_EQ(links.report(2)->link.delay.delay_ms, 10.0);
+  EXPECT_EQ(links.status(2)->link.delay.delay_ms, 10.0);
 }
 
 TEST(LinkRamp, ARampOverZeroPeriodsIsASet) {
@@ -1124,10 +1124,10 @@ TEST(LinkRamp, ARampOverZeroPeriodsIsASet) {
     const auto fb = b.on_sample(3, k);
     ASSERT_EQ(fa.verdict, fb.verdict) << k;
     ASSERT_EQ(fa.delay_ms, fb.delay_ms) << k;
-    ASSERT_EQ(a.report(3)->link, b.report(3)->link) << k;
+    ASSERT_EQ(a.status(3)->link, b.status(3)->link) << k;
     if (k == 100) {
-      EXPECT_EQ(ge(a.report(3)->link).p, 0.25);
-      EXPECT_EQ(a.report(3)->link.delay.delay_ms, 3.0);
+      EXPECT_EQ(ge(a.status(3)->link).p, 0.25);
+      EXPECT_EQ(a.status(3)->link.delay.delay_ms, 3.0);
     }
   }
   const auto ca = a.take_changes();
@@ -1149,8 +1149,8 @@ TEST(LinkRamp, ARampOfLossFromZeroKeepsTheMeanBurst) {
       "ramp.yaml");
   netkf::nodes::ChannelLinks links(s);
   for (std::int64_t k = 0; k <= 30; ++k) links.on_sample(2, k);
-  EXPECT_NEAR(netkf::stationary_loss(links.report(2)->link.loss), 0.2, 1e-12);
-  EXPECT_NEAR(netkf::mean_burst_length(links.report(2)->link.loss), 5.0, 1e-9);
+  EXPECT_NEAR(netkf::stationary_loss(links.status(2)->link.loss), 0.2, 1e-12);
+  EXPECT_NEAR(netkf::mean_burst_length(links.status(2)->link.loss), 5.0, 1e-9);
 }
 
 }  // namespace

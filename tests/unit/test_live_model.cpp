@@ -17,9 +17,9 @@
 namespace netkf::cli {
 namespace {
 
-LinkStatusRecord link_status(int id, LinkModel model, std::uint64_t samples, std::uint64_t delivered,
+LinkStatus link_status(int id, LinkModel model, std::uint64_t samples, std::uint64_t delivered,
                              std::uint64_t request = 0) {
-  LinkStatusRecord l;
+  LinkStatus l;
   l.sensor_id = id;
   l.link = model;
   l.samples_in = samples;
@@ -372,7 +372,7 @@ TEST(LiveMetrics, ARelaysLinksAreLabelledByTopicAndOnlyLinksAreServed) {
   LiveMetrics metrics(LiveMetrics::Scope::links);
   LiveSnapshot snapshot;
   LinkView view;
-  static_cast<LinkStatusRecord&>(view) = link_status(netkf::relay_topic_link_id("rt/scan"), BernoulliLink{0.3}, 50, 40);
+  static_cast<LinkStatus&>(view) = link_status(netkf::relay_topic_link_id("rt/scan"), BernoulliLink{0.3}, 50, 40);
   view.topic = "rt/scan";
   snapshot.links.push_back(view);
   metrics.update(snapshot);

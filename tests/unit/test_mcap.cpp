@@ -161,7 +161,7 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
   const Scenario scenario = default_scenario();
   {
     McapRecorder r(out, scenario, /*with_delivered=*/true);
-    r.truth(TruthRecord{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5), {}});
+    r.truth(Truth{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5), {}});
     Estimate e;
     e.k = 3;
     e.t = 3 * scenario.period_s();
@@ -169,25 +169,25 @@ TEST(McapRecording, ChannelsAreTheDdsTopicsWithJsonSchemas) {
     e.P = Matrix::Zero(scenario.state_dim(), scenario.state_dim());
     e.P(0, 0) = 1.25;  // Tr P
     r.estimate(e);
-    r.delivered(DeliveredRecord{1, 3, 0.03, {0.2}});
-    LinkStatusRecord l;
+    r.delivered(DeliveredMeasurement{1, 3, 0.03, {0.2}});
+    LinkStatus l;
     l.sensor_id = scenario.sensors[0].id;
     l.link = scenario.sensors[0].link;
     r.link_status(l);
-    LinkStatusRecord changed = l;  // the channel answers request 9: an event, then the status
+    LinkStatus changed = l;  // the channel answers request 9: an event, then the status
     changed.last_request_id = 9;
     changed.link.loss = BernoulliLink{0.5};
     r.link_status(changed);
-    LinkChangeRecord c;
+    LinkChange c;
     c.sensor_id = 1;
     c.at_period = 2;
-    c.origin = "request";
+    c.origin = netkf::LinkChange::Origin::request;
     c.request_id = 9;
     c.link = scenario.sensors[0].link;
     r.link_change(c);
     r.link_change(c);  // a transient-local repeat: written once
-    LinkChangeRecord step = c;  // a timeline step: the change and its event
-    step.origin = "timeline";
+    LinkChange step = c;  // a timeline step: the change and its event
+    step.origin = netkf::LinkChange::Origin::timeline;
     step.at_period = 4;
     step.request_id = 0;
     r.link_change(step);
@@ -373,16 +373,16 @@ TEST(McapWriterBytes, TheSummaryRepeatsSchemasAndChannelsCountsMessagesAndIndexe
 class FakeCodec final : public ros2::Ros2Codec {
  public:
   ros2::Qos qos(ros2::Channel) const override { return {true, false, 7}; }
-  std::string truth(const TruthRecord& t) const override { return "truth " + std::to_string(t.k); }
+  std::string truth(const Truth& t) const override { return "truth " + std::to_string(t.k); }
   std::string estimate(const Estimate& e) const override { return "estimate " + std::to_string(e.k); }
-  std::string delivered(const DeliveredRecord& d) const override { return "delivered " + std::to_string(d.k); }
-  std::string link_status(const LinkStatusRecord& l) const override { return "status " + std::to_string(l.sensor_id); }
-  std::string link_change(const LinkChangeRecord& c) const override { return "change " + std::to_string(c.at_period); }
+  std::string delivered(const DeliveredMeasurement& d) const override { return "delivered " + std::to_string(d.k); }
+  std::string link_status(const LinkStatus& l) const override { return "status " + std::to_string(l.sensor_id); }
+  std::string link_change(const LinkChange& c) const override { return "change " + std::to_string(c.at_period); }
   std::string log(std::uint64_t t, std::uint8_t level, std::string_view, std::string_view text) const override {
     return "log " + std::to_string(t) + " " + std::to_string(level) + " " + std::string(text);
   }
-  TruthRecord decode_truth(std::string_view) const override { return {}; }
-  DeliveredRecord decode_delivered(std::string_view) const override { return {}; }
+  Truth decode_truth(std::string_view) const override { return {}; }
+  DeliveredMeasurement decode_delivered(std::string_view) const override { return {}; }
 };
 
 TEST(McapRecording, TheRos2ProfileWritesRosbag2sLayout) {
@@ -394,15 +394,15 @@ TEST(McapRecording, TheRos2ProfileWritesRosbag2sLayout) {
   {
     McapRecorder r(bag, scenario, /*with_delivered=*/false,
                    McapOptions{McapProfile::ros2, std::make_shared<FakeCodec>(), "run.mcap"});
-    r.truth(TruthRecord{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5), {}});
-    LinkStatusRecord l;
+    r.truth(Truth{3, 3 * scenario.period_s(), std::vector<double>(scenario.state_dim(), 0.5), {}});
+    LinkStatus l;
     l.sensor_id = scenario.sensors[0].id;
     l.link = scenario.sensors[0].link;
     r.link_status(l);
-    LinkChangeRecord c;
+    LinkChange c;
     c.sensor_id = 1;
     c.at_period = 2;
-    c.origin = "timeline";
+    c.origin = netkf::LinkChange::Origin::timeline;
     c.link = scenario.sensors[0].link;
     r.link_change(c);  // a timeline step: the change and its event
     r.link_change(c);  // a transient-local repeat: written once

@@ -24,9 +24,9 @@ namespace {
 const LinkSpec kLink2{BernoulliLink{0.3}, LinkDelay{6.0, 4.0, DelayDistribution::uniform}};
 
 // One report of a link: counts since the model was set, and the lifetime count of samples.
-LinkStatusRecord report(int id, const LinkSpec& link, std::uint64_t samples_in, std::uint64_t delivered,
+LinkStatus report(int id, const LinkSpec& link, std::uint64_t samples_in, std::uint64_t delivered,
                         std::uint64_t past_deadline, std::uint64_t samples_total, std::uint64_t request = 0) {
-  LinkStatusRecord r;
+  LinkStatus r;
   r.sensor_id = id;
   r.link = link;
   r.in_time = id == 2 ? 0.75 : 1.0;
@@ -57,7 +57,7 @@ double metric(const std::string& text, const std::string& series) {
 //   R4  1600  1150   70 → 1080   since 1080/1600 = 0.675 window from R1 (1600 − 800 < 1000 ≤ 1600 − 400):
 //                                 (1080 − 280)/(1600 − 400) = 800/1200 = 2/3 over 1200
 //   R5  2000  1250   70 → 1180   since 1180/2000 = 0.59  window from R2: (1180 − 580)/(2000 − 800) = 0.5 over 1200
-const std::vector<LinkStatusRecord> kReports = {
+const std::vector<LinkStatus> kReports = {
     report(2, kLink2, 400, 300, 20, 400),     report(2, kLink2, 800, 620, 40, 800),
     report(2, kLink2, 1200, 900, 60, 1200),   report(2, kLink2, 1600, 1150, 70, 1600),
     report(2, kLink2, 2000, 1250, 70, 2000)};
@@ -66,8 +66,8 @@ const double kWindow[] = {0.7, 0.725, 0.7, 2.0 / 3.0, 0.5};
 const std::uint64_t kSpan[] = {400, 800, 1200, 1200, 1200};
 
 // Links 1 and 3, one report each: 450/500 = 0.9 in time; 400 delivered, 100 past the deadline: 300/500 = 0.6.
-const LinkStatusRecord kLink1 = report(1, BernoulliLink{0.2}, 500, 450, 0, 500);
-const LinkStatusRecord kLink3 = report(3, GilbertElliottLink{0.05, 0.3, 0.02, 1.0}, 500, 400, 100, 500);
+const LinkStatus kLink1 = report(1, BernoulliLink{0.2}, 500, 450, 0, 500);
+const LinkStatus kLink3 = report(3, GilbertElliottLink{0.05, 0.3, 0.02, 1.0}, 500, 400, 100, 500);
 
 TEST(ObservedRate, SinceChangeAndWindowFromKnownReports) {
   ObservedRateWindow window;
@@ -126,7 +126,7 @@ TEST(ObservedRate, EveryViewShowsTheSameRatesUnderTheirNames) {
   LiveModel model(scenario);
   RunSummaryBuilder summary(scenario);
   LiveMetrics metrics;
-  const auto feed = [&](const LinkStatusRecord& r) {
+  const auto feed = [&](const LinkStatus& r) {
     model.add_link_status(r);
     summary.add_link_status(r);
   };

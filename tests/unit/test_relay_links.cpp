@@ -60,12 +60,12 @@ TEST(RelayLinks, GilbertElliottMatchesItsStationaryLossAndMeanBurst) {
   const int n = 200000;
   for (int i = 0; i < n; ++i) ASSERT_TRUE(links.on_sample("rt/chatter"));
   const auto report = links.reports().at(0);
-  EXPECT_EQ(report.stats.samples(), static_cast<std::uint64_t>(n));
+  EXPECT_EQ(report.samples_in, static_cast<std::uint64_t>(n));
   const double expected_loss = p / (p + r);  // π_B
   // The chain's samples are correlated: allow 5 sd of the burst-inflated binomial spread.
   const double sd = std::sqrt(expected_loss * (1 - expected_loss) / n * (2.0 / r));
-  EXPECT_NEAR(report.stats.observed_loss(), expected_loss, 5 * sd);
-  EXPECT_NEAR(report.stats.mean_burst_length(), 1.0 / r, 0.1);
+  EXPECT_NEAR(report.observed_loss, expected_loss, 5 * sd);
+  EXPECT_NEAR(report.mean_burst_length, 1.0 / r, 0.1);
 }
 
 TEST(RelayLinks, ATraceLinkReplaysItsRowsFromTheSampleItTookEffectAt) {
@@ -82,7 +82,7 @@ TEST(RelayLinks, ATraceLinkReplaysItsRowsFromTheSampleItTookEffectAt) {
     EXPECT_EQ(fate->index, 3 + i);
     EXPECT_EQ(fate->delivered, expected[i]) << "sample " << i << " after the change";
   }
-  EXPECT_EQ(links.reports().at(0).stats.samples(), expected.size()) << "a change restarts the statistics";
+  EXPECT_EQ(links.reports().at(0).samples_in, expected.size()) << "a change restarts the statistics";
   EXPECT_FALSE(links.set_link("rt/unknown", spec));
 }
 
@@ -119,9 +119,9 @@ TEST(RelayLinks, ReportsLifetimeCountsTheRecentFitAndTheLastRequestAsAChannelLin
     independent.record(d);
   }
   auto r = *links.report("rt/a");
-  EXPECT_EQ(r.stats.samples(), 300u);
-  EXPECT_EQ(r.stats.dropped(), dropped);
-  EXPECT_EQ(r.lifetime.dropped(), dropped);
+  EXPECT_EQ(r.samples_in, 300u);
+  EXPECT_EQ(r.dropped, dropped);
+  EXPECT_EQ(r.dropped_total, dropped);
   EXPECT_EQ(r.next_sample, 300u);
   ASSERT_TRUE(r.recent_fit.has_value());
   EXPECT_EQ(r.recent_fit->samples, 300u);
@@ -133,14 +133,14 @@ TEST(RelayLinks, ReportsLifetimeCountsTheRecentFitAndTheLastRequestAsAChannelLin
   links.note_request("rt/a", 77, "");
   for (int i = 0; i < 10; ++i) EXPECT_TRUE(links.on_sample("rt/a")->delivered);
   r = *links.report("rt/a");
-  EXPECT_EQ(r.stats.samples(), 10u) << "since the change";
-  EXPECT_EQ(r.lifetime.samples(), 310u) << "not reset by a change";
-  EXPECT_EQ(r.lifetime.dropped(), dropped);
+  EXPECT_EQ(r.samples_in, 10u) << "since the change";
+  EXPECT_EQ(r.samples_total, 310u) << "not reset by a change";
+  EXPECT_EQ(r.dropped_total, dropped);
   EXPECT_EQ(r.recent_fit->samples, 10u) << "the window restarts with the model";
   EXPECT_EQ(r.last_request_id, 77u);
-  EXPECT_TRUE(r.reject_reason.empty());
+  EXPECT_TRUE(r.rejection_reason.empty());
   links.note_request("rt/a", 78, "bad key");
-  EXPECT_EQ(links.report("rt/a")->reject_reason, "bad key");
+  EXPECT_EQ(links.report("rt/a")->rejection_reason, "bad key");
   EXPECT_FALSE(links.report("rt/unknown").has_value());
 }
 
@@ -199,15 +199,15 @@ TEST(RelayTimeline, ASetAppliesFromItsSampleOnAndIsJournaled) {
   const auto changes = links.take_changes();
   ASSERT_EQ(changes.size(), 1u);
   EXPECT_EQ(changes[0].topic, "rt/chatter");
-  EXPECT_EQ(changes[0].at_sample, 200u);
-  EXPECT_EQ(changes[0].origin, "timeline");
+  EXPECT_EQ(changes[0].at_period, 200);
+  EXPECT_EQ(changes[0].origin, netkf::LinkChange::Origin::timeline);
   EXPECT_EQ(changes[0].request_id, 0u);
   EXPECT_EQ(changes[0].link, LinkSpec(BernoulliLink{1.0}));
   ASSERT_TRUE(changes[0].replay);
   EXPECT_EQ(*changes[0].replay, set_at(200, "rt/chatter", netkf::link_keys(LinkSpec(BernoulliLink{1.0}))))
       << "the journal sets the whole link";
-  EXPECT_EQ(links.report("rt/chatter")->stats.samples(), 200u) << "statistics restart at the change";
-  EXPECT_EQ(links.report("rt/chatter")->lifetime.samples(), 400u);
+  EXPECT_EQ(links.report("rt/chatter")->samples_in, 200u) << "statistics restart at the change";
+  EXPECT_EQ(links.report("rt/chatter")->samples_total, 400u);
   EXPECT_TRUE(links.take_changes().empty());
 }
 
@@ -218,8 +218,8 @@ TEST(RelayTimeline, ALiveChangeIsJournaledAtTheTopicsNextSample) {
   ASSERT_TRUE(links.set_link("rt/a", LinkSpec(BernoulliLink{0.0}), 41));
   const auto changes = links.take_changes();
   ASSERT_EQ(changes.size(), 1u);
-  EXPECT_EQ(changes[0].at_sample, 17u) << "rt/a's samples 0..16 went before it";
-  EXPECT_EQ(changes[0].origin, "request");
+  EXPECT_EQ(changes[0].at_period, 17) << "rt/a's samples 0..16 went before it";
+  EXPECT_EQ(changes[0].origin, netkf::LinkChange::Origin::request);
   EXPECT_EQ(changes[0].request_id, 41u);
   EXPECT_EQ(changes[0].replay->at_sample, 17u);
   EXPECT_EQ(fates(links, "rt/a", 1).at(0).index, 17u);
@@ -242,12 +242,12 @@ TEST(RelayTimeline, ARampMovesTheLinkOneStepPerSampleAndIsJournaledOnce) {
   }
   const auto changes = links.take_changes();
   ASSERT_EQ(changes.size(), 2u) << "its start and its end";
-  EXPECT_EQ(changes[0].at_sample, 100u);
+  EXPECT_EQ(changes[0].at_period, 100);
   ASSERT_TRUE(changes[0].replay);
   EXPECT_EQ(*changes[0].replay, ramp) << "the journal holds the ramp as it started";
-  EXPECT_EQ(changes[1].at_sample, 150u);
+  EXPECT_EQ(changes[1].at_period, 150);
   EXPECT_FALSE(changes[1].replay) << "a replay reaches the ramp's end by itself";
-  EXPECT_EQ(links.report("rt/a")->stats.samples(), 200u) << "a ramp does not restart the statistics (as a channel link)";
+  EXPECT_EQ(links.report("rt/a")->samples_in, 200u) << "a ramp does not restart the statistics (as a channel link)";
 }
 
 TEST(RelayTimeline, ATimelineEventThatNoLongerAppliesChangesNothing) {
@@ -258,7 +258,7 @@ TEST(RelayTimeline, ATimelineEventThatNoLongerAppliesChangesNothing) {
   fates(links, "rt/a", 10);
   const auto changes = links.take_changes();
   ASSERT_EQ(changes.size(), 2u);
-  EXPECT_EQ(changes[1].at_sample, 10u);
+  EXPECT_EQ(changes[1].at_period, 10);
   EXPECT_FALSE(changes[1].failure.empty());
   EXPECT_FALSE(changes[1].replay);
   EXPECT_EQ(links.report("rt/a")->link, LinkSpec(BernoulliLink{0.25}));
@@ -362,7 +362,7 @@ TEST(RelayLinks, AWritersLinkDrawsFromTheStreamOfItsName) {
   const auto reports = links.reports();
   ASSERT_EQ(reports.size(), 2u);
   EXPECT_EQ(reports[0].topic, "rt/scan@robot1");
-  EXPECT_EQ(reports[0].stats.samples(), static_cast<std::uint64_t>(n));
+  EXPECT_EQ(reports[0].samples_in, static_cast<std::uint64_t>(n));
   EXPECT_EQ(links.writer_links("rt/scan"), (std::vector<std::string>{"rt/scan@robot1", "rt/scan@robot2"}));
 }
 
@@ -419,12 +419,12 @@ TEST(RelayLinks, AWritersChangeIsItsOwnATopicsChangeIsEveryWritersAndTheirsToCom
   for (const std::string name : {"rt/scan@robot1", "rt/scan@robot2", "rt/scan@robot3"}) {
     for (int i = 0; i < 50; ++i) EXPECT_TRUE(links.on_sample(name)->delivered) << name << " at loss 0";
     const auto report = links.report(name);
-    EXPECT_EQ(report->stats.samples(), 50u) << name << ": statistics since the change";
+    EXPECT_EQ(report->samples_in, 50u) << name << ": statistics since the change";
     if (name != "rt/scan@robot3") {
       EXPECT_EQ(report->last_request_id, 18u) << name;
     }
   }
-  EXPECT_EQ(links.report("rt/scan@robot1")->lifetime.samples(), 260u);
+  EXPECT_EQ(links.report("rt/scan@robot1")->samples_total, 260u);
   EXPECT_FALSE(links.report("rt/scan")) << "the topic's model is not a link";
 }
 
@@ -448,21 +448,21 @@ TEST(RelayTimeline, APerWriterSessionReplaysFromItsJournal) {
   for (int i = 0; i < 30; ++i) fates["rt/scan@robot1"].push_back(*session.on_sample("rt/scan@robot1"));
   take();
   ASSERT_EQ(entries.size(), 1u);
-  EXPECT_EQ((std::pair{entries[0].topic, entries[0].at_sample}), (std::pair{std::string("rt/scan@robot1"), std::uint64_t{10}}))
+  EXPECT_EQ((std::pair{entries[0].topic, entries[0].at_period}), (std::pair{std::string("rt/scan@robot1"), std::int64_t{10}}))
       << "the topic's event, at robot1's sample 10";
   session.set_link("rt/scan", LinkSpec(BernoulliLink{0.1}), 4);  // every writer's, and those to come
   session.add_writer_link("rt/scan", "robot2");
   take();
   ASSERT_EQ(entries.size(), 3u) << "robot1's change, and robot2's link at its sample 0";
   EXPECT_EQ(entries[1].topic, "rt/scan@robot1");
-  EXPECT_EQ(entries[1].at_sample, 30u);
-  EXPECT_EQ((std::tuple{entries[2].topic, entries[2].at_sample, entries[2].origin}),
-            (std::tuple{std::string("rt/scan@robot2"), std::uint64_t{0}, std::string("request")}));
+  EXPECT_EQ(entries[1].at_period, 30);
+  EXPECT_EQ((std::tuple{entries[2].topic, entries[2].at_period, entries[2].origin}),
+            (std::tuple{std::string("rt/scan@robot2"), std::int64_t{0}, netkf::LinkChange::Origin::request}));
   for (int i = 0; i < 40; ++i)
     for (const char* w : {"rt/scan@robot1", "rt/scan@robot2"}) fates[w].push_back(*session.on_sample(w));
   take();
   EXPECT_EQ(entries.back().topic, "rt/scan@robot2") << "the topic's event at robot2's own sample 10";
-  EXPECT_EQ(entries.back().at_sample, 10u);
+  EXPECT_EQ(entries.back().at_period, 10);
 
   // Replayed (--events replaces the file's timeline), the writers coming in the other order.
   netkf::RelayConfig config;

@@ -45,7 +45,7 @@ std::string parse_error(const std::string& text, const std::vector<int>& ids = {
   return "";
 }
 
-TruthRecord truth(std::int64_t k, std::vector<double> x) { return TruthRecord{k, 0.01 * static_cast<double>(k), x, {}}; }
+Truth truth(std::int64_t k, std::vector<double> x) { return Truth{k, 0.01 * static_cast<double>(k), x, {}}; }
 
 Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trace_P, std::vector<int> fused,
                   std::vector<int> late_sensors, const std::string& state, double latency_ms) {
@@ -66,8 +66,8 @@ Estimate estimate(std::uint64_t k, const std::vector<double>& x_hat, double trac
   return e;
 }
 
-LinkStatusRecord status(int id, std::uint64_t samples, std::uint64_t delivered, std::uint64_t dropped) {
-  LinkStatusRecord l;
+LinkStatus status(int id, std::uint64_t samples, std::uint64_t delivered, std::uint64_t dropped) {
+  LinkStatus l;
   l.sensor_id = id;
   l.samples_total = samples;
   l.delivered_total = delivered;

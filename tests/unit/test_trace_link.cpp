@@ -222,7 +222,7 @@ TEST_F(TraceFiles, ChannelReplaysTheTraceAndSwitchesToAModelAndBack) {
   const auto refused = links.request(3, 1, {{"model", std::string("trace")}, {"trace", (dir_ / "gone.csv").string()}});
   EXPECT_FALSE(refused.applied);
   EXPECT_THAT(refused.reason, HasSubstr("gone.csv"));
-  EXPECT_EQ(links.report(1)->link.trace->path, trace);
+  EXPECT_EQ(links.status(1)->link.trace->path, trace);
 }
 
 TEST_F(TraceFiles, TimelineSwitchesToATraceReadAtStart) {

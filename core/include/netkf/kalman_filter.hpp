@@ -29,26 +29,29 @@ struct SensorSample {
 enum class FilterState { ok, diverging };
 const char* to_string(FilterState state);
 
-/// Why a sample was not fused.
-enum class RejectReason : int {
+/// Why a sample was not fused: the one list of reasons of the filter and the estimator (the
+/// filter judges the first four; the estimator's period logic adds the last two).
+enum class SampleRejection : int {
   unknown_sensor = 0,
   wrong_size,
   non_finite,
-  duplicate,   // same sensor twice in one fused update
+  duplicate,    // same sensor twice in one fused update (or one period)
+  buffer_full,  // a sample for a period too far ahead to be buffered
+  stale_tick,   // a tick for a period already opened (duplicate or reordered)
   count_
 };
-const char* to_string(RejectReason reason);
+const char* to_string(SampleRejection reason);
 
 struct RejectionCounts {
-  std::array<std::uint64_t, static_cast<int>(RejectReason::count_)> by_reason{};
+  std::array<std::uint64_t, static_cast<int>(SampleRejection::count_)> by_reason{};
   std::uint64_t total() const;
-  std::uint64_t operator[](RejectReason r) const { return by_reason[static_cast<int>(r)]; }
+  std::uint64_t operator[](SampleRejection r) const { return by_reason[static_cast<int>(r)]; }
 };
 
 /// Result of one fused update.
 struct FusedUpdateResult {
   std::vector<int> fused_ids;              // sensors whose samples were used (sorted)
-  std::vector<std::pair<int, RejectReason>> rejected;
+  std::vector<std::pair<int, SampleRejection>> rejected;
 };
 
 struct FilterOptions {
@@ -85,6 +88,9 @@ class IntermittentKalmanFilter {
   /// (any subset; empty = no update). Invalid samples are rejected and counted, never fused.
   /// After the call, x()/P() are the filtered x̂_{k|k}, P_{k|k}.
   FusedUpdateResult update(std::span<const SensorSample> received);
+  /// Why a sample of `sensor_id` could not be fused on its own (unknown sensor, wrong size,
+  /// non-finite); nullopt when it can. The one check update() and the estimator's arrival use.
+  std::optional<SampleRejection> check(int sensor_id, const Vector& y) const;
 
   /// Time update to the next period: x̂_{k+1|k} = A x̂_{k|k} + B u_k, P_{k+1|k} = A P A' + Q.
   /// `input` must have B's column count (ignored when the model has no B).
@@ -111,6 +117,11 @@ class IntermittentKalmanFilter {
   void saturate();  // keeps P and x finite (FilterOptions::covariance_ceiling)
   /// Looks up a sensor's index in model_.sensors; -1 when unknown.
   int sensor_index(int id) const;
+  /// update()'s first half: the valid samples' sensor indices into accepted_ (in id order) and
+  /// taken_; the rest counted and listed in `result`. Leaves x_ and P_ alone.
+  void accept(std::span<const SensorSample> received, FusedUpdateResult& result);
+  /// update()'s second half: the fused update of x_, P_ with the accepted samples.
+  void fuse_accepted(std::span<const SensorSample> received, FusedUpdateResult& result);
 
   // Per-sensor information terms precomputed at construction (R_i factorised once):
   // H_i = C_i' R_i^-1 (n x m_i) and Lambda_i = C_i' R_i^-1 C_i (n x n, PSD by construction).

@@ -13,6 +13,8 @@
 
 #include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/link.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_status.hpp"
 #include "netkf/loss_model.hpp"
 #include "netkf/scenario.hpp"  // LinkEvent::Kind
 
@@ -66,16 +68,12 @@ struct RelayEvent {
 
 /// One entry of a relay's journal: a change of a topic's link and the index of the topic's
 /// first sample under it.
-struct RelayLinkChange {
-  std::string topic;
-  std::uint64_t at_sample = 0;
-  std::string origin;            // "request" (ctl, the WebSocket) or "timeline"
-  std::uint64_t request_id = 0;  // 0: the timeline or the WebSocket
-  LinkSpec link;                 // the whole link after the change
-  std::string failure;           // a timeline event that could not apply (the link is unchanged)
-  /// What a replay needs to make the same change at the same sample (the journal file's entry):
-  /// a set of the whole link, or the timeline's ramp as it started; nullopt for a ramp's end and
-  /// a failure (a replay gets there by itself).
+/// A relayed link's journal entry: the change (sensor_id is relay_topic_link_id of its topic,
+/// at_period the index of the topic's first sample it applied to) and what a replay needs to make
+/// the same change at the same sample (the journal file's entry): a set of the whole link, or the
+/// timeline's ramp as it started; nullopt for a ramp's end and a failure (a replay gets there by
+/// itself).
+struct RelayLinkChange : LinkChange {
   std::optional<RelayEvent> replay;
 };
 
@@ -136,16 +134,18 @@ class RelayLinks {
   /// a name that is not relayed.
   std::optional<LinkSpec> link(const std::string& name) const;
 
-  struct Report {
-    std::string topic;
-    LinkSpec link;
-    LinkStatistics stats;     // since the link was set
-    LinkStatistics lifetime;  // since the relay started (not reset by a change)
+  /// A link's status (sensor_id relay_topic_link_id of its name, in_time 1: a relay has no
+  /// deadline; `held` is the caller's) and where its topic's next sample is.
+  struct Report : LinkStatus {
     std::uint64_t next_sample = 0;  // the index the topic's next sample gets (where a change applies)
-    std::uint64_t last_request_id = 0;
-    std::string reject_reason;  // of the last request (empty: applied)
-    std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the link was set
   };
+  /// A link's running statistics, since it was set and since the relay started (a relay's
+  /// summary needs more of them than a status carries); nullopt for a name that is not a link.
+  struct Statistics {
+    LinkStatistics since_change;
+    LinkStatistics lifetime;
+  };
+  std::optional<Statistics> statistics(const std::string& name) const;
   /// Every link's report: the topics' and the writers' links (not a per-writer topic's model).
   std::vector<Report> reports() const;
   /// One link's report; nullopt for a name that is not a link.

@@ -35,7 +35,7 @@ struct ChannelAppOptions {
 
 /// What the channel did so far (for its summary lines and for tests).
 struct ChannelAppStats {
-  std::vector<LinkReport> links;
+  std::vector<LinkStatus> links;
   std::uint64_t held = 0;             // delayed samples waiting for their release
   std::uint64_t unknown_sensor_samples = 0;
   int delivered_readers = 0;          // readers matched by both delivered writers, single and batch (estimator, recorders)

@@ -13,43 +13,12 @@
 
 #include "netkf/analysis/recent_loss_fit.hpp"
 #include "netkf/loss_model.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
 #include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
-
-/// What one link is and did (since its current model was set).
-struct LinkReport {
-  int sensor_id = 0;
-  LinkSpec link;
-  LinkStatistics stats;     // since the current model was set (a ramp's steps do not reset it)
-  LinkStatistics lifetime;  // since the channel started (not reset by a change)
-  std::uint64_t past_deadline = 0;  // delivered with a delay above the link's deadline (as stats)
-  double deadline_ms = 0.0;  // the estimator's deadline; the actuation link's: until the plant's next tick
-  std::uint64_t last_request_id = 0;
-  bool last_request_rejected = false;
-  std::string reject_reason;
-  std::optional<analysis::RecentLossFit> recent_fit;  // the last samples since the model was set (reports())
-};
-
-/// The answer to one change request.
-struct LinkChangeResult {
-  std::uint64_t request_id = 0;
-  int sensor_id = 0;
-  bool applied = false;
-  std::string reason;  // empty when applied
-};
-
-/// One entry of the journal: a link change and the period of the first sample it applied to.
-struct AppliedLinkChange {
-  enum class Origin { request, timeline };
-  int sensor_id = 0;
-  std::int64_t at_period = 0;
-  Origin origin = Origin::request;
-  std::uint64_t request_id = 0;  // Origin::request
-  LinkSpec link;                 // the whole link after the change
-  std::string failure;           // a timeline event that could not apply (the link is unchanged)
-};
-const char* to_string(AppliedLinkChange::Origin origin);
 
 /// The decision for one sample.
 struct SampleFate {
@@ -81,17 +50,23 @@ class ChannelLinks {
   /// sensors change nothing and are rejected with the reason.
   /// A trace the keys name is taken from `preloaded` when there (read by the caller outside
   /// any lock), else read here.
-  LinkChangeResult request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys,
-                           const TraceRows* preloaded = nullptr);
+  LinkReply request(std::uint64_t request_id, int sensor_id, const LinkKeys& keys,
+                    const TraceRows* preloaded = nullptr);
   /// Record a request that could not even be decoded.
-  LinkChangeResult reject(std::uint64_t request_id, int sensor_id, const std::string& reason);
+  LinkReply reject(std::uint64_t request_id, int sensor_id, const std::string& reason);
 
   /// The journal entries made since the previous call (requests once their period is known,
   /// timeline events, a ramp's start and end).
-  std::vector<AppliedLinkChange> take_changes();
+  /// Entries with a `failure` are timeline events that could not apply (logged, not published).
+  std::vector<LinkChange> take_changes();
 
-  std::vector<LinkReport> reports() const;
-  const LinkReport* report(int sensor_id) const;
+  /// Every link's status (`held` is the caller's: it holds the delayed samples).
+  std::vector<LinkStatus> statuses() const;
+  /// One link's status; nullopt for an unknown link.
+  std::optional<LinkStatus> status(int sensor_id) const;
+  /// The deadline a link's delays are judged by (the estimator's; the actuation link's: the
+  /// plant's next tick); nullopt for an unknown link.
+  std::optional<double> deadline_ms(int sensor_id) const;
   std::uint64_t unknown_sensor_samples() const { return unknown_sensor_samples_; }
 
  private:
@@ -102,17 +77,23 @@ class ChannelLinks {
     LinkKeys to;
   };
   struct Link {
-    Link(LinkLossProcess loss_process, LinkDelayProcess delay_process, LinkReport first_report)
-        : loss(std::move(loss_process)), delay(std::move(delay_process)), report(std::move(first_report)) {}
+    Link(int link_id, const LinkSpec& first, LinkLossProcess loss_process, LinkDelayProcess delay_process)
+        : id(link_id), spec(first), loss(std::move(loss_process)), delay(std::move(delay_process)) {}
+    int id = 0;
+    LinkSpec spec;  // the link as it is now
     LinkLossProcess loss;
     LinkDelayProcess delay;
-    LinkReport report;
+    LinkStatistics stats;     // since the current model was set (a ramp's steps do not reset it)
+    LinkStatistics lifetime;  // since the channel started (not reset by a change)
+    std::uint64_t past_deadline = 0;  // delivered with a delay above the deadline (as stats)
+    std::uint64_t last_request_id = 0;
+    std::string reject_reason;        // of the last request (empty: applied)
     std::vector<LinkEvent> timeline;        // this link's events in the order they apply
     std::size_t next_event = 0;
     std::optional<std::uint64_t> unjournaled_request;  // applied, period not yet known
     std::optional<Ramp> ramp;
     std::int64_t samples_seen = 0;
-    analysis::RecentArrivals recent;  // emptied with `report.stats`
+    analysis::RecentArrivals recent;  // emptied with `stats`
     // A trace link's period 0: the sample of period k gets the trace's row offset + (k − trace_start).
     std::int64_t trace_start = 0;
     bool trace_restart = false;  // a change made it a (new) trace link: its start is the next sample's period
@@ -122,10 +103,11 @@ class ChannelLinks {
   void set_link(Link& link, const LinkSpec& spec, bool reset_statistics);
   void apply_due(Link& link, std::int64_t k);
   void step_ramp(Link& link, std::int64_t k);
+  static LinkStatus status_of(const Link& link);
 
   std::map<int, Link> links_;
   TraceRows timeline_traces_;  // the traces the timeline switches to, read at start (never per sample)
-  std::vector<AppliedLinkChange> changes_;
+  std::vector<LinkChange> changes_;
   std::uint64_t unknown_sensor_samples_ = 0;
 };
 

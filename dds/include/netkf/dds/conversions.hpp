@@ -9,7 +9,12 @@
 #include <vector>
 
 #include "netkf/analysis/recent_loss_fit.hpp"
-#include "netkf/estimate.hpp"
+#include "netkf/records/delivered.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_reply.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 #include "netkf/kalman_filter.hpp"
 #include "netkf/loss_model.hpp"
 #include "netkf/scenario.hpp"
@@ -57,6 +62,10 @@ Vector truth_state(const wire::Truth& truth, int state_dim);
 Vector tick_applied_input(const wire::Tick& tick, int input_dim);
 wire::ControlInput make_control_input(std::uint64_t k, const Vector& u);
 Vector control_input_u(const wire::ControlInput& c, int input_dim);
+/// The truth as recorders keep it; ConversionError on a non-finite value.
+Truth from_wire(const wire::Truth& truth);
+/// A delivered measurement as recorders keep it; ConversionError on a non-finite value.
+DeliveredMeasurement delivered_of(const wire::Measurement& measurement);
 
 // ---- estimate ----
 /// Throws ConversionError if x_hat / P are not finite or P is not square of x_hat's size
@@ -76,23 +85,11 @@ wire::LinkControl make_link_control(std::uint64_t request_id, int sensor_id, con
 /// The keys a request carries (names and values as sent; the channel validates them
 /// against the link with apply_link_keys).
 LinkKeys link_keys_of(const wire::LinkControl& control);
-/// A full link status: the link, its theory (in_time = P(delay <= deadline)), what the link
-/// did since its model was set (`stats`) and since the channel started (`lifetime`).
-struct LinkStatusFacts {
-  int sensor_id = 0;
-  LinkSpec link;
-  double in_time = 1.0;
-  LinkStatistics stats;
-  LinkStatistics lifetime;
-  std::uint64_t last_request_id = 0;
-  bool last_request_rejected = false;
-  std::string reject_reason;
-  std::uint64_t held = 0;
-  std::uint64_t past_deadline = 0;
-  std::optional<analysis::RecentLossFit> recent_fit = {};  // the link's recent samples' model (none: no sample yet)
-  std::string topic = {};  // a link of `netkf relay`: its topic (sensor_id is relay_topic_link_id of it)
-};
-wire::LinkStatus make_link_status(const LinkStatusFacts& facts, std::int64_t stamp_ns);
+/// A link's status on the wire and back (stationary loss and theory burst from its link).
+/// from_wire validates the link, the recent-samples fit and the relayed topic (ConversionError)
+/// and clamps in_time into [0, 1].
+wire::LinkStatus to_wire(const LinkStatus& status, std::int64_t stamp_ns);
+LinkStatus from_wire(const wire::LinkStatus& status);
 /// The recent samples' model a status carries; none before the link's first sample, and
 /// ConversionError when it is malformed (unknown family, probabilities outside [0, 1], more
 /// drops than samples).
@@ -100,13 +97,12 @@ std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& sta
 /// The link a status describes (throws ConversionError when it is not a valid link).
 LinkSpec link_of(const wire::LinkStatus& status);
 /// The answer to one link change request.
-wire::LinkControlReply make_link_control_reply(std::uint64_t request_id, int sensor_id, bool applied,
-                                               const std::string& reason);
-/// One entry of the link journal.
-/// `topic`: a relayed topic's link (at_period is then the index of its first sample changed).
-wire::LinkChange make_link_change(int sensor_id, std::uint64_t at_period, const std::string& origin,
-                                  std::uint64_t request_id, const LinkSpec& link, std::int64_t stamp_ns,
-                                  const std::string& topic = {});
+wire::LinkControlReply to_wire(const LinkReply& reply);
+LinkReply from_wire(const wire::LinkControlReply& reply);
+/// One entry of the link journal (a failed timeline event is not published: change.failure is
+/// not on the wire). from_wire validates the link, the origin and the relayed topic.
+wire::LinkChange to_wire(const LinkChange& change, std::int64_t stamp_ns);
+LinkChange from_wire(const wire::LinkChange& change);
 /// The topic a relayed link's status or journal entry names ("" for a channel's link); throws
 /// ConversionError when the link id is not that topic's (relay_topic_link_id).
 std::string relayed_topic_of(int sensor_id, const std::string& topic);

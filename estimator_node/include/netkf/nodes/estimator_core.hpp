@@ -31,9 +31,10 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "netkf/estimate.hpp"
+#include "netkf/records/estimate.hpp"
 #include "netkf/kalman_filter.hpp"
 #include "netkf/scenario.hpp"
 
@@ -53,10 +54,6 @@ struct PeriodEstimate : Estimate {
 /// throws std::runtime_error naming the file on any problem.
 void write_checkpoint(const std::string& path, const Estimate& last_published);
 Estimate read_checkpoint(const std::string& path);
-
-/// Why a sample was rejected by the estimator (in addition to late samples, counted apart).
-enum class SampleRejection { unknown_sensor, wrong_size, non_finite, duplicate, buffer_full, stale_tick, count_ };
-const char* to_string(SampleRejection r);
 
 class EstimatorCore {
  public:
@@ -84,7 +81,7 @@ class EstimatorCore {
   /// Fuse the open period if its deadline has passed.
   std::vector<PeriodEstimate> on_deadline(std::int64_t now_ns);
 
-  /// late_policy fuse_within: re-run the filter from the earliest period that received a late
+  /// late_policy fuse_within: re-run the filter (step() per period) from the earliest period that received a late
   /// sample since the last re-run, returning the revised estimates (oldest period first); empty
   /// when nothing is pending. Cost: at most D + 1 fused updates and predictions.
   std::vector<PeriodEstimate> revise(std::int64_t now_ns);
@@ -137,18 +134,31 @@ class EstimatorCore {
     std::uint32_t revision = 0;
   };
 
+  /// One period's fused update, the same for the in-time fusion and a re-run: the filter's
+  /// prior (x̂_{k|k-1}, P_{k|k-1}) updated with `samples` (multi-sensor paper Thm 1, eqs. 8-9),
+  /// the estimate of k made of it. What else a published estimate carries is the caller's.
+  PeriodEstimate step(std::uint64_t k, double t, const std::map<int, SensorSample>& samples,
+                      std::int64_t last_stamp_ns, std::int64_t now_ns);
+  /// The open period fused in time: step(), then the late samples since the previous estimate,
+  /// the control, and the period kept for a re-run.
   PeriodEstimate fuse(std::int64_t now_ns);
   /// revise() first (the revisions go to `out`), so what follows starts from the revised history.
   void flush_revisions(std::vector<PeriodEstimate>& out, std::int64_t now_ns);
   /// A sample for the fused period k: kept for a re-run (true) when fuse_within and k is in the ring.
   bool keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns, std::int64_t now_ns);
   void remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior);
-  void count_fused_rejections(const FusedUpdateResult& result);
   void open(std::uint64_t k, std::int64_t now_ns);
-  void predict_with(const Vector& applied_input);
+  /// From the last fused period to the next: with the input the plant applied (acknowledged:
+  /// `applied_input`, empty meaning zero), or with its expectation (unacknowledged); the input
+  /// used is kept with the last fused period, so a re-run predicts with the same.
+  void predict_next(const Vector& applied_input);
+  /// The input predicted with after the last fused period (for a re-run).
+  void keep_input_after(std::optional<Vector> input, std::optional<Matrix> input_covariance);
+  /// Acknowledged inputs: the one applied (an absent input means the plant applied zero).
+  Vector predict_with(const Vector& applied_input);
   /// Unacknowledged inputs: the input the plant applied is not known, only that u_{k-1} arrived
-  /// with probability ν̄; predict with its mean and spread.
-  void predict_with_expected_input();
+  /// with probability ν̄; predict with its mean and spread (returned).
+  std::pair<Vector, Matrix> predict_with_expected_input();
   bool complete() const;
   void reject(SampleRejection r) { ++rejected_[static_cast<int>(r)]; }
   void count_late(int sensor_id, std::uint64_t k);
