@@ -436,8 +436,8 @@ TEST(DashboardServer, ThePageListsEveryModuleItImportsAndEachNeedsTheToken) {
   const std::string list = page.substr(begin, end - begin);
   for (std::sregex_iterator it(list.begin(), list.end(), quoted), last; it != last; ++it) listed.insert((*it)[1]);
   ASSERT_TRUE(listed.count("/app.js"));
-  // Every module reachable from the entry, by its `from './NAME.js'` imports.
-  const std::regex imported(R"(from '\.(/[a-z_]+\.js)')");
+  // Every module reachable from the entry, by its `from './NAME.js'` (or `import './NAME.js'`) imports.
+  const std::regex imported(R"((?:from|import) ['"]\.(/[a-z_]+\.js)['"])");
   std::set<std::string> reached{"/app.js"};
   std::vector<std::string> todo{"/app.js"};
   while (!todo.empty()) {
