@@ -17,8 +17,11 @@
 
 #include <cerrno>
 #include <future>
+#include <regex>
 #include <set>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "dashboard_server.hpp"
 
@@ -414,6 +417,48 @@ TEST(DashboardServer, WithATokenEveryRequestMustCarryIt) {
   Client c(f.port(), "", "/?token=s3cret");
   EXPECT_EQ(c.read_json()["op"], "serverInfo");
   EXPECT_NE(f.server().url().find("?token=s3cret"), std::string::npos);
+}
+
+// The page's ES modules: the entry app.js imports the others by relative name, which the browser
+// requests without the page's token; index.html's import map adds it, so it must list every
+// module the entry reaches, and each is served (as JavaScript) only with the token.
+TEST(DashboardServer, ThePageListsEveryModuleItImportsAndEachNeedsTheToken) {
+  DashboardOptions o;
+  o.token = "s3cret";
+  ServerFixture f(o);
+  const std::string page = get(f.port(), "/?token=s3cret").body();
+  const auto begin = page.find("var modules = [");
+  const auto end = page.find("];", begin);
+  ASSERT_NE(begin, std::string::npos);
+  ASSERT_NE(end, std::string::npos);
+  std::set<std::string> listed;
+  const std::regex quoted(R"('(/[a-z_]+\.js)')");
+  const std::string list = page.substr(begin, end - begin);
+  for (std::sregex_iterator it(list.begin(), list.end(), quoted), last; it != last; ++it) listed.insert((*it)[1]);
+  ASSERT_TRUE(listed.count("/app.js"));
+  // Every module reachable from the entry, by its `from './NAME.js'` (or `import './NAME.js'`) imports.
+  const std::regex imported(R"((?:from|import) ['"]\.(/[a-z_]+\.js)['"])");
+  std::set<std::string> reached{"/app.js"};
+  std::vector<std::string> todo{"/app.js"};
+  while (!todo.empty()) {
+    const std::string path = todo.back();
+    todo.pop_back();
+    auto res = get(f.port(), path + "?token=s3cret");
+    EXPECT_EQ(res.result(), http::status::ok) << path;
+    EXPECT_EQ(res[http::field::content_type], "text/javascript; charset=utf-8") << path;
+    EXPECT_EQ(get(f.port(), path).result(), http::status::unauthorized) << path;
+    const std::string body = res.body();
+    for (std::sregex_iterator it(body.begin(), body.end(), imported), last; it != last; ++it) {
+      if (reached.insert((*it)[1]).second) todo.push_back((*it)[1]);
+    }
+  }
+  EXPECT_GT(reached.size(), 1u) << "app.js imports the page's other modules";
+  EXPECT_EQ(listed, reached) << "index.html's import map lists exactly the modules app.js reaches";
+  // The relay's page serves none of them.
+  DashboardOptions relay_options;
+  relay_options.page = DashboardPage::relay;
+  ServerFixture relay(relay_options);
+  for (const auto& path : reached) EXPECT_EQ(get(relay.port(), path).result(), http::status::not_found) << path;
 }
 
 TEST(DashboardServer, AtTheCapANewConnectionIsRefusedWhenNoneIsIdle) {

@@ -1,0 +1,36 @@
+// What more than one module of the dashboard page needs: the links' names and models, the
+// observed-rate window and the colours (docs/dashboard.md is the contract).
+
+// Above this many links the page shows a table of them and the card of the one selected:
+// thousands of cards, each a chart and a dozen controls, would not draw.
+export const CARD_LINK_LIMIT = 16;
+// The actuation link (plant.control.link) is link "control": id -1 where links are numbered.
+export const CONTROL_LINK_ID = -1;
+export const linkName = (id) => (id === CONTROL_LINK_ID ? 'control' : String(id));
+export const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
+export const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/observed_rate.hpp)
+export const WINDOW_KEY = 'λ last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples';
+
+export const COLOR = {
+  truth: '#1d232b',
+  estimate: '#1f6fd1',
+  sigmaBand: 'rgba(31, 111, 209, 0.16)',
+  sigmaEdge: 'rgba(31, 111, 209, 0.35)',
+  tracePred: '#6b3fb8',
+  traceFiltered: 'rgba(107, 63, 184, 0.35)',
+  configured: '#1e8a4c',
+  configuredBand: 'rgba(30, 138, 76, 0.12)',
+  observed: '#d9731a',
+  observedWindow: '#8a4b12',
+  observedBand: 'rgba(217, 115, 26, 0.08)',
+  diverging: 'rgba(214, 48, 49, 0.10)',
+  axis: '#4a5563',
+  grid: 'rgba(0, 0, 0, 0.07)',
+  stable: 'rgba(30, 138, 76, 0.20)',
+  undecided: 'rgba(230, 170, 40, 0.22)',
+  unstable: 'rgba(214, 48, 49, 0.20)',
+  lowerCurve: '#b8322f',
+  upperCurve: '#1e8a4c',
+  final: '#c2185b',                      // late_policy fuse_within: the final (revised) estimates
+  finalBand: 'rgba(194, 24, 91, 0.08)',
+};
