@@ -57,96 +57,114 @@ std::vector<MeasuredLink> fit_links_or_fail(Scenario& s, const std::vector<std::
   throw CLI::RuntimeError(1);
 }
 
+struct AnalyzeArgs {
+  std::string file;
+  bool json = false, region = false, sweep = false, no_lmi = false, lmi_always = false;
+  int points = 0;
+  std::optional<int> region_sensor;
+  std::string plot;
+  std::vector<std::string> links;
+};
+
+void add_analyze_options(CLI::App& cmd, AnalyzeArgs& args) {
+  cmd.add_option("scenario", args.file, "scenario YAML file")->required();
+  cmd.add_flag("--json", args.json, "print one JSON object (keys: docs/architecture.md, 'Contracts')");
+  cmd.add_flag("--region", args.region,
+               "two sensors: stability region bounds over a grid of lambda1; one sensor (or --region-sensor) and an "
+               "actuation link: the (gamma, nu) region");
+  cmd.add_option("--region-sensor", args.region_sensor,
+                 "with --region and an actuation link: the sensor ID of the (gamma, nu) region");
+  cmd.add_flag("--sweep", args.sweep, "Tr S-bar and Tr V-bar over a grid of the shared arrival rate");
+  cmd.add_option("--points", args.points, "grid points for --sweep / --region")->check(CLI::Range(2, 10001));
+  cmd.add_flag("--no-lmi", args.no_lmi, "skip the CSDP LMI (upper bounds from the g iteration only)");
+  cmd.add_flag("--lmi-always", args.lmi_always, "solve the LMI whatever its size (slow above ~50 rows)");
+  cmd.add_option("--plot", args.plot, "write the figure (PNG or SVG) with gnuplot");
+  cmd.add_option("--link", args.links,
+                 "ID=TRACE.csv: fit the link's measured trace, analyse with it, give its verdict and margins (repeatable)");
+}
+
+// --region-sensor names a sensor of the scenario's (gamma, nu) region, or one clear error, status 2.
+void check_region_sensor_or_fail(const Scenario& s, const AnalyzeArgs& args) {
+  if (!args.region_sensor) return;
+  std::string why;
+  if (!args.region) why = "--region-sensor needs --region";
+  else if (!s.actuation_link()) why = "--region-sensor needs an actuation link (plant.control.link)";
+  else if (!s.find_sensor(*args.region_sensor))
+    why = "--region-sensor: the scenario has no sensor " + std::to_string(*args.region_sensor);
+  if (!why.empty()) {
+    std::cerr << "netkf analyze: error: " << why << "\n";
+    throw CLI::RuntimeError(2);
+  }
+}
+
+analysis::AnalyzeOptions analyze_options(const AnalyzeArgs& args) {
+  analysis::AnalyzeOptions o;
+  o.region = args.region;
+  o.sweep = args.sweep || (!args.plot.empty() && !args.region);  // a plot without --region is the sweep's
+  o.use_lmi = !args.no_lmi;
+  if (args.lmi_always) o.lmi_max_block = 0;
+  o.region_sensor = args.region_sensor;
+  if (args.points > 0) o.region_points = o.sweep_points = args.points;
+  return o;
+}
+
+// --plot: the (gamma, nu) region, the (lambda1, lambda2) region, or the sweep's bounds.
+void plot_analysis(const Scenario& s, const analysis::AnalysisReport& r, const AnalyzeArgs& args) {
+  try {
+    if (args.region && r.actuation_region) {
+      plot_actuation_region(r, s.name + ": closed-loop stability region (sensor " +
+                                   std::to_string(r.actuation_region->sensor_id) + " x actuation link)",
+                            args.plot);
+    } else if (args.region) {
+      if (r.region.empty())
+        fail("analyze", "--region --plot needs a two-sensor scenario, or one sensor (or --region-sensor) and an "
+                        "actuation link");
+      plot_region(r, s.name + ": stability region (Liu-Goldsmith Thm 3)", args.plot);
+    } else {
+      plot_sweep(r, s.name + ": bounds on lim E[P_{k|k-1}] (Sinopoli Thm 4)", args.plot);
+    }
+  } catch (const CLI::RuntimeError&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail("analyze", e.what());
+  }
+  if (!args.json) std::cout << "wrote " << args.plot << "\n";
+}
+
+void run_analyze(const AnalyzeArgs& args) {
+  Scenario s = load_or_fail("analyze", args.file);
+  check_plot_or_fail("analyze", args.plot);
+  check_region_sensor_or_fail(s, args);
+  std::vector<MeasuredLink> measured = fit_links_or_fail(s, args.links);
+  analysis::AnalyzeOptions o = analyze_options(args);
+  analysis::AnalysisReport r;
+  try {
+    // The region's grid is the long part of an analysis (an LMI bisection per point).
+    ProgressBar bar(std::cerr, "analyze --region", args.region && progress_bar_wanted(stderr_is_terminal(), args.json));
+    o.progress = bar.callback();
+    r = analysis::analyze(s, o);
+    judge_measured_links(s, measured);
+  } catch (const std::exception& e) {
+    fail("analyze", e.what());
+  }
+  if (args.json) {
+    json j = analysis_json(r, args.region, args.sweep);
+    if (!measured.empty()) j["measured_links"] = measured_links_json(measured);
+    std::cout << j.dump(2) << "\n";
+  } else {
+    print_analysis(std::cout, s, r);
+    print_measured_links(std::cout, measured);
+  }
+  if (!args.plot.empty()) plot_analysis(s, r, args);
+}
+
 }  // namespace
 
 void add_analyze_command(CLI::App& app) {
-  struct Args {
-    std::string file;
-    bool json = false, region = false, sweep = false, no_lmi = false, lmi_always = false;
-    int points = 0;
-    std::optional<int> region_sensor;
-    std::string plot;
-    std::vector<std::string> links;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<AnalyzeArgs>();
   auto* cmd = app.add_subcommand("analyze", "What the papers predict for a scenario: bounds, critical rates, regions");
-  cmd->add_option("scenario", args->file, "scenario YAML file")->required();
-  cmd->add_flag("--json", args->json, "print one JSON object (keys: docs/architecture.md, 'Contracts')");
-  cmd->add_flag("--region", args->region,
-                "two sensors: stability region bounds over a grid of lambda1; one sensor (or --region-sensor) and an "
-                "actuation link: the (gamma, nu) region");
-  cmd->add_option("--region-sensor", args->region_sensor,
-                  "with --region and an actuation link: the sensor ID of the (gamma, nu) region");
-  cmd->add_flag("--sweep", args->sweep, "Tr S-bar and Tr V-bar over a grid of the shared arrival rate");
-  cmd->add_option("--points", args->points, "grid points for --sweep / --region")->check(CLI::Range(2, 10001));
-  cmd->add_flag("--no-lmi", args->no_lmi, "skip the CSDP LMI (upper bounds from the g iteration only)");
-  cmd->add_flag("--lmi-always", args->lmi_always, "solve the LMI whatever its size (slow above ~50 rows)");
-  cmd->add_option("--plot", args->plot, "write the figure (PNG or SVG) with gnuplot");
-  cmd->add_option("--link", args->links,
-                  "ID=TRACE.csv: fit the link's measured trace, analyse with it, give its verdict and margins (repeatable)");
-  cmd->callback([args] {
-    Scenario s = load_or_fail("analyze", args->file);
-    check_plot_or_fail("analyze", args->plot);
-    if (args->region_sensor) {
-      std::string why;
-      if (!args->region) why = "--region-sensor needs --region";
-      else if (!s.actuation_link()) why = "--region-sensor needs an actuation link (plant.control.link)";
-      else if (!s.find_sensor(*args->region_sensor))
-        why = "--region-sensor: the scenario has no sensor " + std::to_string(*args->region_sensor);
-      if (!why.empty()) {
-        std::cerr << "netkf analyze: error: " << why << "\n";
-        throw CLI::RuntimeError(2);
-      }
-    }
-    std::vector<MeasuredLink> measured = fit_links_or_fail(s, args->links);
-    analysis::AnalyzeOptions o;
-    o.region = args->region;
-    o.sweep = args->sweep || (!args->plot.empty() && !args->region);
-    o.use_lmi = !args->no_lmi;
-    if (args->lmi_always) o.lmi_max_block = 0;
-    o.region_sensor = args->region_sensor;
-    if (args->points > 0) o.region_points = o.sweep_points = args->points;
-    analysis::AnalysisReport r;
-    try {
-      // The region's grid is the long part of an analysis (an LMI bisection per point).
-      ProgressBar bar(std::cerr, "analyze --region",
-                      args->region && progress_bar_wanted(stderr_is_terminal(), args->json));
-      o.progress = bar.callback();
-      r = analysis::analyze(s, o);
-      judge_measured_links(s, measured);
-    } catch (const std::exception& e) {
-      fail("analyze", e.what());
-    }
-    if (args->json) {
-      json j = analysis_json(r, args->region, args->sweep);
-      if (!measured.empty()) j["measured_links"] = measured_links_json(measured);
-      std::cout << j.dump(2) << "\n";
-    } else {
-      print_analysis(std::cout, s, r);
-      print_measured_links(std::cout, measured);
-    }
-    if (!args->plot.empty()) {
-      try {
-        if (args->region && r.actuation_region) {
-          plot_actuation_region(r, s.name + ": closed-loop stability region (sensor " +
-                                       std::to_string(r.actuation_region->sensor_id) + " x actuation link)",
-                                args->plot);
-        } else if (args->region) {
-          if (r.region.empty())
-            fail("analyze", "--region --plot needs a two-sensor scenario, or one sensor (or --region-sensor) and an "
-                            "actuation link");
-          plot_region(r, s.name + ": stability region (Liu-Goldsmith Thm 3)", args->plot);
-        } else {
-          plot_sweep(r, s.name + ": bounds on lim E[P_{k|k-1}] (Sinopoli Thm 4)", args->plot);
-        }
-      } catch (const CLI::RuntimeError&) {
-        throw;
-      } catch (const std::exception& e) {
-        fail("analyze", e.what());
-      }
-      if (!args->json) std::cout << "wrote " << args->plot << "\n";
-    }
-  });
+  add_analyze_options(*cmd, *args);
+  cmd->callback([args] { run_analyze(*args); });
 }
 
 void add_simulate_command(CLI::App& app) {

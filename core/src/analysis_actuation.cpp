@@ -135,60 +135,47 @@ std::string mode_words(OnLoss on_loss, bool acknowledged) {
          (acknowledged ? "acknowledged (TCP-like)" : "unacknowledged (UDP-like)");
 }
 
-ActuationReport build(const Scenario& scenario, const LinkModel& model, ActuationReport r,
-                      const ActuationOptions& options) {
-  const ControlSpec& c = *scenario.plant.control;
-  const Matrix& A = scenario.plant.A;
-  const Matrix& B = *scenario.plant.B;
-  r.on_loss = c.on_loss;
-  r.acknowledged = c.acknowledged;
-  const bool lqr = c.lqr_Qx && c.lqr_Ru;
-  const double gain_rate = actuation_arrival_rate(scenario);
-  r.gain = !lqr ? "given" : gain_rate < 1.0 ? "lqr at the arrival rate" : "lqr";
-  if (lqr) r.gain_arrival_rate = gain_rate;
-
-  const ActuationModes modes = actuation_modes(A, B, c.gain, c.on_loss);
-  const double radius = mss_radius(modes, model);
-  r.mss_radius = radius;
-  const double alpha = spectral_radius(A);
-  const double lost = lost_run_rate(model);
-
-  if (options.critical_rate) {
-    const FamilyRate f = critical_along_family(
-        model, [&](const LinkModel& m) { return mss_radius(modes, m) < 1.0; }, 1e-10);
-    switch (f.kind) {
-      case FamilyRate::Kind::found:
-        r.critical_rate = f.rate;
-        r.critical_rate_reason = "smallest arrival rate above which the loop with this gain is mean-square stable, "
-                                 "along " + family_words(model);
-        break;
-      case FamilyRate::Kind::stable_everywhere:
-        if (std::holds_alternative<BernoulliLink>(model)) r.critical_rate = 0.0;
-        r.critical_rate_reason = "mean-square stable at every arrival rate " +
-                                 std::string(std::holds_alternative<BernoulliLink>(model)
-                                                 ? "(even when no input arrives)"
-                                                 : "this family reaches (down to " + num(f.rate) + ")");
-        break;
-      case FamilyRate::Kind::unstable_at_top:
-        r.critical_rate_reason = "not mean-square stable even at the family's highest arrival rate";
-        break;
-      case FamilyRate::Kind::no_family:
-        r.critical_rate_reason = "the link has no family of arrival rates (Gilbert-Elliott with r = 0 or "
-                                 "loss_good = loss_bad)";
-        break;
-    }
-    if (c.on_loss == OnLoss::zero && alpha > 1.0) {
-      const FamilyRate g = critical_along_family(
-          model, [&](const LinkModel& m) { return alpha * alpha * lost_run_rate(m) < 1.0; }, 1e-12);
-      if (g.kind == FamilyRate::Kind::found || g.kind == FamilyRate::Kind::stable_everywhere)
-        r.critical_rate_lower = g.rate;
-    } else if (c.on_loss == OnLoss::zero) {
-      r.critical_rate_lower = reachable_arrival_rates(model).first;
-    }
+// The smallest arrival rate above which the loop with this gain is mean-square stable along
+// the link's family, and with zero on loss the necessary one (α² times the lost-run rate < 1).
+void add_critical_rates(ActuationReport& r, const LinkModel& model, const ActuationModes& modes, OnLoss on_loss,
+                        double alpha) {
+  const FamilyRate f = critical_along_family(
+      model, [&](const LinkModel& m) { return mss_radius(modes, m) < 1.0; }, 1e-10);
+  switch (f.kind) {
+    case FamilyRate::Kind::found:
+      r.critical_rate = f.rate;
+      r.critical_rate_reason = "smallest arrival rate above which the loop with this gain is mean-square stable, "
+                               "along " + family_words(model);
+      break;
+    case FamilyRate::Kind::stable_everywhere:
+      if (std::holds_alternative<BernoulliLink>(model)) r.critical_rate = 0.0;
+      r.critical_rate_reason = "mean-square stable at every arrival rate " +
+                               std::string(std::holds_alternative<BernoulliLink>(model)
+                                               ? "(even when no input arrives)"
+                                               : "this family reaches (down to " + num(f.rate) + ")");
+      break;
+    case FamilyRate::Kind::unstable_at_top:
+      r.critical_rate_reason = "not mean-square stable even at the family's highest arrival rate";
+      break;
+    case FamilyRate::Kind::no_family:
+      r.critical_rate_reason = "the link has no family of arrival rates (Gilbert-Elliott with r = 0 or "
+                               "loss_good = loss_bad)";
+      break;
   }
+  if (on_loss == OnLoss::zero && alpha > 1.0) {
+    const FamilyRate g = critical_along_family(
+        model, [&](const LinkModel& m) { return alpha * alpha * lost_run_rate(m) < 1.0; }, 1e-12);
+    if (g.kind == FamilyRate::Kind::found || g.kind == FamilyRate::Kind::stable_everywhere)
+      r.critical_rate_lower = g.rate;
+  } else if (on_loss == OnLoss::zero) {
+    r.critical_rate_lower = reachable_arrival_rates(model).first;
+  }
+}
 
-  // Nothing is lost: every input is applied, acknowledged or not.
-  const bool acknowledged = c.acknowledged || r.arrival_rate >= 1.0;
+// The control side's verdict: the jump system's radius with acknowledgements; without them
+// only an open-loop run of lost inputs decides (instability), otherwise unknown.
+void decide_control(ActuationReport& r, const ControlSpec& c, bool acknowledged, double radius, double alpha,
+                    double lost) {
   const std::string mode = mode_words(c.on_loss, c.acknowledged);
   const std::string at = "at arrival rate " + num(r.arrival_rate);
   const std::string critical = r.critical_rate ? " (critical rate " + num(*r.critical_rate) + ")" : "";
@@ -211,15 +198,13 @@ ActuationReport build(const Scenario& scenario, const LinkModel& model, Actuatio
                       std::string(radius < 1.0 ? "stable" : "unstable") + " (radius " + num(radius) + ") " + at +
                       critical;
   }
-  if (!acknowledged && r.critical_rate) {
-    // The jump system's rate is the acknowledged loop's; without acknowledgements it is not known.
-    r.critical_rate_reason = "unknown for unacknowledged inputs; with acknowledgements it would be " +
-                             num(*r.critical_rate) + " (" + r.critical_rate_reason + ")";
-    r.critical_rate.reset();
-  }
+}
 
-  if (lqr && options.optimal) r.optimal = optimal_control_rates(A, B, *c.lqr_Qx, *c.lqr_Ru, options.use_lmi);
-
+// The LQ cost's bounds: only for an LQR gain (its weights define the cost) and acknowledged inputs.
+void add_cost(ActuationReport& r, const Scenario& scenario, const ActuationModes& modes, const LinkModel& model,
+              bool lqr, bool acknowledged, const ActuationOptions& options) {
+  const ControlSpec& c = *scenario.plant.control;
+  const Matrix& A = scenario.plant.A;
   if (!lqr) {
     r.cost_reason = "cost: needs plant.control.lqr (its weights Qx, Ru define the cost)";
   } else if (!acknowledged) {
@@ -242,6 +227,37 @@ ActuationReport build(const Scenario& scenario, const LinkModel& model, Actuatio
                       "Sinopoli et al. 2005)";
     }
   }
+}
+
+ActuationReport build(const Scenario& scenario, const LinkModel& model, ActuationReport r,
+                      const ActuationOptions& options) {
+  const ControlSpec& c = *scenario.plant.control;
+  const Matrix& A = scenario.plant.A;
+  const Matrix& B = *scenario.plant.B;
+  r.on_loss = c.on_loss;
+  r.acknowledged = c.acknowledged;
+  const bool lqr = c.lqr_Qx && c.lqr_Ru;
+  const double gain_rate = actuation_arrival_rate(scenario);
+  r.gain = !lqr ? "given" : gain_rate < 1.0 ? "lqr at the arrival rate" : "lqr";
+  if (lqr) r.gain_arrival_rate = gain_rate;
+
+  const ActuationModes modes = actuation_modes(A, B, c.gain, c.on_loss);
+  const double radius = mss_radius(modes, model);
+  r.mss_radius = radius;
+  const double alpha = spectral_radius(A);
+  if (options.critical_rate) add_critical_rates(r, model, modes, c.on_loss, alpha);
+
+  // Nothing is lost: every input is applied, acknowledged or not.
+  const bool acknowledged = c.acknowledged || r.arrival_rate >= 1.0;
+  decide_control(r, c, acknowledged, radius, alpha, lost_run_rate(model));
+  if (!acknowledged && r.critical_rate) {
+    // The jump system's rate is the acknowledged loop's; without acknowledgements it is not known.
+    r.critical_rate_reason = "unknown for unacknowledged inputs; with acknowledgements it would be " +
+                             num(*r.critical_rate) + " (" + r.critical_rate_reason + ")";
+    r.critical_rate.reset();
+  }
+  if (lqr && options.optimal) r.optimal = optimal_control_rates(A, B, *c.lqr_Qx, *c.lqr_Ru, options.use_lmi);
+  add_cost(r, scenario, modes, model, lqr, acknowledged, options);
   return r;
 }
 

@@ -294,36 +294,18 @@ GroupedBlockResult grouped_block_rate(const std::vector<CMatrix>& rows, const CM
   return out;
 }
 
-}  // namespace
-
-MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
-                                           const MarkovOptions& options) {
-  MarkovCriterion out;
-  const Eigen::Index n = A.rows();
-  Eigen::ComplexEigenSolver<CMatrix> es(A.cast<Complex>());
-  if (es.info() != Eigen::Success) {
-    out.reasons.push_back("eigen-decomposition of A failed");
-    return out;
-  }
-  const CMatrix V = es.eigenvectors();
-  const Eigen::VectorXcd lambda = es.eigenvalues();
-  // Assumption 3 (diagonalisable A): the eigenvector matrix must be well conditioned.
+// The eigenvector matrix's condition number: Assumption 3 (diagonalisable A) needs it small.
+double eigenvector_condition(const CMatrix& V) {
   Eigen::JacobiSVD<CMatrix> vsvd(V);
-  const double cond = vsvd.singularValues()(0) / std::max(vsvd.singularValues()(n - 1), 1e-300);
-  if (!(cond < 1e8)) {
-    out.reasons.push_back("A is not diagonalisable (Jordan block): the Markov criterion (multi-sensor paper "
-                          "Assumption 3, Thm 7) needs a diagonalisable A");
-    return out;
-  }
-  std::vector<LinkChain> links;
-  for (const auto& s : sensors) links.push_back(link_chain(s.link.loss));  // delay-free links (with_effective_links)
+  return vsvd.singularValues()(0) / std::max(vsvd.singularValues()(V.cols() - 1), 1e-300);
+}
 
-  // Eigen-blocks: eigenvalues of equal modulus (Assumption 3's A_i = α_i diag(e^{iθ})).
+// Eigen-blocks: eigenvalues of equal modulus (Assumption 3's A_i = α_i diag(e^{iθ})), each the
+// indices of its eigenvalues, the first one's modulus the block's.
+std::vector<std::vector<Eigen::Index>> eigen_blocks(const Eigen::VectorXcd& lambda) {
+  const Eigen::Index n = lambda.size();
+  std::vector<std::vector<Eigen::Index>> blocks;
   std::vector<bool> used(static_cast<std::size_t>(n), false);
-  out.applies = true;
-  out.value = 0.0;
-  bool unstable_by_bounds = false;
-  std::vector<std::string> undecided;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (used[static_cast<std::size_t>(i)]) continue;
     const double alpha = std::abs(lambda(i));
@@ -333,6 +315,163 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
         members.push_back(j);
         used[static_cast<std::size_t>(j)] = true;
       }
+    blocks.push_back(std::move(members));
+  }
+  return blocks;
+}
+
+// The block's deficiency rate: by observation classes, or by the reference enumeration over
+// the sensors' arrival masks (not for more than 16 sensors: 2^d masks per state).
+GroupedBlockResult block_rate(const CMatrix& V, const Eigen::VectorXcd& lambda, const std::vector<Eigen::Index>& members,
+                              double alpha, const std::vector<LinkChain>& links, std::span<const SensorSpec> sensors,
+                              const MarkovOptions& options) {
+  const Eigen::Index ni = static_cast<Eigen::Index>(members.size());
+  CMatrix U_inv = CMatrix::Zero(ni, ni);
+  CMatrix Vi(V.rows(), ni);
+  for (Eigen::Index k = 0; k < ni; ++k) {
+    U_inv(k, k) = alpha / lambda(members[static_cast<std::size_t>(k)]);
+    Vi.col(k) = V.col(members[static_cast<std::size_t>(k)]);
+  }
+  std::vector<CMatrix> rows;
+  for (const auto& s : sensors) rows.push_back(s.C.cast<Complex>() * Vi);
+  GroupedBlockResult r;
+  if (options.group_sensors) {
+    r = grouped_block_rate(rows, U_inv, links, sensors, options);
+  } else if (sensors.size() > 16) {
+    r.ok = false;  // the reference enumeration: 2^d masks per state
+  } else {
+    const BlockChainResult e = block_deficiency_rate(rows, U_inv, links, options.max_chain_states);
+    r.ok = e.ok;
+    r.rate = e.rate;
+    r.states = e.states;
+    r.method = "enumerated";
+  }
+  return r;
+}
+
+// What the blocks decided by bounds only, for the criterion's conclusion.
+struct BoundsTally {
+  bool unstable_by_bounds = false;
+  std::vector<std::string> undecided;  // the blocks whose bounds straddle 1
+};
+
+// A block without a rate (aperiodic, or its chain too large): a stable one is bounded by α²,
+// an unstable one leaves the criterion inapplicable.
+void add_block_without_rate(MarkovCriterion& out, EigenBlockCriterion block, const MarkovOptions& options) {
+  const double alpha = block.modulus;
+  if (alpha < 1.0) {
+    // A stable block never decides instability: α_i² · rate ≤ α_i² < 1.
+    block.deficiency_rate = 1.0;
+    block.criterion = alpha * alpha;
+    out.reasons.push_back("stable eigen-block |λ| = " + std::to_string(alpha) +
+                          " is aperiodic; bounded its criterion by α² < 1");
+    out.blocks.push_back(block);
+    out.value = std::max(out.value, block.criterion);
+    return;
+  }
+  out.applies = false;
+  out.reasons.push_back("eigen-block |λ| = " + std::to_string(alpha) +
+                        " is aperiodic (no τ with A^τ ∝ I) or its rank-deficient chain passed " +
+                        std::to_string(options.max_chain_states) +
+                        " states: the transition-matrix method (multi-sensor paper Thm 9) needs a periodic block");
+}
+
+// Bounds only (analysis/markov.hpp): decided when the sufficient or necessary side does. False
+// when they straddle 1: the block is then listed as undecided and counts in no value.
+bool decide_block_by_bounds(EigenBlockCriterion& block, const GroupedBlockResult& r, BoundsTally& tally,
+                            const MarkovOptions& options) {
+  const double alpha = block.modulus;
+  block.criterion_lower = alpha * alpha * r.lower;
+  block.criterion_upper = alpha * alpha * r.upper;
+  if (block.criterion_lower >= 1.0) {
+    block.deficiency_rate = r.lower;
+    block.criterion = block.criterion_lower;
+    tally.unstable_by_bounds = true;
+    return true;
+  }
+  if (block.criterion_upper < 1.0) {
+    block.deficiency_rate = r.upper;
+    block.criterion = block.criterion_upper;
+    return true;
+  }
+  tally.undecided.push_back("eigen-block |λ| = " + std::to_string(alpha) + " has " + std::to_string(r.classes) +
+                            " observation classes (distinct row spaces), more than can be tracked exactly (at most " +
+                            std::to_string(options.max_classes) + " classes, " +
+                            std::to_string(options.max_class_link_states) + " link states); its criterion lies in [" +
+                            std::to_string(block.criterion_lower) + ", " + std::to_string(block.criterion_upper) +
+                            "], which straddles 1");
+  return false;
+}
+
+// One eigen-block's criterion α_i² · rate into the maximum over the blocks.
+void add_block(MarkovCriterion& out, EigenBlockCriterion block, const GroupedBlockResult& r, BoundsTally& tally,
+               const MarkovOptions& options) {
+  block.method = r.method;
+  block.observing_sensors = r.observing;
+  block.classes = r.classes;
+  block.chain_states = r.states;
+  if (!r.ok) {
+    add_block_without_rate(out, block, options);
+    return;
+  }
+  if (!r.exact) {
+    out.exact = false;
+    if (!decide_block_by_bounds(block, r, tally, options)) {
+      out.blocks.push_back(block);
+      return;
+    }
+  } else {
+    block.deficiency_rate = r.rate;
+    block.criterion = block.modulus * block.modulus * r.rate;
+  }
+  out.blocks.push_back(block);
+  out.value = std::max(out.value, block.criterion);
+}
+
+// An unstable block decides whatever the undecided ones say; otherwise they leave it open.
+// Decided by bounds: which side decided it.
+void conclude_by_bounds(MarkovCriterion& out, BoundsTally& tally) {
+  if (out.applies && !tally.undecided.empty() && !(out.value >= 1.0)) {
+    out.applies = false;
+    for (auto& u : tally.undecided) out.reasons.push_back(std::move(u));
+  }
+  if (out.applies && !out.exact) {
+    if (tally.unstable_by_bounds)
+      out.reasons.push_back("Markov criterion decided unstable by a necessary condition: every sensor observing a "
+                            "block lost N times in a row already has rate prod_j rho(M_j) with alpha^2 times it >= 1");
+    else if (out.value < 1.0)
+      out.reasons.push_back("Markov criterion decided stable by a sufficient condition: the exact chain over the "
+                            "most reliable observation classes only (dropping sensors only adds rank-deficient "
+                            "sequences)");
+  }
+}
+
+}  // namespace
+
+MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const SensorSpec> sensors,
+                                           const MarkovOptions& options) {
+  MarkovCriterion out;
+  Eigen::ComplexEigenSolver<CMatrix> es(A.cast<Complex>());
+  if (es.info() != Eigen::Success) {
+    out.reasons.push_back("eigen-decomposition of A failed");
+    return out;
+  }
+  const CMatrix V = es.eigenvectors();
+  const Eigen::VectorXcd lambda = es.eigenvalues();
+  // Assumption 3 (diagonalisable A): the eigenvector matrix must be well conditioned.
+  if (!(eigenvector_condition(V) < 1e8)) {
+    out.reasons.push_back("A is not diagonalisable (Jordan block): the Markov criterion (multi-sensor paper "
+                          "Assumption 3, Thm 7) needs a diagonalisable A");
+    return out;
+  }
+  std::vector<LinkChain> links;
+  for (const auto& s : sensors) links.push_back(link_chain(s.link.loss));  // delay-free links (with_effective_links)
+
+  out.applies = true;
+  out.value = 0.0;
+  BoundsTally tally;
+  for (const auto& members : eigen_blocks(lambda)) {
+    const double alpha = std::abs(lambda(members.front()));
     EigenBlockCriterion block;
     block.modulus = alpha;
     block.dimension = static_cast<int>(members.size());
@@ -343,92 +482,9 @@ MarkovCriterion markov_stability_criterion(const Matrix& A, std::span<const Sens
       out.blocks.push_back(block);
       continue;
     }
-    const Eigen::Index ni = static_cast<Eigen::Index>(members.size());
-    CMatrix U_inv = CMatrix::Zero(ni, ni);
-    CMatrix Vi(n, ni);
-    for (Eigen::Index k = 0; k < ni; ++k) {
-      U_inv(k, k) = alpha / lambda(members[static_cast<std::size_t>(k)]);
-      Vi.col(k) = V.col(members[static_cast<std::size_t>(k)]);
-    }
-    std::vector<CMatrix> rows;
-    for (const auto& s : sensors) rows.push_back(s.C.cast<Complex>() * Vi);
-    GroupedBlockResult r;
-    if (options.group_sensors) {
-      r = grouped_block_rate(rows, U_inv, links, sensors, options);
-    } else if (sensors.size() > 16) {
-      r.ok = false;  // the reference enumeration: 2^d masks per state
-    } else {
-      const BlockChainResult e = block_deficiency_rate(rows, U_inv, links, options.max_chain_states);
-      r.ok = e.ok;
-      r.rate = e.rate;
-      r.states = e.states;
-      r.method = "enumerated";
-    }
-    block.method = r.method;
-    block.observing_sensors = r.observing;
-    block.classes = r.classes;
-    block.chain_states = r.states;
-    if (!r.ok) {
-      if (alpha < 1.0) {
-        // A stable block never decides instability: α_i² · rate ≤ α_i² < 1.
-        block.deficiency_rate = 1.0;
-        block.criterion = alpha * alpha;
-        out.reasons.push_back("stable eigen-block |λ| = " + std::to_string(alpha) +
-                              " is aperiodic; bounded its criterion by α² < 1");
-        out.blocks.push_back(block);
-        out.value = std::max(out.value, block.criterion);
-        continue;
-      }
-      out.applies = false;
-      out.reasons.push_back("eigen-block |λ| = " + std::to_string(alpha) +
-                            " is aperiodic (no τ with A^τ ∝ I) or its rank-deficient chain passed " +
-                            std::to_string(options.max_chain_states) +
-                            " states: the transition-matrix method (multi-sensor paper Thm 9) needs a periodic block");
-      continue;
-    }
-    if (!r.exact) {
-      // Bounds only (analysis/markov.hpp): decided when the sufficient or necessary side does.
-      out.exact = false;
-      block.criterion_lower = alpha * alpha * r.lower;
-      block.criterion_upper = alpha * alpha * r.upper;
-      if (block.criterion_lower >= 1.0) {
-        block.deficiency_rate = r.lower;
-        block.criterion = block.criterion_lower;
-        unstable_by_bounds = true;
-      } else if (block.criterion_upper < 1.0) {
-        block.deficiency_rate = r.upper;
-        block.criterion = block.criterion_upper;
-      } else {
-        undecided.push_back("eigen-block |λ| = " + std::to_string(alpha) + " has " + std::to_string(r.classes) +
-                            " observation classes (distinct row spaces), more than can be tracked exactly (at most " +
-                            std::to_string(options.max_classes) + " classes, " +
-                            std::to_string(options.max_class_link_states) + " link states); its criterion lies in [" +
-                            std::to_string(block.criterion_lower) + ", " + std::to_string(block.criterion_upper) +
-                            "], which straddles 1");
-        out.blocks.push_back(block);
-        continue;
-      }
-    } else {
-      block.deficiency_rate = r.rate;
-      block.criterion = alpha * alpha * r.rate;
-    }
-    out.blocks.push_back(block);
-    out.value = std::max(out.value, block.criterion);
+    add_block(out, block, block_rate(V, lambda, members, alpha, links, sensors, options), tally, options);
   }
-  // An unstable block decides whatever the undecided ones say; otherwise they leave it open.
-  if (out.applies && !undecided.empty() && !(out.value >= 1.0)) {
-    out.applies = false;
-    for (auto& u : undecided) out.reasons.push_back(std::move(u));
-  }
-  if (out.applies && !out.exact) {
-    if (unstable_by_bounds)
-      out.reasons.push_back("Markov criterion decided unstable by a necessary condition: every sensor observing a "
-                            "block lost N times in a row already has rate prod_j rho(M_j) with alpha^2 times it >= 1");
-    else if (out.value < 1.0)
-      out.reasons.push_back("Markov criterion decided stable by a sufficient condition: the exact chain over the "
-                            "most reliable observation classes only (dropping sensors only adds rank-deficient "
-                            "sequences)");
-  }
+  conclude_by_bounds(out, tally);
   return out;
 }
 

@@ -119,13 +119,9 @@ void add_sampled_covariance(AnalysisReport& report, const Scenario& scenario, Ve
                          " (seeded from the scenario), +/- its standard error over the runs");
 }
 
-}  // namespace
-
-AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options) {
-  AnalysisReport report;
-  // Everything below is about what reaches the estimator in time: delays fold into the
-  // links' loss (docs/scenario-format.md, "Delay"); the delay-free links are unchanged.
-  const Scenario scenario = with_effective_links(configured);
+// The configured links as the estimator sees them in time (delays folded into the loss), and
+// the note on what that folding assumes when any link has a delay.
+void add_links(AnalysisReport& report, const Scenario& configured) {
   bool any_delay = false;
   for (std::size_t i = 0; i < configured.sensors.size(); ++i) {
     const LinkSpec& link = configured.sensors[i].link;
@@ -142,42 +138,51 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
         "delays that depend on each other or on the chain's state, and the network's own latency on top of the "
         "configured delay");
   }
-  const Matrix& A = scenario.plant.A;
-  const Matrix& Q = scenario.plant.Q;
-  const auto& sensors = scenario.sensors;
-  const std::size_t d = sensors.size();
-  report.spectral_radius = spectral_radius(A);
-  const double alpha = report.spectral_radius;
+}
 
-  // The verdict and the bounds it used, as the live status has them (analysis/stability.hpp).
-  const StabilityDecision decision = decide_stability(A, Q, sensors, scenario.seed);
-
+// The i.i.d. closed forms need every link Bernoulli; the critical rate also one shared rate.
+struct BernoulliRates {
   bool all_bernoulli = true;
-  std::vector<double> rates;
-  for (const auto& s : sensors) {
-    if (const auto* b = std::get_if<BernoulliLink>(&s.link.loss)) rates.push_back(1.0 - b->loss);
-    else all_bernoulli = false;
-  }
-  bool shared = all_bernoulli && d > 0;
-  for (double r : rates) shared = shared && std::abs(r - rates.front()) <= 1e-12;
+  std::vector<double> rates;  // 1 - loss of each Bernoulli link
+  bool shared = false;        // all Bernoulli, at least one link, one arrival rate
+};
 
-  if (!noise_controllable(A, Q))
+BernoulliRates bernoulli_rates(std::span<const SensorSpec> sensors) {
+  BernoulliRates b;
+  for (const auto& s : sensors) {
+    if (const auto* link = std::get_if<BernoulliLink>(&s.link.loss)) b.rates.push_back(1.0 - link->loss);
+    else b.all_bernoulli = false;
+  }
+  b.shared = b.all_bernoulli && !sensors.empty();
+  for (double r : b.rates) b.shared = b.shared && std::abs(r - b.rates.front()) <= 1e-12;
+  return b;
+}
+
+// What the model itself says before any link: the papers' assumptions, and a stable A.
+void add_model_notes(AnalysisReport& report, const Scenario& scenario) {
+  const Matrix& A = scenario.plant.A;
+  if (!noise_controllable(A, scenario.plant.Q))
     report.notes.push_back("(A, Q^1/2) is not controllable: Sinopoli Thm 2-5 assume it; bounds may be loose");
-  if (d > 0 && !detectable(A, stacked_C(scenario)))
+  if (!scenario.sensors.empty() && !detectable(A, stacked_C(scenario)))
     report.notes.push_back("(A, C) is not detectable: an unstable mode is never observed, so E[P] diverges at any "
                            "arrival rate");
-  if (alpha < 1.0) report.notes.push_back("A is stable (alpha < 1): E[P] stays bounded for every arrival rate");
+  if (report.spectral_radius < 1.0)
+    report.notes.push_back("A is stable (alpha < 1): E[P] stays bounded for every arrival rate");
+}
 
-  // Necessary-and-sufficient Markov criterion (multi-sensor paper Thm 4/7/9; Rohr et al. Thm 3.1).
-  const MarkovCriterion& markov = decision.markov;
+// Necessary-and-sufficient Markov criterion (multi-sensor paper Thm 4/7/9; Rohr et al. Thm 3.1).
+void add_markov_criterion(AnalysisReport& report, const MarkovCriterion& markov) {
   if (markov.applies) {
     report.markov_criterion = markov.value;
     report.notes.push_back("markov_criterion = max over eigen-blocks of alpha_i^2 limsup P(R_N)^(1/N), by the "
                            "transition matrix (multi-sensor paper Thm 7, 9; Rohr et al. Lemma 4.1)");
   }
   for (const auto& r : markov.reasons) report.notes.push_back(r);
+}
 
-  // i.i.d. bounds S̄ ≤ lim E[P] ≤ V̄ (Sinopoli Thm 4, 6; Liu-Goldsmith Thm 4), computed by the verdict.
+// i.i.d. bounds S̄ ≤ lim E[P] ≤ V̄ (Sinopoli Thm 4, 6; Liu-Goldsmith Thm 4), computed by the verdict;
+// links with memory get the sampled mean covariance instead.
+void add_expected_covariance(AnalysisReport& report, const Scenario& scenario, const StabilityDecision& decision) {
   const UpperBound& upper = decision.upper;
   if (decision.iid_bounds) {
     report.iid_bounds = true;
@@ -197,114 +202,160 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
     if (upper.status == BoundStatus::undecided)
       report.notes.push_back("upper bound V-bar: the g iteration neither certified a fixed point nor diverged in " +
                              std::to_string(upper.iterations) + " iterations (operating point near the boundary)");
-  } else if (d > 0) {
+  } else if (!scenario.sensors.empty()) {
     report.notes.push_back("expected_covariance: the bounds S-bar, V-bar (Sinopoli Thm 4; Liu-Goldsmith Thm 4) "
                            "assume i.i.d. arrivals; Gilbert-Elliott links have memory, so none is reported");
     add_sampled_covariance(report, scenario, decision.stable);
   }
+}
 
-  // Thm 12 closed form as a cross-check of the transition matrix (second order, i.i.d.).
-  if (all_bernoulli && d > 0) {
-    std::string why;
-    int tau = 0;
-    const auto thm12 = second_order_iid_criterion(A, sensors, rates, &why, &tau);
-    if (thm12) {
-      report.second_order_criterion = *thm12;
-      std::string line = "Thm 12 closed form (period tau = " + (tau > 0 ? std::to_string(tau) : std::string("inf")) +
-                         "): " + verdict_number(*thm12);
-      if (markov.applies && std::abs(*thm12 - markov.value) > 1e-6 * std::max(1.0, markov.value))
-        line += " DISAGREES with the transition matrix " + verdict_number(markov.value);
-      else if (markov.applies)
-        line += ", agrees with the transition matrix";
-      report.notes.push_back(line);
-    } else if (A.rows() == 2) {
-      report.notes.push_back("Thm 12 closed form not applicable: " + why);
-    }
+// Thm 12 closed form as a cross-check of the transition matrix (second order, i.i.d.).
+void add_second_order_check(AnalysisReport& report, const Scenario& scenario, const BernoulliRates& bernoulli,
+                            const MarkovCriterion& markov) {
+  const Matrix& A = scenario.plant.A;
+  if (!bernoulli.all_bernoulli || scenario.sensors.empty()) return;
+  std::string why;
+  int tau = 0;
+  const auto thm12 = second_order_iid_criterion(A, scenario.sensors, bernoulli.rates, &why, &tau);
+  if (thm12) {
+    report.second_order_criterion = *thm12;
+    std::string line = "Thm 12 closed form (period tau = " + (tau > 0 ? std::to_string(tau) : std::string("inf")) +
+                       "): " + verdict_number(*thm12);
+    if (markov.applies && std::abs(*thm12 - markov.value) > 1e-6 * std::max(1.0, markov.value))
+      line += " DISAGREES with the transition matrix " + verdict_number(markov.value);
+    else if (markov.applies)
+      line += ", agrees with the transition matrix";
+    report.notes.push_back(line);
+  } else if (A.rows() == 2) {
+    report.notes.push_back("Thm 12 closed form not applicable: " + why);
   }
+}
 
+// The verdict: the estimator's, and with an actuation link the closed loop's.
+void add_verdict(AnalysisReport& report, const Scenario& configured, const StabilityDecision& decision,
+                 const AnalyzeOptions& options) {
   report.stable = report.estimator_stable = decision.stable;
   report.stable_reason = report.estimator_stable_reason = decision.reason;
   report.notes.push_back(decision.reason);
   ActuationOptions actuation_options;
   actuation_options.use_lmi = options.use_lmi;
   report.actuation = analyze_actuation(configured, actuation_options);
-  if (report.actuation) {
-    // Acknowledged inputs: separation, so the loop is stable iff both sides are.
-    const ClosedLoopVerdict loop = closed_loop_verdict(decision.stable, decision.reason, *report.actuation);
-    report.stable = loop.stable;
-    report.stable_reason = loop.reason;
-    report.notes.push_back(loop.reason);
-    if (!report.actuation->cost_reason.empty()) report.notes.push_back(report.actuation->cost_reason);
-    if (report.actuation->gain == "lqr at the arrival rate")
-      report.notes.push_back("plant.control.gain: the TCP-like optimum for inputs arriving at rate " +
-                             verdict_number(*report.actuation->gain_arrival_rate) +
-                             " (S = A'SA + Qx - rate A'SB(B'SB + Ru)^-1 B'SA, Schenato et al. 2007 Sec. V), "
-                             "fixed at load time");
-  }
-  if (configured.estimator.fusable_delay_periods() > 0) {
-    report.final_estimate = final_estimate_report(configured);
-    report.notes.push_back(
-        "late_policy fuse_within (D = " + std::to_string(report.final_estimate->max_delay_periods) +
-        "): the verdict and bounds above are at the in-time arrival rates (delay <= deadline), i.e. those of the "
-        "estimator without the buffer (late_policy drop); the final estimate, after every revision, fuses the "
-        "samples delayed at most deadline + D periods = " +
-        verdict_number(report.final_estimate->horizon_ms) +
-        " ms: final_estimate is its verdict at those rates (the same criteria; exact for i.i.d. delays as above). "
-        "With the buffer the in-time estimate of k already knows every sample the final estimate of k - D "
-        "fuses, so its error is at most that of a D-step prediction from it: it stays bounded whenever the final "
-        "one does");
-  }
-  if (markov.applies && !markov.stable() && upper.status == BoundStatus::bounded)
-    report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
+  if (!report.actuation) return;
+  // Acknowledged inputs: separation, so the loop is stable iff both sides are.
+  const ClosedLoopVerdict loop = closed_loop_verdict(decision.stable, decision.reason, *report.actuation);
+  report.stable = loop.stable;
+  report.stable_reason = loop.reason;
+  report.notes.push_back(loop.reason);
+  if (!report.actuation->cost_reason.empty()) report.notes.push_back(report.actuation->cost_reason);
+  if (report.actuation->gain == "lqr at the arrival rate")
+    report.notes.push_back("plant.control.gain: the TCP-like optimum for inputs arriving at rate " +
+                           verdict_number(*report.actuation->gain_arrival_rate) +
+                           " (S = A'SA + Qx - rate A'SB(B'SB + Ru)^-1 B'SA, Schenato et al. 2007 Sec. V), "
+                           "fixed at load time");
+}
 
+// With late_policy fuse_within: the final estimate's verdict at the longer horizon's rates.
+void add_final_estimate(AnalysisReport& report, const Scenario& configured) {
+  if (configured.estimator.fusable_delay_periods() <= 0) return;
+  report.final_estimate = final_estimate_report(configured);
+  report.notes.push_back(
+      "late_policy fuse_within (D = " + std::to_string(report.final_estimate->max_delay_periods) +
+      "): the verdict and bounds above are at the in-time arrival rates (delay <= deadline), i.e. those of the "
+      "estimator without the buffer (late_policy drop); the final estimate, after every revision, fuses the "
+      "samples delayed at most deadline + D periods = " +
+      verdict_number(report.final_estimate->horizon_ms) +
+      " ms: final_estimate is its verdict at those rates (the same criteria; exact for i.i.d. delays as above). "
+      "With the buffer the in-time estimate of k already knows every sample the final estimate of k - D "
+      "fuses, so its error is at most that of a D-step prediction from it: it stays bounded whenever the final "
+      "one does");
+}
+
+// The critical arrival rate, when every link shares one Bernoulli rate.
+void add_critical_rate(AnalysisReport& report, const Scenario& scenario, bool shared, const MarkovCriterion& markov,
+                       const AnalyzeOptions& options) {
   if (shared) {
     CriticalRateOptions cro;
     cro.use_lmi = options.use_lmi;
     cro.lmi_max_block = options.lmi_max_block;
     cro.exact = markov.applies && markov.exact;
-    report.critical_rate = shared_critical_rates(A, Q, sensors, cro, &report.notes);
-  } else if (d > 0) {
+    report.critical_rate =
+        shared_critical_rates(scenario.plant.A, scenario.plant.Q, scenario.sensors, cro, &report.notes);
+  } else if (!scenario.sensors.empty()) {
     report.notes.push_back("critical_rate: null (needs every link Bernoulli with one shared arrival rate)");
   }
+}
 
-  if (options.sweep && d > 0) {
-    if (!all_bernoulli) report.notes.push_back("sweep: every link treated as Bernoulli with the swept arrival rate");
-    const int points = std::max(2, options.sweep_points);
-    for (int k = 0; k < points; ++k) {
-      SweepPoint p;
-      p.lambda = static_cast<double>(k) / (points - 1);
-      const std::vector<double> r(d, p.lambda);
-      const TraceBounds b = iid_trace_bounds(A, Q, sensors, r, scenario.seed);
-      p.lower_trace = b.lower_trace;
-      p.upper_trace = b.upper_trace;
-      report.sweep.push_back(p);
-    }
+// --sweep: the i.i.d. bounds over a grid of the arrival rate every link shares.
+void add_sweep(AnalysisReport& report, const Scenario& scenario, bool all_bernoulli, const AnalyzeOptions& options) {
+  const std::size_t d = scenario.sensors.size();
+  if (!options.sweep || d == 0) return;
+  if (!all_bernoulli) report.notes.push_back("sweep: every link treated as Bernoulli with the swept arrival rate");
+  const int points = std::max(2, options.sweep_points);
+  for (int k = 0; k < points; ++k) {
+    SweepPoint p;
+    p.lambda = static_cast<double>(k) / (points - 1);
+    const std::vector<double> r(d, p.lambda);
+    const TraceBounds b = iid_trace_bounds(scenario.plant.A, scenario.plant.Q, scenario.sensors, r, scenario.seed);
+    p.lower_trace = b.lower_trace;
+    p.upper_trace = b.upper_trace;
+    report.sweep.push_back(p);
   }
-  const bool with_actuation_region =
-      options.region && report.actuation && (options.region_sensor.has_value() || d == 1);
-  if (with_actuation_region) {
-    const int id = options.region_sensor.value_or(d == 1 ? sensors.front().id : 0);
+}
+
+// --region: with an actuation link and one sensor (or --region-sensor) the (gamma, nu) region,
+// otherwise the two sensors' (lambda1, lambda2) region.
+void add_region(AnalysisReport& report, const Scenario& configured, const Scenario& scenario,
+                const AnalyzeOptions& options) {
+  if (!options.region) return;
+  const std::size_t d = scenario.sensors.size();
+  if (report.actuation && (options.region_sensor.has_value() || d == 1)) {
+    const int id = options.region_sensor.value_or(d == 1 ? scenario.sensors.front().id : 0);
     report.actuation_region = analysis::actuation_region(configured, id, options.region_points, options.progress);
     report.notes.push_back("actuation_region: for sensor " + std::to_string(id) +
                            "'s arrival rate gamma (its link i.i.d., the other sensors as configured), the "
                            "actuation arrival rates nu below which the loop is unstable (nu_lower) and above which "
                            "it is stable (nu_upper): with acknowledgements the estimator's verdict at gamma times "
                            "the jump system's critical rate (separation)");
+  } else if (d == 2) {
+    RegionOptions ro;
+    ro.points = options.region_points;
+    ro.use_lmi = options.use_lmi;
+    ro.progress = options.progress;
+    report.region = stability_region(scenario.plant.A, scenario.plant.Q, scenario.sensors, ro);
+    report.notes.push_back("region: lambda2_lower = Liu-Goldsmith Thm 3 closed form, lambda2_upper = LMI "
+                           "bisection (CSDP), lambda2_exact = Markov criterion where it applies");
+  } else {
+    report.notes.push_back("region: needs exactly two sensors (Liu-Goldsmith); this scenario has " +
+                           std::to_string(d));
   }
-  if (options.region && !with_actuation_region) {
-    if (d == 2) {
-      RegionOptions ro;
-      ro.points = options.region_points;
-      ro.use_lmi = options.use_lmi;
-      ro.progress = options.progress;
-      report.region = stability_region(A, Q, sensors, ro);
-      report.notes.push_back("region: lambda2_lower = Liu-Goldsmith Thm 3 closed form, lambda2_upper = LMI "
-                             "bisection (CSDP), lambda2_exact = Markov criterion where it applies");
-    } else {
-      report.notes.push_back("region: needs exactly two sensors (Liu-Goldsmith); this scenario has " +
-                             std::to_string(d));
-    }
-  }
+}
+
+}  // namespace
+
+AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options) {
+  AnalysisReport report;
+  // Everything below is about what reaches the estimator in time: delays fold into the
+  // links' loss (docs/scenario-format.md, "Delay"); the delay-free links are unchanged.
+  const Scenario scenario = with_effective_links(configured);
+  add_links(report, configured);
+  report.spectral_radius = spectral_radius(scenario.plant.A);
+  // The verdict and the bounds it used, as the live status has them (analysis/stability.hpp).
+  const StabilityDecision decision =
+      decide_stability(scenario.plant.A, scenario.plant.Q, scenario.sensors, scenario.seed);
+  const BernoulliRates bernoulli = bernoulli_rates(scenario.sensors);
+  const MarkovCriterion& markov = decision.markov;
+
+  add_model_notes(report, scenario);
+  add_markov_criterion(report, markov);
+  add_expected_covariance(report, scenario, decision);
+  add_second_order_check(report, scenario, bernoulli, markov);
+  add_verdict(report, configured, decision, options);
+  add_final_estimate(report, configured);
+  if (markov.applies && !markov.stable() && decision.upper.status == BoundStatus::bounded)
+    report.notes.push_back("inconsistent: V-bar is bounded but the Markov criterion says unstable");
+  add_critical_rate(report, scenario, bernoulli.shared, markov, options);
+  add_sweep(report, scenario, bernoulli.all_bernoulli, options);
+  add_region(report, configured, scenario, options);
   return report;
 }
 

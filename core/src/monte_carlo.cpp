@@ -326,14 +326,8 @@ Kernel fixed_kernel(const Scenario& s) {
   }
 }
 
-}  // namespace
-
-MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOptions& options) {
-  // A late sample is a lost one: the simulated links are the effective loss models (exact in
-  // distribution for i.i.d. delays, see netkf/link.hpp).
-  const Scenario scenario = with_effective_links(configured);
-  if (options.runs < 1) throw std::invalid_argument("monte carlo: runs must be at least 1");
-  if (options.steps < 1) throw std::invalid_argument("monte carlo: steps must be at least 1");
+// What every run shares: the seed, the noises' square roots, the divergence bound.
+Setup make_setup(const Scenario& scenario, const MonteCarloOptions& options) {
   Setup setup;
   setup.scenario = &scenario;
   setup.seed = options.seed.value_or(scenario.seed);
@@ -343,46 +337,64 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
   setup.P0_root = psd_square_root(scenario.plant.P0);
   setup.divergence_bound = scenario.estimator.divergence_trace_bound;
   for (const auto& sensor : scenario.sensors) setup.R_chol.push_back(Eigen::LLT<Matrix>(sensor.R).matrixL());
+  return setup;
+}
 
+// The kernel asked for: the fixed-size one where it fits (automatic) or where demanded.
+Kernel choose_kernel(const Scenario& scenario, MonteCarloOptions::Kernel wanted) {
   Kernel kernel = &run_reference_block;
   const Kernel fast = fixed_kernel(scenario);
-  if (options.kernel == MonteCarloOptions::Kernel::fixed_size) {
+  if (wanted == MonteCarloOptions::Kernel::fixed_size) {
     if (!fast) throw std::invalid_argument("monte carlo: the fixed-size kernel needs n <= 6 and one output per sensor");
     kernel = fast;
-  } else if (options.kernel == MonteCarloOptions::Kernel::automatic && fast) {
+  } else if (wanted == MonteCarloOptions::Kernel::automatic && fast) {
     kernel = fast;
   }
+  return kernel;
+}
 
+// Per-step series of `steps` empty accumulators, when the series are recorded.
+void size_series(ChunkStats& stats, const Setup& setup) {
+  if (!setup.series) return;
+  stats.series_tr.assign(static_cast<std::size_t>(setup.steps), {});
+  stats.series_err.assign(static_cast<std::size_t>(setup.steps), {});
+}
+
+// Chunk c's runs, block by block; a run with a non-finite result counts as diverged and in
+// no mean.
+void run_chunk(const Setup& setup, Kernel kernel, int c, int runs, ChunkStats& st,
+               std::array<RunOutcome, kBlockRuns>& outcomes, ProgressReporter& progress) {
+  size_series(st, setup);
+  const int end = std::min(runs, (c + 1) * kChunkRuns);
+  for (int first = c * kChunkRuns; first < end; first += kBlockRuns) {
+    const int count = std::min(kBlockRuns, end - first);
+    kernel(setup, first, count, st, outcomes.data());
+    for (int b = 0; b < count; ++b) {
+      const RunOutcome& o = outcomes[static_cast<std::size_t>(b)];
+      const bool finite = std::isfinite(o.tr_pred) && std::isfinite(o.tr_filt) && std::isfinite(o.err_pred) &&
+                          std::isfinite(o.err_filt);
+      if (o.diverged || !finite) ++st.diverged;
+      if (!finite) continue;
+      st.tr_pred.add(o.tr_pred);
+      st.tr_filt.add(o.tr_filt);
+      st.err_pred.add(o.err_pred);
+      st.err_filt.add(o.err_filt);
+    }
+    progress.add(count);
+  }
+}
+
+// The chunks on `threads` workers (this one among them), each taking the next chunk; the
+// statistics stay per chunk so that merging them in order does not depend on the threads.
+std::vector<ChunkStats> run_chunks(const Setup& setup, Kernel kernel, const MonteCarloOptions& options) {
   const int chunks = (options.runs + kChunkRuns - 1) / kChunkRuns;
   std::vector<ChunkStats> chunk_stats(static_cast<std::size_t>(chunks));
   std::atomic<int> next{0};
   ProgressReporter progress(options.progress, options.runs);
   auto worker = [&] {
     std::array<RunOutcome, kBlockRuns> outcomes;
-    for (int c = next.fetch_add(1); c < chunks; c = next.fetch_add(1)) {
-      ChunkStats& st = chunk_stats[static_cast<std::size_t>(c)];
-      if (setup.series) {
-        st.series_tr.assign(static_cast<std::size_t>(setup.steps), {});
-        st.series_err.assign(static_cast<std::size_t>(setup.steps), {});
-      }
-      const int end = std::min(options.runs, (c + 1) * kChunkRuns);
-      for (int first = c * kChunkRuns; first < end; first += kBlockRuns) {
-        const int count = std::min(kBlockRuns, end - first);
-        kernel(setup, first, count, st, outcomes.data());
-        for (int b = 0; b < count; ++b) {
-          const RunOutcome& o = outcomes[static_cast<std::size_t>(b)];
-          const bool finite = std::isfinite(o.tr_pred) && std::isfinite(o.tr_filt) && std::isfinite(o.err_pred) &&
-                              std::isfinite(o.err_filt);
-          if (o.diverged || !finite) ++st.diverged;
-          if (!finite) continue;
-          st.tr_pred.add(o.tr_pred);
-          st.tr_filt.add(o.tr_filt);
-          st.err_pred.add(o.err_pred);
-          st.err_filt.add(o.err_filt);
-        }
-        progress.add(count);
-      }
-    }
+    for (int c = next.fetch_add(1); c < chunks; c = next.fetch_add(1))
+      run_chunk(setup, kernel, c, options.runs, chunk_stats[static_cast<std::size_t>(c)], outcomes, progress);
   };
   int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, chunks);
@@ -390,12 +402,13 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  return chunk_stats;
+}
 
+// The chunks' statistics merged in chunk order (fixed order => deterministic).
+ChunkStats merge_chunks(const std::vector<ChunkStats>& chunk_stats, const Setup& setup) {
   ChunkStats total;
-  if (setup.series) {
-    total.series_tr.assign(static_cast<std::size_t>(setup.steps), {});
-    total.series_err.assign(static_cast<std::size_t>(setup.steps), {});
-  }
+  size_series(total, setup);
   for (const auto& st : chunk_stats) {
     total.tr_pred.merge(st.tr_pred);
     total.tr_filt.merge(st.tr_filt);
@@ -407,6 +420,11 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
       total.series_err[k].merge(st.series_err[k]);
     }
   }
+  return total;
+}
+
+MonteCarloResult make_result(const ChunkStats& total, const Setup& setup, const MonteCarloOptions& options,
+                             bool used_fixed_size_kernel) {
   MonteCarloResult result;
   result.runs = options.runs;
   result.steps = options.steps;
@@ -417,10 +435,24 @@ MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOpt
   result.sq_error_filt = total.err_filt.result();
   result.diverged_fraction = static_cast<double>(total.diverged) / options.runs;
   result.finite_runs = static_cast<int>(total.tr_pred.n);
-  result.used_fixed_size_kernel = kernel != &run_reference_block;
+  result.used_fixed_size_kernel = used_fixed_size_kernel;
   for (std::size_t k = 0; k < total.series_tr.size(); ++k)
     result.series.push_back({static_cast<int>(k), total.series_tr[k].result(), total.series_err[k].result()});
   return result;
+}
+
+}  // namespace
+
+MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOptions& options) {
+  // A late sample is a lost one: the simulated links are the effective loss models (exact in
+  // distribution for i.i.d. delays, see netkf/link.hpp).
+  const Scenario scenario = with_effective_links(configured);
+  if (options.runs < 1) throw std::invalid_argument("monte carlo: runs must be at least 1");
+  if (options.steps < 1) throw std::invalid_argument("monte carlo: steps must be at least 1");
+  const Setup setup = make_setup(scenario, options);
+  const Kernel kernel = choose_kernel(scenario, options.kernel);
+  const ChunkStats total = merge_chunks(run_chunks(setup, kernel, options), setup);
+  return make_result(total, setup, options, kernel != &run_reference_block);
 }
 
 }  // namespace netkf

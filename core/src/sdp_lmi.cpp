@@ -165,26 +165,23 @@ Matrix preconditioner(const Matrix& A, std::span<const ArrivalPattern> patterns)
   return es.eigenvectors() * es.eigenvalues().cwiseSqrt().cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
 }
 
-}  // namespace
+// The problem in the preconditioned coordinates: A → T A T⁻¹, C_S → C_S T⁻¹.
+struct Problem {
+  Matrix A;
+  std::vector<ArrivalPattern> patterns;
+};
 
-LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern> patterns_in) {
-  LmiResult result;
-  const Eigen::Index n = A_in.rows();
-  if (n == 0 || patterns_in.empty()) return result;
+Problem preconditioned(const Matrix& A_in, std::span<const ArrivalPattern> patterns_in) {
   const Matrix T = preconditioner(A_in, patterns_in);
   const Matrix T_inv = T.inverse();
-  const Matrix A = T * A_in * T_inv;
-  std::vector<ArrivalPattern> patterns(patterns_in.begin(), patterns_in.end());
-  for (auto& s : patterns)
+  Problem p{T * A_in * T_inv, std::vector<ArrivalPattern>(patterns_in.begin(), patterns_in.end())};
+  for (auto& s : p.patterns)
     if (s.C.rows() > 0) s.C = s.C * T_inv;
-  const Layout layout = make_layout(n, patterns);
-  const Vector zero = Vector::Zero(layout.count);
-  const Blocks constant = evaluate(A, patterns, layout, zero, true);
-  const int k = static_cast<int>(layout.count);
-  const int block_sizes[3] = {static_cast<int>(constant.psi.rows()), static_cast<int>(n), 1};
-  const int total = block_sizes[0] + block_sizes[1] + block_sizes[2];
+  return p;
+}
 
-  // C = −(constant part) so that Σ y_i A_i − C is the LMI.
+// C = −(constant part) so that Σ y_i A_i − C is the LMI (CSDP's blocks are 1-indexed).
+blockmatrix constant_matrix(const Blocks& constant, const int (&block_sizes)[3]) {
   blockmatrix C;
   C.nblocks = 3;
   C.blocks = static_cast<blockrec*>(std::malloc(4 * sizeof(blockrec)));
@@ -201,14 +198,25 @@ LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern
   C.blocks[3].blocksize = 1;
   C.blocks[3].data.vec = static_cast<double*>(std::malloc(2 * sizeof(double)));
   C.blocks[3].data.vec[1] = -constant.t_bound;
+  return C;
+}
 
+// The objective a (1-indexed): minimise −t.
+double* objective(const Layout& layout) {
+  const int k = static_cast<int>(layout.count);
   auto* a = static_cast<double*>(std::malloc((k + 1) * sizeof(double)));
+  for (int i = 1; i <= k; ++i) a[i] = (i - 1 == layout.t_index) ? -1.0 : 0.0;
+  return a;
+}
+
+// Constraint i (1-indexed): the LMI's linear part in variable i − 1, its three blocks sparse.
+constraintmatrix* constraint_matrices(const Problem& p, const Layout& layout) {
+  const int k = static_cast<int>(layout.count);
   auto* constraints = static_cast<constraintmatrix*>(std::malloc((k + 1) * sizeof(constraintmatrix)));
   for (int i = 1; i <= k; ++i) {
-    a[i] = (i - 1 == layout.t_index) ? -1.0 : 0.0;  // minimise −t
     Vector unit = Vector::Zero(layout.count);
     unit(i - 1) = 1.0;
-    const Blocks lin = evaluate(A, patterns, layout, unit, false);
+    const Blocks lin = evaluate(p.A, p.patterns, layout, unit, false);
     Matrix t_block(1, 1);
     t_block(0, 0) = lin.t_bound;
     sparseblock* head = nullptr;
@@ -222,6 +230,37 @@ LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern
     }
     constraints[i].blocks = head;
   }
+  return constraints;
+}
+
+// Verify on the returned point y (1-indexed): Ψ(Y, Z) itself (t removed) must be positive definite.
+void check_solution(LmiResult& result, const double* y, const Problem& p, const Layout& layout) {
+  Vector v(layout.count);
+  for (Eigen::Index i = 1; i <= layout.count; ++i) v(i - 1) = y[i];
+  v(layout.t_index) = 0.0;
+  const Blocks at = evaluate(p.A, p.patterns, layout, v, true);
+  const double psi_min = Eigen::SelfAdjointEigenSolver<Matrix>(at.psi, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
+  // Y ≤ I only normalises the homogeneous Ψ (Sinopoli Thm 5 proof), so it is not re-checked.
+  result.solved = std::isfinite(psi_min);
+  result.margin = psi_min;  // Y is a diagonal block of Ψ, so this bounds λ_min(Y) too
+}
+
+}  // namespace
+
+LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern> patterns_in) {
+  LmiResult result;
+  const Eigen::Index n = A_in.rows();
+  if (n == 0 || patterns_in.empty()) return result;
+  const Problem p = preconditioned(A_in, patterns_in);
+  const Layout layout = make_layout(n, p.patterns);
+  const Vector zero = Vector::Zero(layout.count);
+  const Blocks constant = evaluate(p.A, p.patterns, layout, zero, true);
+  const int k = static_cast<int>(layout.count);
+  const int block_sizes[3] = {static_cast<int>(constant.psi.rows()), static_cast<int>(n), 1};
+  const int total = block_sizes[0] + block_sizes[1] + block_sizes[2];
+  blockmatrix C = constant_matrix(constant, block_sizes);
+  double* a = objective(layout);
+  constraintmatrix* constraints = constraint_matrices(p, layout);
 
   blockmatrix X{0, nullptr}, Z{0, nullptr};
   double* y = nullptr;
@@ -234,17 +273,7 @@ LmiResult solve_stability_lmi(const Matrix& A_in, std::span<const ArrivalPattern
     code = easy_sdp(total, k, C, a, constraints, 0.0, &X, &y, &Z, &pobj, &dobj);
   }
   result.solver_code = code;
-  if (y != nullptr && (code == 0 || code == 3 || code == 4)) {
-    Vector v(layout.count);
-    for (int i = 1; i <= k; ++i) v(i - 1) = y[i];
-    // Verify on the returned point: Ψ(Y, Z) itself (t removed) must be positive definite.
-    v(layout.t_index) = 0.0;
-    const Blocks at = evaluate(A, patterns, layout, v, true);
-    const double psi_min = Eigen::SelfAdjointEigenSolver<Matrix>(at.psi, Eigen::EigenvaluesOnly).eigenvalues().minCoeff();
-    // Y ≤ I only normalises the homogeneous Ψ (Sinopoli Thm 5 proof), so it is not re-checked.
-    result.solved = std::isfinite(psi_min);
-    result.margin = psi_min;  // Y is a diagonal block of Ψ, so this bounds λ_min(Y) too
-  }
+  if (y != nullptr && (code == 0 || code == 3 || code == 4)) check_solution(result, y, p, layout);
   free_prob(total, k, C, a, constraints, X, y, Z);
   return result;
 }
