@@ -14,14 +14,16 @@ Usage: live_runs.py NETKF OUT DOMAIN
 """
 import json
 import os
-import subprocess
+import signal
 import sys
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 DURATION = "4"
 sys.path.insert(0, os.path.join(REPO, "python"))
+sys.path.insert(0, os.path.join(REPO, "tests", "support"))  # the shared test support
 from netkf.mcap import McapFile  # noqa: E402
+from netkf_proc import BackgroundProcess  # noqa: E402
 
 
 def has_first_period(path):
@@ -37,15 +39,13 @@ def has_first_period(path):
 
 
 def wait(proc, timeout):
-    try:
-        return proc.wait(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.terminate()
-        try:
-            return "stopped (%s)" % proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            return "killed (%s)" % proc.wait()
+    """Its exit status, or when it did not end in `timeout` s how it was ended: SIGTERM, then
+    SIGKILL (with whatever it spawned) after 10 s."""
+    rc = proc.wait(timeout)
+    if rc is not None:
+        return rc
+    rc = proc.stop(signal.SIGTERM, 10)
+    return "%s (%s)" % ("killed" if proc.killed else "stopped", rc)
 
 
 def run(netkf, out, domain, name, scenario, launch_record, attached_record):
@@ -58,21 +58,29 @@ def run(netkf, out, domain, name, scenario, launch_record, attached_record):
                   "--record-samples", os.path.join(d, "S.csv"), "--summary", os.path.join(d, "J.json"),
                   "--dashboard", "off", "--domain", domain]
     first = os.path.join(d, launch_record)
-    with open(os.path.join(d, "launch.log"), "w") as launch_log, open(os.path.join(d, "record.log"), "w") as rec_log:
-        launch = subprocess.Popen(launch_cmd, stdout=launch_log, stderr=subprocess.STDOUT, start_new_session=True)
-        rec = None
+    launch = BackgroundProcess(launch_cmd, log=os.path.join(d, "launch.log"), new_session=True, echo=False)
+    rec = None
+    try:
         end = time.monotonic() + 90
-        while launch.poll() is None and time.monotonic() < end:
+        while launch.running() and time.monotonic() < end:
             if has_first_period(first):
-                rec = subprocess.Popen(rec_cmd, stdout=rec_log, stderr=subprocess.STDOUT, start_new_session=True)
+                rec = BackgroundProcess(rec_cmd, log=os.path.join(d, "record.log"), new_session=True, echo=False)
                 break
             time.sleep(0.1)
         launch_rc = wait(launch, 120)
         rec_rc = wait(rec, 30) if rec else "never started"  # it ends by itself a second after the run
+    finally:
+        for p in (launch, rec):  # nothing of theirs left running (SIGKILL what is); our log handles closed
+            if p is not None:
+                p.kill()
+                p.close()
     tails = {}
     for log in ("launch.log", "record.log"):
-        with open(os.path.join(d, log)) as f:
-            tails[log] = f.read()[-1500:]
+        try:
+            with open(os.path.join(d, log)) as f:
+                tails[log] = f.read()[-1500:]
+        except FileNotFoundError:  # the recorder never started
+            tails[log] = ""
     return {"dir": d, "launch": launch_cmd, "record": rec_cmd, "launch_rc": launch_rc, "record_rc": rec_rc,
             "logs": tails}
 

@@ -21,6 +21,11 @@ import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+# The shared test support (tests/support: starting and stopping background processes).
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "support"))
+import netkf_proc  # noqa: E402
+from netkf_proc import BackgroundProcess  # noqa: E402
+
 DATA = os.path.join(HERE, "data")
 BIN = os.environ.get("NETKF_BIN_DIR", "")
 NETKF = os.path.join(BIN, "cli", "netkf")
@@ -84,41 +89,23 @@ class Launch:
         if self.samples:
             cmd += ["--record-samples", self.samples]
         cmd += list(extra)
-        print("$", " ".join(cmd), flush=True)
-        self.log = open(self.log_path, "w")
         self.stdout_path = os.path.join(outdir, "%s-stdout.txt" % name) if own_stdout else None
-        self.stdout_file = open(self.stdout_path, "w") if own_stdout else None
         # Own session: the fixture can signal launch and everything it spawned.
-        self.proc = subprocess.Popen(cmd, stdout=self.stdout_file or self.log, stderr=subprocess.STDOUT if not own_stdout
-                                     else self.log, start_new_session=True)
+        self.process = BackgroundProcess(cmd, log=self.log_path, stdout=self.stdout_path, new_session=True)
+        self.proc = self.process.proc
         self.started = time.monotonic()
 
     def wait(self, timeout):
-        try:
-            return self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
+        rc = self.process.wait(timeout)
+        if rc is None:
             print("launch did not end in time; stopping it", flush=True)
             self.stop()
-            return None
+        return rc
 
     def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                pass
-        # Whatever is left in the session (launch and its children): SIGKILL.
-        for pid in [self.proc.pid] + list(self.child_pids().values()):
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except (ProcessLookupError, PermissionError):
-                pass
-        try:
-            os.killpg(self.proc.pid, signal.SIGKILL)
-        except (ProcessLookupError, PermissionError):
-            pass
-        self.proc.wait()
+        """SIGTERM, then SIGKILL after 10 s to whatever is left in the session (launch and its
+        children, also those its pid file names)."""
+        self.process.stop(signal.SIGTERM, 10, kill_also=lambda: self.child_pids().values())
 
     def child_pids(self):
         pids = {}
@@ -132,35 +119,27 @@ class Launch:
         return pids
 
     def output(self):
-        if not self.log.closed:  # also readable after the run's `with` block
-            self.log.flush()
-        with open(self.log_path) as f:
-            return f.read()
+        return self.process.output()  # also readable after the run's `with` block
 
     def stdout(self):
         """What launch wrote to its stdout (own_stdout=True)."""
-        if not self.stdout_file.closed:
-            self.stdout_file.flush()
-        with open(self.stdout_path) as f:
-            return f.read()
+        return self.process.stdout()
 
     def __enter__(self):
         return self
 
     def interrupt(self, timeout=30):
         """Ctrl-C: launch stops its children and exits; returns its exit status."""
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
+        self.process.send(signal.SIGINT)
         return self.wait(timeout)
 
     def __exit__(self, *exc):
         self.stop()
         text = self.output()
-        self.log.close()
-        if self.stdout_file:
+        if self.stdout_path:
             print("---- launch stdout ----")
             print(self.stdout(), end="", flush=True)
-            self.stdout_file.close()
+        self.process.close()
         print("---- %s output (tail) ----" % os.path.basename(self.log_path))
         print("\n".join(text.splitlines()[-40:]), flush=True)
         return False
@@ -174,10 +153,10 @@ class LoggedProcesses:
         self.outdir, self.env = outdir, env
 
     def start(self, name, cmd, environment=None):
-        print("$", " ".join(cmd), flush=True)
-        return subprocess.Popen(cmd, stdout=open(os.path.join(self.outdir, name + ".out"), "w"),
-                                stderr=open(os.path.join(self.outdir, name + ".log"), "w"),
-                                env=self.env if environment is None else environment)
+        """The process's subprocess.Popen (end it with stop_process)."""
+        return BackgroundProcess(cmd, log=os.path.join(self.outdir, name + ".log"),
+                                 stdout=os.path.join(self.outdir, name + ".out"),
+                                 env=self.env if environment is None else environment).proc
 
     def text(self, name, ext):
         with open(os.path.join(self.outdir, name + ext)) as f:
@@ -186,13 +165,7 @@ class LoggedProcesses:
 
 def stop_process(proc, timeout=20):
     """SIGINT, then SIGKILL after `timeout` s; the exit status."""
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGINT)
-    try:
-        return proc.wait(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        return proc.wait()
+    return netkf_proc.stop_process(proc, signal.SIGINT, timeout)[0]
 
 
 def cyclone_programs(*variables):
@@ -221,24 +194,18 @@ class CycloneReader:
             env["CYCLONEDDS_URI"] = config_uri
         cmd = [exe, "--domain", str(domain), "--duration", "120"]
         print("$", ("CYCLONEDDS_URI=%s " % config_uri if config_uri else ""), " ".join(cmd), flush=True)
-        self.out = open(self.out_path, "w")
-        self.err = open(self.err_path, "w")
-        self.proc = subprocess.Popen(cmd, stdout=self.out, stderr=self.err, env=env)
+        self.process = BackgroundProcess(cmd, log=self.err_path, stdout=self.out_path, env=env,
+                                         stop_signal=signal.SIGINT, grace=15, echo=False)
+        self.proc = self.process.proc
 
     def log(self):
         with open(self.err_path) as f:
             return f.read()
 
     def stop(self):
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            rc = self.proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            rc = self.proc.wait()
-        self.out.close()
-        self.err.close()
+        """SIGINT, then SIGKILL after 15 s; the exit status."""
+        rc = self.process.stop()
+        self.process.close()
         return rc
 
     def lines(self):

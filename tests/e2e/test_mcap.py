@@ -17,10 +17,10 @@ and is stopped by SIGTERM; `netkf record --out same.csv` records the same networ
 import json
 import os
 import signal
-import subprocess
 import time
 
-from e2e_common import DATA, Launch, NETKF, check, node, finish, netkf, read_periods, require_netns, workdir
+from e2e_common import (DATA, BackgroundProcess, Launch, NETKF, check, node, finish, netkf, read_periods, require_netns,
+                        workdir)
 
 require_netns()
 scenario = os.path.join(DATA, "bernoulli3.yaml")  # three links, Bernoulli loss 0.3, period 40 ms, n = 2
@@ -35,8 +35,7 @@ def mcap_read(path):
 
 def recorder(path, seconds):
     cmd = [NETKF, "record", scenario, "--out", path, "--duration", str(seconds)]
-    print("$", " ".join(cmd), flush=True)
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return BackgroundProcess(cmd, log=path + ".log")
 
 
 run_mcap = os.path.join(out, "run.mcap")
@@ -52,13 +51,10 @@ with Launch(scenario, 60, out, record=False,
     r = netkf("ctl", "set-link", "1", "--loss", "0.2", "--timeout", "10")
     check(r.returncode == 0, "ctl set-link 1 --loss 0.2 applied (rc=%d)" % r.returncode)
     for name, p in (("same.csv", rec_csv), ("attached.mcap", rec_mcap)):
-        try:
-            text, _ = p.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            text, _ = p.communicate()
-        print(text, flush=True)
-        check(p.returncode == 0, "netkf record --out %s exits 0 (rc=%s)" % (name, p.returncode))
+        rc = p.stop(None, 30)  # it ends by itself after --duration; SIGKILL after 30 s
+        p.close()
+        print(p.output(), flush=True)
+        check(rc == 0, "netkf record --out %s exits 0 (rc=%s)" % (name, rc))
     time.sleep(1.0)
     run.proc.send_signal(signal.SIGTERM)  # the launch stops its children and completes the file
     rc = run.wait(40)

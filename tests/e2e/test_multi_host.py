@@ -19,8 +19,8 @@ import signal
 import subprocess
 import time
 
-from e2e_common import (DATA, NETKF, Launch, all_finite, check, contiguous, finish, last_period, netkf_processes,
-                        read_periods, read_samples, require_netns, wait_for, workdir)
+from e2e_common import (DATA, NETKF, BackgroundProcess, Launch, all_finite, check, contiguous, finish, last_period,
+                        netkf_processes, read_periods, read_samples, require_netns, wait_for, workdir)
 
 require_netns()
 DOMAIN = int(os.environ["NETKF_DOMAIN"])
@@ -68,29 +68,6 @@ def remove_hosts():
     sh("ip", "link", "del", TAG + "br", check_rc=False)
 
 
-class Background:
-    """A non-launch command in the background (netkf record), its output in a log."""
-
-    def __init__(self, cmd, log_path):
-        print("$", " ".join(cmd), flush=True)
-        self.log_path = log_path
-        self.log = open(log_path, "w")
-        self.proc = subprocess.Popen(cmd, stdout=self.log, stderr=subprocess.STDOUT, start_new_session=True)
-
-    def wait(self, timeout):
-        try:
-            return self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-            return None
-
-    def output(self):
-        self.log.flush()
-        with open(self.log_path) as f:
-            return f.read()
-
-
 def run_multi_host(name, scenario, a_extra, body):
     """Record on C, then the launches on A (first: the plant waits for the rest), B and C; `body`
     runs while they do and ends the run; returns (launches, recorder)."""
@@ -98,10 +75,11 @@ def run_multi_host(name, scenario, a_extra, body):
     os.makedirs(d)
     common = ["--domain", str(DOMAIN), "--dashboard", "off"]
     scen = [scenario] if scenario else []
-    record = Background(on("c") + [NETKF, "record"] + scen + ["--out", os.path.join(d, "c-periods.csv"),
-                                                               "--samples", os.path.join(d, "c-samples.csv"),
-                                                               "--domain", str(DOMAIN), "--discovery-server", SERVER],
-                        os.path.join(d, "record.log"))
+    record = BackgroundProcess(on("c") + [NETKF, "record"] + scen +
+                               ["--out", os.path.join(d, "c-periods.csv"),
+                                "--samples", os.path.join(d, "c-samples.csv"),
+                                "--domain", str(DOMAIN), "--discovery-server", SERVER],
+                               log=os.path.join(d, "record.log"), new_session=True)
     launches = {}
     launches["a"] = Launch(scenario, 0, d, record=False, name="a", prefix=on("a"),
                            extra=["--only", "plant,sensors", "--serve-discovery", SERVER] + common + a_extra)
@@ -118,9 +96,8 @@ def run_multi_host(name, scenario, a_extra, body):
     finally:
         for launch in launches.values():
             launch.__exit__(None, None, None)
-        if record.proc.poll() is None:
-            record.proc.kill()
-            record.proc.wait()
+        record.kill()  # when it did not end in time
+        record.close()
         print("---- record output ----\n" + record.output(), flush=True)
     return launches, record, rcs, d
 
@@ -197,8 +174,8 @@ def compare_open_loop(scenario, reference, multi):
 remove_hosts()
 make_hosts()
 capture_path = os.path.join(out, "bridge.pcap")
-capture = subprocess.Popen(["tcpdump", "-i", TAG + "br", "-n", "-U", "-w", capture_path],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+capture = BackgroundProcess(["tcpdump", "-i", TAG + "br", "-n", "-U", "-w", capture_path],
+                            log=os.path.join(out, "tcpdump.log"), echo=False)
 try:
     time.sleep(1.0)  # tcpdump listening
     # ---------------------------------------------------------------- 1. open loop
@@ -280,11 +257,8 @@ try:
           "the closed loop stayed within the state bound until Ctrl-C stopped it")
     check(wait_for(lambda: not netkf_processes(DOMAIN), 10), "no netkf process is left on domain %d" % DOMAIN)
 finally:
-    capture.send_signal(signal.SIGINT)
-    try:
-        capture.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        capture.kill()
+    capture.stop(signal.SIGINT, 10)
+    capture.close()
     remove_hosts()
 
 

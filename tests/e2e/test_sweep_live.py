@@ -14,10 +14,10 @@ import json
 import math
 import os
 import signal
-import subprocess
 import time
 
-from e2e_common import BIN, DATA, NETKF, check, finish, netkf, netkf_processes, require_netns, wait_for, workdir
+from e2e_common import (BIN, BackgroundProcess, DATA, NETKF, check, finish, netkf, netkf_processes, require_netns,
+                        wait_for, workdir)
 
 require_netns()
 domain = int(os.environ.get("NETKF_DOMAIN", "96"))
@@ -27,7 +27,6 @@ sweep_dir = os.path.join(out, "sweep")
 duration = 6  # a launch needs its start too: 3 s on the loaded 2-core VM sometimes saw no estimate
 cmd = [NETKF, "sweep", scenario, "--vary", "sensors.1.link.loss=0.1,0.6", "--seeds", "2", "--duration", str(duration),
        "--live", "--jobs", "2", "--domain", str(domain), "--out", sweep_dir]
-print("$", " ".join(cmd), flush=True)
 log_path = os.path.join(out, "sweep.log")
 runs_csv = os.path.join(sweep_dir, "runs.csv")
 
@@ -40,17 +39,10 @@ def data_rows():
         return []
 
 
-with open(log_path, "w") as log:
-    p = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+with BackgroundProcess(cmd, log=log_path) as p:
     wait_for(lambda: len(data_rows()) >= 1, 90)
-    p.send_signal(signal.SIGINT)
-    try:
-        rc = p.wait(60)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        rc = None
-with open(log_path) as f:
-    said = f.read()
+    rc = p.stop(signal.SIGINT, 60)  # SIGKILL after 60 s
+said = p.output()
 print(said, end="", flush=True)
 kept = data_rows()
 check(rc == 1 and "--resume" in said, "Ctrl-C: the sweep exits 1 and says how to resume (rc=%s)" % rc)
