@@ -28,13 +28,12 @@ import json
 import math
 import os
 import re
-import subprocess
 import sys
 
 import yaml
 
-from e2e_common import (DATA, NETKF, REPO, Launch, check, finish, last_period, netkf, node, read_periods,
-                        require_netns, wait_for, workdir)
+from e2e_common import (DATA, NETKF, REPO, BackgroundProcess, Launch, check, finish, last_period, netkf, node,
+                        read_periods, require_netns, wait_for, workdir)
 
 sys.path.insert(0, os.path.join(REPO, "python"))
 from netkf import read_mcap_periods, read_periods as read_period_frame  # noqa: E402  (the Python reader)
@@ -64,20 +63,15 @@ def late_rows(log):
 def attach(path):
     """`netkf record --out PATH` of the running network; it ends by itself after the run."""
     cmd = [NETKF, "record", scenario_path, "--out", path, "--duration", "90"]
-    print("$", " ".join(cmd), flush=True)
-    log = open(path + ".log", "w")
-    return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, start_new_session=True), log
+    return BackgroundProcess(cmd, log=path + ".log", new_session=True)
 
 
-def detach(proc_log, name):
-    proc, log = proc_log
-    try:
-        rc = proc.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        rc = "killed (%s)" % proc.wait()
-    log.close()
-    print(open(log.name).read()[-1500:], flush=True)
+def detach(rec, name):
+    rc = rec.stop(None, 30)  # it ends by itself after the run; SIGKILL after 30 s
+    if rec.killed:
+        rc = "killed (%s)" % rc
+    rec.close()
+    print(rec.output()[-1500:], flush=True)
     check(rc == 0, "netkf record --out %s exits 0 by itself after the run (rc=%s)" % (name, rc))
 
 

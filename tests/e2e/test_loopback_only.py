@@ -2,10 +2,11 @@
 everything on `lo` inside the namespace during a default launch (tcpdump)."""
 import ipaddress
 import os
+import signal
 import subprocess
 import time
 
-from e2e_common import Launch, check, finish, require_netns, workdir
+from e2e_common import BackgroundProcess, Launch, check, finish, require_netns, workdir
 
 require_netns()
 out = workdir("loopback")
@@ -14,8 +15,7 @@ pcap = os.path.join(out, "lo.pcap")
 links = subprocess.run(["ip", "-o", "link", "show"], capture_output=True, text=True).stdout
 ifaces = sorted(l.split(":")[1].strip().split("@")[0] for l in links.splitlines() if l.strip())
 check(ifaces == ["lo"], "the namespace has only lo (%s)" % ifaces)
-dump = subprocess.Popen(["tcpdump", "-i", "any", "-n", "-U", "-w", pcap], stdout=subprocess.DEVNULL,
-                        stderr=subprocess.PIPE)
+dump = BackgroundProcess(["tcpdump", "-i", "any", "-n", "-U", "-w", pcap], log=os.path.join(out, "tcpdump.log"))
 time.sleep(1.0)
 try:
     with Launch(None, 6, out) as run:  # the built-in default scenario
@@ -23,8 +23,8 @@ try:
     check(rc == 0, "default launch exits 0 (rc=%s)" % rc)
 finally:
     time.sleep(0.5)
-    dump.terminate()
-    dump.wait(10)
+    dump.stop(signal.SIGTERM, 10)
+    dump.close()
 r = subprocess.run(["tcpdump", "-n", "-r", pcap], capture_output=True, text=True)
 lines = [l for l in r.stdout.splitlines() if " IP " in l or " IP6 " in l]
 check(len(lines) > 0, "packets were captured (%d): the capture works" % len(lines))

@@ -25,13 +25,13 @@ import json
 import math
 import os
 import signal
-import subprocess
 import sys
 import time
 
 import yaml
 
-from e2e_common import DATA, NETKF, REPO, Launch, check, finish, netkf, node, read_periods, require_netns, workdir
+from e2e_common import (DATA, NETKF, REPO, BackgroundProcess, Launch, check, finish, netkf, node, read_periods,
+                        require_netns, workdir)
 
 sys.path.insert(0, os.path.join(REPO, "python"))
 import netkf as netkf_py  # noqa: E402  (the pure-Python reader)
@@ -46,10 +46,9 @@ TOPICS = {"/netkf/truth": "netkf_msgs/msg/Truth", "/netkf/estimate": "netkf_msgs
 PERIOD_MS = 40  # bernoulli3.yaml's period
 
 
-def recorder(args):
+def recorder(args, log):
     cmd = [NETKF, "record", scenario] + args
-    print("$", " ".join(cmd), flush=True)
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return BackgroundProcess(cmd, log=log)
 
 
 run_mcap = os.path.join(out, "run.mcap")
@@ -60,19 +59,16 @@ with Launch(scenario, 60, out, record=False,
             extra=["--record", run_mcap, "--mcap-profile", "ros2", "--record-samples", samples_csv,
                    "--dashboard", "off"]) as run:
     time.sleep(2.0)  # the network runs
-    rec_csv = recorder(["--out", same_csv, "--duration", "5"])
-    rec_mcap = recorder(["--out", attached_mcap, "--mcap-profile", "ros2", "--duration", "5"])
+    rec_csv = recorder(["--out", same_csv, "--duration", "5"], same_csv + ".log")
+    rec_mcap = recorder(["--out", attached_mcap, "--mcap-profile", "ros2", "--duration", "5"], attached_mcap + ".log")
     time.sleep(2.0)
     r = netkf("ctl", "set-link", "1", "--loss", "0.2", "--timeout", "10")
     check(r.returncode == 0, "ctl set-link 1 --loss 0.2 applied (rc=%d)" % r.returncode)
     for name, p in (("same.csv", rec_csv), ("attached.mcap", rec_mcap)):
-        try:
-            text, _ = p.communicate(timeout=30)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            text, _ = p.communicate()
-        print(text, flush=True)
-        check(p.returncode == 0, "netkf record --out %s exits 0 (rc=%s)" % (name, p.returncode))
+        rc = p.stop(None, 30)  # it ends by itself after --duration; SIGKILL after 30 s
+        p.close()
+        print(p.output(), flush=True)
+        check(rc == 0, "netkf record --out %s exits 0 (rc=%s)" % (name, rc))
     time.sleep(1.0)
     run.proc.send_signal(signal.SIGTERM)  # the launch stops its children and completes the file
     rc = run.wait(40)

@@ -24,14 +24,13 @@ import json
 import os
 import re
 import signal
-import subprocess
 import sys
 import time
 
 import yaml
 
-from e2e_common import (DATA, NETKF, REPO, CycloneReader, Launch, check, finish, inputs_missing, last_period, netkf, read_periods,
-                        require_netns, wait_for, workdir)
+from e2e_common import (DATA, NETKF, REPO, BackgroundProcess, CycloneReader, Launch, check, finish, inputs_missing,
+                        last_period, netkf, read_periods, require_netns, wait_for, workdir)
 
 require_netns()
 DOMAIN = 115
@@ -160,16 +159,14 @@ refused = netkf("launch", os.path.join(DATA, "closed_loop.yaml"), "--duration", 
 check(refused.returncode == 2 and "--standby needs exclusive ownership" in refused.stderr,
       "--standby with the ros2 naming is refused with exit 2 (rc=%d): %s" % (refused.returncode, refused.stderr[-300:]))
 # ---- a relay answers and reports under the naming its ctl uses (its relayed topics keep theirs)
-relay = subprocess.Popen([NETKF, "relay", "--from-domain", "116",
-                          "--to-domain", str(DOMAIN), "--topic", "rt/chatter", "--bernoulli", "0.3", "--naming", "ros2",
-                          "--duration", "30"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-try:
+# Leaving the block: SIGINT, SIGKILL after 30 s.
+with BackgroundProcess([NETKF, "relay", "--from-domain", "116", "--to-domain", str(DOMAIN), "--topic", "rt/chatter",
+                        "--bernoulli", "0.3", "--naming", "ros2", "--duration", "30"],
+                       log=os.path.join(out, "relay.log"), stop_signal=signal.SIGINT, grace=30) as relay:
     relay_status = netkf("ctl", "status", "--json", "--domain", DOMAIN, "--timeout", "10", "--naming", "ros2")
     relay_change = netkf("ctl", "set-link", "rt/chatter", "--bernoulli", "0.1", "--domain", DOMAIN, "--naming", "ros2")
     relay_unnamed = netkf("ctl", "status", "--json", "--domain", DOMAIN, "--timeout", "3")
-finally:
-    relay.send_signal(signal.SIGINT)
-    relay_log = relay.communicate(timeout=30)[0]
+relay_log = relay.output()
 topics = [l.get("topic") for l in json.loads(relay_status.stdout)["links"]] if relay_status.returncode == 0 else []
 check(topics == ["rt/chatter"] and relay_change.returncode == 0 and relay_unnamed.returncode != 0,
       "a relay with --naming ros2: ctl status --naming ros2 lists its topic's link %s, set-link changes it (rc=%d), "

@@ -17,10 +17,10 @@ Each stop must come within 60 s: the phases take minutes when the signal is not 
 import csv
 import os
 import signal
-import subprocess
 import time
 
-from e2e_common import NETKF, REPO, check, finish, netkf_processes, require_netns, wait_for, workdir
+from e2e_common import (NETKF, REPO, BackgroundProcess, check, finish, netkf_processes, require_netns, wait_for,
+                        workdir)
 
 require_netns()
 domain = int(os.environ.get("NETKF_DOMAIN", "100"))
@@ -33,20 +33,16 @@ def start(name, *args):
     d = os.path.join(out, name)
     log_path = os.path.join(out, name + ".log")
     cmd = [NETKF, "sweep", scenario] + [str(a) for a in args] + ["--out", d]
-    print("$", " ".join(cmd), flush=True)
-    log = open(log_path, "w")
-    return subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT), d, log_path
+    # Not in its own session: the live phase checks that the sweep itself ends its launch's nodes.
+    return BackgroundProcess(cmd, log=log_path), d, log_path
 
 
 def stop(p, sig, seconds=60):
-    """Send `sig`; the exit status, or None (then killed) when it did not end in `seconds`."""
-    p.send_signal(sig)
-    try:
-        return p.wait(seconds)
-    except subprocess.TimeoutExpired:
-        p.kill()
-        p.wait()
-        return None
+    """Send `sig` (None: none, wait for its own end); the exit status, or None (then killed) when
+    it did not end in `seconds`."""
+    rc = p.stop(sig, seconds)
+    p.close()
+    return None if p.killed else rc
 
 
 def said(log_path):
@@ -66,12 +62,7 @@ def lines(path):
 
 # ---- the grid's size is bounded before anything is expanded
 p, d, log = start("too-big", "--vary", "sensors.2.link.loss=0:0.9:1000", "--vary", "sensors.1.link.loss=0:0.9:1000")
-try:
-    rc = p.wait(60)
-except subprocess.TimeoutExpired:
-    p.kill()
-    p.wait()
-    rc = None
+rc = stop(p, None)
 text = said(log)
 check(rc == 2, "a grid of 1000 x 1000 points is refused, exit 2 (rc=%s)" % rc)
 check("1000 x 1000 = 1000000 points x 1 seeds = 1000000 runs" in text and "at most 100000" in text,
@@ -81,7 +72,7 @@ check(not os.path.exists(d), "nothing is written")
 # ---- Ctrl-C while the points are checked (the loader on each of 100 000 points)
 p, d, log = start("validation", "--vary", "sensors.2.link.loss=0:0.9:100000", "--periods", 1)
 time.sleep(1.5)
-checking = p.poll() is None and not os.path.exists(d)
+checking = p.running() and not os.path.exists(d)
 rc = stop(p, signal.SIGINT)
 text = said(log)
 check(checking and "stopped while checking the points" in text and "nothing was run" in text,
@@ -91,7 +82,7 @@ check(not os.path.exists(d), "nothing is written")
 
 # ---- SIGTERM during an offline run of 10^8 periods
 p, d, log = start("offline", "--periods", 100000000, "--seeds", 2)
-running = wait_for(lambda: len(lines(os.path.join(d, "runs.csv"))) == 1, 60) and p.poll() is None
+running = wait_for(lambda: len(lines(os.path.join(d, "runs.csv"))) == 1, 60) and p.running()
 rc = stop(p, signal.SIGTERM)
 text = said(log)
 check(running, "the first offline run was under way (runs.csv holds its header)")
@@ -105,7 +96,7 @@ check(all(os.path.exists(os.path.join(d, f)) for f in ("points.csv", "report.htm
 n = 2000
 p, d, log = start("report", "--vary", "sensors.2.link.loss=0:0.5:%d" % n, "--periods", 1)
 reporting = wait_for(lambda: len(lines(os.path.join(d, "runs.csv"))) == n + 1 and
-                     not os.path.exists(os.path.join(d, "points.csv")), 120) and p.poll() is None
+                     not os.path.exists(os.path.join(d, "points.csv")), 120) and p.running()
 rc = stop(p, signal.SIGINT)
 text = said(log)
 check(reporting, "every run was done and the report was being computed")
@@ -132,7 +123,7 @@ def launch_started():
         return False
 
 
-started = wait_for(launch_started, 60) and p.poll() is None
+started = wait_for(launch_started, 60) and p.running()
 rc = stop(p, signal.SIGTERM)
 text = said(log)
 check(started, "the live run's launch had started")
