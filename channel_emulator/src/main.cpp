@@ -1,20 +1,13 @@
 // channel_emulator: relays raw measurements to the delivered topic through one link per
 // sensor (loss, then an optional delay, seeded from the scenario), tunable at runtime through
 // netkf/link/control. The wiring, and its threads, are ChannelApp (channel_app.hpp).
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include "netkf/dds/dds.hpp"
+#include "netkf/node_main/run_node.hpp"
 #include "netkf/nodes/channel_app.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/nodes/channel_links.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"netkf channel_emulator: drops samples per link model and relays the rest; tunable at runtime"};
-  netkf::dds::CommonNodeFlags common;
   netkf::nodes::ChannelAppOptions options;
-  netkf::dds::add_common_node_flags(app, common);
   app.add_option("--status-period-ms", options.status_period_ms, "Publish link status this often")
       ->check(CLI::Range(10, 3600000))
       ->capture_default_str();
@@ -23,28 +16,19 @@ int main(int argc, char** argv) {
                  "for this many readers of the delivered samples (the estimator, the launch's recorder)")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
-  netkf::dds::SpareGate spare(common.spare);  // before any thread
-
-  try {
-    netkf::dds::setup_node_logging("channel", common.log_level);
-    const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
-    // Checked before the participant exists (ChannelApp builds its own links the same way).
-    const netkf::nodes::ChannelLinks check_links(scenario);
-    netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, scenario, "netkf-channel", netkf::dds::Role::channel));
-    spdlog::info("scenario '{}': {} links, domain {}", scenario.name, scenario.sensors.size(), participant.domain());
-    if (!spare.wait_until_needed()) return 0;
-    {
-      netkf::nodes::ChannelApp node(scenario, participant, options);  // logs each link and the timeline
-      const netkf::dds::StopOnSignal stop_on_signal(node.io(), [&](int) { node.stop(); });
-      node.run();
-      node.log_summary();
-    }
-    spdlog::info("left DDS domain {}", participant.domain());
-    return 0;
-  } catch (const std::exception& e) {
-    spdlog::critical("{}", e.what());
-    return 1;
-  }
+  using netkf::nodes::ChannelApp;
+  return netkf::node_main::run_node<ChannelApp>(
+      argc, argv, app,
+      {.name = [] { return std::string("channel"); },
+       .role = netkf::dds::Role::channel,
+       // Checked before the participant exists (ChannelApp builds its own links the same way).
+       .check = [](const netkf::Scenario& scenario) { const netkf::nodes::ChannelLinks check_links(scenario); },
+       .describe = [](const netkf::Scenario& scenario, const netkf::dds::Participant& participant) {
+         return fmt::format("scenario '{}': {} links, domain {}", scenario.name, scenario.sensors.size(),
+                            participant.domain());
+       },
+       // Logs each link and the timeline.
+       .make = [&](const netkf::Scenario& scenario, netkf::dds::Participant& participant) {
+         return std::make_unique<ChannelApp>(scenario, participant, options);
+       }});
 }

@@ -15,7 +15,7 @@
 #include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/dds/security.hpp"
-#include "netkf/nodes/estimator_core.hpp"
+#include "netkf/records/checkpoint.hpp"
 #include "open_files.hpp"
 #include "output_file.hpp"
 #include "ros2_cdr_codec.hpp"
@@ -376,7 +376,7 @@ void Launch::write_checkpoint_for_restart() {
       console_->announce(LiveEvent::Level::warning, "the estimator died before its first estimate: it starts afresh");
       return;
     }
-    nodes::write_checkpoint(checkpoint_path_.string(), *last_estimate_);
+    write_checkpoint(checkpoint_path_.string(), *last_estimate_);
   } catch (const std::exception& e) {
     console_->announce(LiveEvent::Level::warning, std::string("estimator checkpoint not written: ") + e.what());
   }

@@ -1,20 +1,12 @@
 // plant_node: the stand-in for the physical world (docs/architecture.md). Each period T it steps
 // x_{k+1} = A x_k + B u_k + w_k and publishes the truth (netkf/truth) and the sample
 // clock with the applied input (netkf/tick). The wiring is PlantApp (plant_app.hpp).
-#include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
-
-#include <CLI/CLI.hpp>
-#include <spdlog/spdlog.h>
-
-#include "netkf/dds/dds.hpp"
+#include "netkf/node_main/run_node.hpp"
 #include "netkf/nodes/plant_app.hpp"
-#include "netkf/scenario.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"netkf plant_node: simulates x_{k+1} = A x_k + B u_k + w_k and publishes truth and sample clock"};
-  netkf::dds::CommonNodeFlags common;
   netkf::nodes::PlantAppOptions options;
-  netkf::dds::add_common_node_flags(app, common);
   app.add_option("--max-periods", options.max_periods, "Stop after this many periods (0 = unlimited)")
       ->capture_default_str();
   app.add_option("--startup-wait-ms", options.startup_wait_ms,
@@ -30,25 +22,16 @@ int main(int argc, char** argv) {
   app.add_flag("--wait-for-presence", options.wait_for_presence,
                "Start when netkf/presence shows every sensor, the channel and the estimator of this run (and the "
                "truth has matched every present reader); fail naming the missing after --startup-wait-ms");
-  CLI11_PARSE(app, argc, argv);
-
-  try {
-    netkf::dds::setup_node_logging("plant", common.log_level);
-    const netkf::Scenario scenario = netkf::load_scenario_file(common.scenario);
-    netkf::dds::Participant participant(
-        netkf::dds::node_participant_options(common, scenario, "netkf-plant", netkf::dds::Role::plant));
-    spdlog::info("scenario '{}' period {} ms, domain {}", scenario.name, scenario.period_ms, participant.domain());
-    {
-      netkf::nodes::PlantApp node(scenario, participant, options);
-      // Before run(): its start-up wait runs on the io thread, so a signal ends it at once.
-      const netkf::dds::StopOnSignal stop_on_signal(node.io(), [&](int) { node.stop(); });
-      node.run();
-      node.log_summary();
-    }
-    spdlog::info("left DDS domain {}", participant.domain());
-    return 0;
-  } catch (const std::exception& e) {
-    spdlog::critical("{}", e.what());
-    return 1;
-  }
+  using netkf::nodes::PlantApp;
+  return netkf::node_main::run_node<PlantApp>(
+      argc, argv, app,
+      {.name = [] { return std::string("plant"); },
+       .role = netkf::dds::Role::plant,
+       .describe = [](const netkf::Scenario& scenario, const netkf::dds::Participant& participant) {
+         return fmt::format("scenario '{}' period {} ms, domain {}", scenario.name, scenario.period_ms,
+                            participant.domain());
+       },
+       .make = [&](const netkf::Scenario& scenario, netkf::dds::Participant& participant) {
+         return std::make_unique<PlantApp>(scenario, participant, options);
+       }});
 }

@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "netkf/nodes/estimator_core.hpp"
+#include "netkf/records/checkpoint.hpp"
 
 namespace {
 
@@ -415,8 +416,8 @@ TEST(EstimatorLogic, CheckpointFileRoundTripsBitIdentical) {
   const netkf::Estimate c = last_published(123456789012ull, 1234.5678, Vector{{0.1, -1.0 / 3.0}},
                                            Matrix{{2.0 / 3.0, 1e-300}, {1e-300, 5.0e7 / 7.0}}, 3, 42, 7);
   const std::string path = ::testing::TempDir() + "netkf-checkpoint.json";
-  netkf::nodes::write_checkpoint(path, c);
-  const auto back = netkf::nodes::read_checkpoint(path);
+  netkf::write_checkpoint(path, c);
+  const auto back = netkf::read_checkpoint(path);
   EXPECT_EQ(back.k, c.k);
   EXPECT_EQ(back.t, c.t);
   EXPECT_EQ(back.x_hat, c.x_hat);  // exactly: a restart must not perturb the estimate
@@ -428,8 +429,8 @@ TEST(EstimatorLogic, CheckpointFileRoundTripsBitIdentical) {
     std::ofstream bad(path);
     bad << R"({"k": 1, "t": 0, "x_hat": [1, 2], "P": [1, 0, 0], "restarts": 1, "late_total": 0, "rejected_total": 0})";
   }
-  EXPECT_THROW(netkf::nodes::read_checkpoint(path), std::runtime_error);
-  EXPECT_THROW(netkf::nodes::read_checkpoint(path + ".missing"), std::runtime_error);
+  EXPECT_THROW(netkf::read_checkpoint(path), std::runtime_error);
+  EXPECT_THROW(netkf::read_checkpoint(path + ".missing"), std::runtime_error);
 }
 
 }  // namespace

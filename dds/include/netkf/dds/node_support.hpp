@@ -1,7 +1,7 @@
 #pragma once
 #include <signal.h>
-// What every node main shares: the common flags (--scenario, --domain, --dds-profile,
-// --secure, --log-level), spdlog set-up on stderr, and the participant options they resolve to.
+// What the nodes' DDS side shares: a warm spare's gate, the stop on a signal, the wait for
+// readers to match, the discovery server's address (the mains' flags: node_main/run_node.hpp).
 #include <utility>  // before Asio (Boost 1.74 + GCC 12, docs/dds-notes.md)
 
 #include <boost/asio/io_context.hpp>
@@ -13,23 +13,9 @@
 #include <optional>
 #include <string>
 
-#include <CLI/CLI.hpp>
-
 #include "netkf/dds/participant.hpp"
 
 namespace netkf::dds {
-
-struct CommonNodeFlags {
-  std::string scenario;                  // --scenario FILE (required)
-  std::optional<int> domain;             // --domain N (default $NETKF_DOMAIN, else 0)
-  std::optional<std::string> dds_profile;// --dds-profile FILE (default $NETKF_DDS_PROFILE, else built-in localhost-only)
-  std::optional<std::string> secure;     // --secure DIR (default $NETKF_SECURE, else no DDS Security)
-  std::string log_level = "info";        // --log-level trace|debug|info|warn|error
-  std::uint64_t run_id = 0;              // --run-id N (given by `netkf launch`; 0: accept every run)
-  std::optional<std::string> discovery_server;  // --discovery-server ADDR:PORT (default $NETKF_DISCOVERY_SERVER)
-  std::optional<std::string> naming;     // --naming netkf|ros2 (default $NETKF_NAMING, else the scenario's)
-  bool spare = false;                    // --spare: join the network, then wait for SIGUSR1 (SpareGate)
-};
 
 /// " (N more like it left out)" after a throttled warning (netkf::LogThrottle); "" for none.
 inline std::string left_out_text(std::uint64_t left_out) {
@@ -41,17 +27,6 @@ inline constexpr const char* kDiscoveryServerEnv = "NETKF_DISCOVERY_SERVER";
 /// The discovery server: the flag when given (non-empty), else $NETKF_DISCOVERY_SERVER, else
 /// nullopt (the localhost profile). Throws DdsError when it is not ADDR:PORT.
 std::optional<DiscoveryServerAddress> resolve_discovery_server(const std::optional<std::string>& flag);
-
-/// Register the common flags on `app`.
-void add_common_node_flags(CLI::App& app, CommonNodeFlags& flags);
-
-/// Log to stderr with the node's name in every line, at `level` (validated by the flags).
-void setup_node_logging(const std::string& node_name, const std::string& level);
-
-/// Resolve domain, profile, security directory and naming (flag, then environment, then the
-/// scenario or the default); `role`: the identity the node uses when security is on. Throws DdsError.
-ParticipantOptions node_participant_options(const CommonNodeFlags& flags, const Scenario& scenario,
-                                            const std::string& participant_name, Role role);
 
 /// A warm spare (--spare; `netkf launch` keeps one per channel and estimator): the process
 /// creates its DDS participant, so the network discovers it ahead of need, and waits before it

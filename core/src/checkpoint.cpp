@@ -8,9 +8,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "netkf/nodes/estimator_core.hpp"
+#include "netkf/records/checkpoint.hpp"
 
-namespace netkf::nodes {
+namespace netkf {
 
 void write_checkpoint(const std::string& path, const Estimate& c) {
   nlohmann::json j;
@@ -64,4 +64,4 @@ Estimate read_checkpoint(const std::string& path) {
   }
 }
 
-}  // namespace netkf::nodes
+}  // namespace netkf
