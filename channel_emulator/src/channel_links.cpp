@@ -28,15 +28,7 @@ ChannelLinks::ChannelLinks(const Scenario& scenario) {
   for (const std::size_t i : event_application_order(scenario.events)) {
     const LinkEvent& e = scenario.events[i];
     if (auto it = links_.find(e.link); it != links_.end()) it->second.timeline.push_back(e);
-    for (const auto& key : e.keys) {
-      if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
-      const std::string& path = std::get<std::string>(key.value);
-      try {
-        timeline_traces_.emplace(path, read_link_trace_for(path));
-      } catch (const LinkError&) {
-        // The loader read it already; if it has gone since, the event fails when due (journaled).
-      }
-    }
+    read_event_traces(e.keys, timeline_traces_);
   }
 }
 

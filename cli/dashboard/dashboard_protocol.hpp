@@ -15,12 +15,6 @@
 #include <nlohmann/json.hpp>
 
 #include "channel_catalogue.hpp"
-#include "netkf/records/delivered.hpp"
-#include "netkf/records/estimate.hpp"
-#include "netkf/records/link_change.hpp"
-#include "netkf/records/link_reply.hpp"
-#include "netkf/records/link_status.hpp"
-#include "netkf/records/truth.hpp"
 #include "live_snapshot.hpp"
 #include "netkf/scenario.hpp"
 

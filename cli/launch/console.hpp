@@ -19,7 +19,6 @@
 #include "dashboard_server.hpp"
 #include "live_metrics.hpp"
 #include "live_model.hpp"
-#include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_reply.hpp"

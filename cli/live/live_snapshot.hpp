@@ -6,12 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
-#include "netkf/records/link_change.hpp"
-#include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
-#include "netkf/records/truth.hpp"
 #include "observed_rate.hpp"
 #include "netkf/analysis/critical_rate.hpp"
 #include "netkf/analysis/operating_point.hpp"

@@ -20,12 +20,7 @@
 #include <deque>
 #include <optional>
 
-#include "netkf/records/delivered.hpp"
-#include "netkf/records/estimate.hpp"
-#include "netkf/records/link_change.hpp"
-#include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
-#include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
 

@@ -18,7 +18,6 @@
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
-#include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
 #include "netkf/scenario.hpp"

@@ -482,6 +482,18 @@ std::shared_ptr<const LinkTrace> read_link_trace_for(const std::string& path) {
   }
 }
 
+void read_event_traces(const LinkKeys& keys, TraceRows& traces) {
+  for (const auto& key : keys) {
+    const auto* path = std::get_if<std::string>(&key.value);
+    if (key.name != "trace" || path == nullptr || traces.contains(*path)) continue;
+    try {
+      traces.emplace(*path, read_link_trace_for(*path));
+    } catch (const LinkError&) {
+      // Gone since the loader read it: the event fails when due.
+    }
+  }
+}
+
 TraceSample trace_sample(const TraceLink& trace, std::uint64_t periods_since_start) {
   TraceSample out;
   const std::uint64_t n = trace.rows ? trace.rows->size() : 0;

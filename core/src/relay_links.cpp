@@ -72,15 +72,7 @@ void RelayLinks::add_event(const RelayEvent& e) {
   } else {
     throw std::invalid_argument("an event of topic " + e.topic + ", which is not relayed");
   }
-  for (const auto& key : e.keys) {
-    if (key.name != "trace" || timeline_traces_.count(std::get<std::string>(key.value))) continue;
-    const std::string& path = std::get<std::string>(key.value);
-    try {
-      timeline_traces_.emplace(path, read_link_trace_for(path));
-    } catch (const LinkError&) {
-      // The loader read it already; if it has gone since, the event fails when due (journaled).
-    }
-  }
+  read_event_traces(e.keys, timeline_traces_);
 }
 
 // A link's streams come from its name only: a topic's and a writer's alike.

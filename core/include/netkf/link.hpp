@@ -139,6 +139,10 @@ LinkModel empirical_link_model(const LinkTrace& trace);
 /// Read a trace file for a link (link_trace.hpp's reader). Throws LinkError("trace", ...)
 /// carrying the trace's FILE:LINE:COL message.
 std::shared_ptr<const LinkTrace> read_link_trace_for(const std::string& path);
+/// Read each trace a timeline event's `keys` name into `traces`, once per path, at start (never
+/// per sample). One that cannot be read is left out: the loader read it already, so it has gone
+/// since, and the event fails when it is due (journaled as such).
+void read_event_traces(const LinkKeys& keys, TraceRows& traces);
 
 /// Every key a link understands, in the order documented.
 const std::vector<std::string>& link_key_names();
