@@ -3,8 +3,8 @@
 // 2 bad usage or input, 3 no network answered, 4 the network refused the request.
 #include <iostream>
 
-#include "commands.hpp"
-#include "exit_code.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{"netkf - Kalman filtering over lossy sensor networks (Fast DDS)"};

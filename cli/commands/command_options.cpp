@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <iostream>
 
-#include "exit_code.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 
 namespace netkf::cli {
 

@@ -7,8 +7,8 @@
 
 #include "netkf/link.hpp"
 
-#include "live_bus.hpp"
-#include "seconds.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/cli/common/seconds.hpp"
 
 namespace netkf::cli {
 

@@ -11,13 +11,13 @@
 #include <tuple>
 
 #include "command_options.hpp"
-#include "commands.hpp"
-#include "exit_code.hpp"
-#include "channel_catalogue.hpp"
-#include "live_bus.hpp"
-#include "live_status.hpp"
-#include "serve_loop.hpp"
-#include "text.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/cli/live/live_status.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/common/text.hpp"
 #include "netkf/relay_links.hpp"
 
 namespace netkf::cli {

@@ -5,13 +5,13 @@
 #include <string>
 #include <vector>
 
-#include "commands.hpp"
-#include "fit_scenario.hpp"
-#include "fit_text.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/theory/fit_scenario.hpp"
+#include "netkf/cli/theory/fit_text.hpp"
 #include "netkf/analysis/loss_fit.hpp"
 #include "netkf/link_trace.hpp"
-#include "output_file.hpp"
-#include "theory_plot.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/theory/theory_plot.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,9 +1,9 @@
 // `netkf launch`: its options (the run itself is launch/launch.hpp).
 #include "command_options.hpp"
-#include "commands.hpp"
-#include "launch.hpp"
-#include "output_file.hpp"
-#include "recording.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/launch/launch.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/recording.hpp"
 
 namespace netkf::cli {
 

@@ -8,15 +8,15 @@
 #include <memory>
 
 #include "command_options.hpp"
-#include "commands.hpp"
-#include "exit_code.hpp"
-#include "launch.hpp"
-#include "live_bus.hpp"
-#include "output_file.hpp"
-#include "recording.hpp"
-#include "ros2_cdr_codec.hpp"
-#include "run_end_watch.hpp"
-#include "serve_loop.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/launch/launch.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/recording.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
+#include "netkf/cli/launch/run_end_watch.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
 
 namespace netkf::cli {
 namespace {

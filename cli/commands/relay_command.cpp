@@ -14,15 +14,15 @@
 #include <spdlog/spdlog.h>
 
 #include "command_options.hpp"
-#include "commands.hpp"
-#include "exit_code.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 #include "netkf/scenario.hpp"
 #include "netkf/dds/participant.hpp"  // resolve_naming
 #include "netkf/relay_config.hpp"
-#include "output_file.hpp"
-#include "relay_app.hpp"
-#include "relay_summary.hpp"
-#include "serve_loop.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/relay/relay_app.hpp"
+#include "netkf/cli/live/relay_summary.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "commands.hpp"
+#include "netkf/cli/commands/commands.hpp"
 #include "netkf/dds/security.hpp"
 
 namespace netkf::cli {

@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "command_options.hpp"
-#include "commands.hpp"
-#include "dashboard__assets.hpp"
-#include "sweep.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/dashboard/assets.hpp"
+#include "netkf/cli/sweep/sweep.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -7,14 +7,14 @@
 #include <optional>
 #include <string>
 
-#include "commands.hpp"
-#include "measured_links.hpp"
-#include "progress_bar.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/theory/measured_links.hpp"
+#include "netkf/cli/common/progress_bar.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/monte_carlo.hpp"
 #include "netkf/scenario.hpp"
-#include "theory_plot.hpp"
-#include "theory_text.hpp"
+#include "netkf/cli/theory/theory_plot.hpp"
+#include "netkf/cli/theory/theory_text.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -7,13 +7,13 @@
 #include <sstream>
 #include <string>
 
-#include "commands.hpp"
-#include "exit_code.hpp"
+#include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 #include "netkf/link_trace.hpp"
 #include "netkf/scenario.hpp"
-#include "output_file.hpp"
-#include "ros2_cdr_codec.hpp"
-#include "trace_extract.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
+#include "netkf/cli/recording/trace_extract.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,4 +1,4 @@
-#include "output_file.hpp"
+#include "netkf/cli/common/output_file.hpp"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <random>
 
-#include "exit_code.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 #include "netkf/input_file.hpp"
 
 namespace netkf::cli {

@@ -1,4 +1,4 @@
-#include "progress_bar.hpp"
+#include "netkf/cli/common/progress_bar.hpp"
 
 #include <unistd.h>
 

@@ -1,4 +1,4 @@
-#include "serve_loop.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
 
 #include <boost/asio/steady_timer.hpp>
 

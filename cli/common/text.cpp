@@ -1,4 +1,4 @@
-#include "text.hpp"
+#include "netkf/cli/common/text.hpp"
 
 #include <chrono>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "dashboard_protocol.hpp"
+#include "netkf/cli/dashboard/dashboard_protocol.hpp"
 
 #include <limits>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "dashboard_server.hpp"
+#include "netkf/cli/dashboard/dashboard_server.hpp"
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -12,9 +12,9 @@
 #include <stdexcept>
 #include <string_view>
 
-#include "dashboard__assets.hpp"
+#include "netkf/cli/dashboard/assets.hpp"
 #include "foxglove_session.hpp"
-#include "request_policy.hpp"
+#include "netkf/cli/dashboard/request_policy.hpp"
 
 namespace netkf::cli {
 

@@ -14,7 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "dashboard_protocol.hpp"
+#include "netkf/cli/dashboard/dashboard_protocol.hpp"
 
 namespace netkf::cli::dashboard {
 

@@ -1,8 +1,8 @@
-#include "request_policy.hpp"
+#include "netkf/cli/dashboard/request_policy.hpp"
 
 #include <map>
 
-#include "dashboard_protocol.hpp"
+#include "netkf/cli/dashboard/dashboard_protocol.hpp"
 
 namespace netkf::cli::dashboard {
 

@@ -1,11 +1,11 @@
-#include "console.hpp"
+#include "netkf/cli/launch/console.hpp"
 
 #include <boost/asio/post.hpp>
 #include <algorithm>
 #include <iostream>
 #include <random>
 
-#include "live_status.hpp"
+#include "netkf/cli/live/live_status.hpp"
 #include "netkf/dds/node_support.hpp"
 
 namespace netkf::cli {

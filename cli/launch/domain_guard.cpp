@@ -3,8 +3,8 @@
 #include <chrono>
 #include <thread>
 
-#include "exit_code.hpp"
-#include "text.hpp"
+#include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/common/text.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -3,7 +3,7 @@
 // (another launch, or nodes started by hand) would mix its samples with ours.
 #include <cstdint>
 
-#include "live_bus.hpp"
+#include "netkf/cli/live/live_bus.hpp"
 
 namespace netkf::cli {
 

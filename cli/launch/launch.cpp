@@ -1,4 +1,4 @@
-#include "launch.hpp"
+#include "netkf/cli/launch/launch.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -10,17 +10,17 @@
 #include <unistd.h>
 
 #include "domain_guard.hpp"
-#include "exit_code.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 #include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/dds/security.hpp"
 #include "netkf/records/checkpoint.hpp"
-#include "open_files.hpp"
-#include "output_file.hpp"
-#include "ros2_cdr_codec.hpp"
-#include "serve_loop.hpp"
-#include "text.hpp"
+#include "netkf/cli/common/open_files.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/common/text.hpp"
 
 namespace netkf::cli {
 namespace {

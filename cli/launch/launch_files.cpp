@@ -1,4 +1,4 @@
-#include "launch_files.hpp"
+#include "netkf/cli/launch/launch_files.hpp"
 
 #include <signal.h>
 #include <sys/stat.h>

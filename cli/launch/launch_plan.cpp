@@ -1,4 +1,4 @@
-#include "launch_plan.hpp"
+#include "netkf/cli/launch/launch_plan.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "launch_supervisor.hpp"
+#include "netkf/cli/launch/launch_supervisor.hpp"
 
 #include <fcntl.h>
 #include <sched.h>

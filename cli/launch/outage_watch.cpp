@@ -1,4 +1,4 @@
-#include "outage_watch.hpp"
+#include "netkf/cli/launch/outage_watch.hpp"
 
 #include <algorithm>
 #include <cstdio>

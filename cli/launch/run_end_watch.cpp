@@ -1,4 +1,4 @@
-#include "run_end_watch.hpp"
+#include "netkf/cli/launch/run_end_watch.hpp"
 
 namespace netkf::cli {
 

@@ -1,4 +1,4 @@
-#include "run_verdict.hpp"
+#include "netkf/cli/launch/run_verdict.hpp"
 
 #include <cerrno>
 #include <cstdio>

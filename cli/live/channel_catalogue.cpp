@@ -1,10 +1,10 @@
 // The channel catalogue (channel_catalogue.hpp): schemas and messages, one per channel.
-#include "channel_catalogue.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
 
 #include <cmath>
 
 #include "netkf/analysis/report.hpp"
-#include "observed_rate.hpp"
+#include "netkf/cli/live/observed_rate.hpp"
 
 namespace netkf::cli::catalogue {
 

@@ -1,4 +1,4 @@
-#include "live_bus.hpp"
+#include "netkf/cli/live/live_bus.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "live_metrics.hpp"
+#include "netkf/cli/live/live_metrics.hpp"
 
 #include <prometheus/counter.h>
 #include <prometheus/family.h>
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "observed_rate.hpp"
+#include "netkf/cli/live/observed_rate.hpp"
 
 namespace netkf::cli {
 

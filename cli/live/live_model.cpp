@@ -1,4 +1,4 @@
-#include "live_model.hpp"
+#include "netkf/cli/live/live_model.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "live_status.hpp"
+#include "netkf/cli/live/live_status.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "netkf/analysis/report.hpp"
-#include "observed_rate.hpp"
+#include "netkf/cli/live/observed_rate.hpp"
 
 namespace netkf::cli {
 

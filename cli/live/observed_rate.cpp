@@ -1,5 +1,5 @@
 // The observed arrival rate (observed_rate.hpp): since the change and over the window.
-#include "observed_rate.hpp"
+#include "netkf/cli/live/observed_rate.hpp"
 
 namespace netkf::cli {
 

@@ -1,4 +1,4 @@
-#include "period_join.hpp"
+#include "netkf/cli/live/period_join.hpp"
 
 namespace netkf::cli {
 

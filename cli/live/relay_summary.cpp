@@ -1,4 +1,4 @@
-#include "relay_summary.hpp"
+#include "netkf/cli/live/relay_summary.hpp"
 
 #include <stdexcept>
 

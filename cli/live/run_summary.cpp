@@ -1,4 +1,4 @@
-#include "run_summary.hpp"
+#include "netkf/cli/live/run_summary.hpp"
 
 #include <algorithm>
 #include <charconv>

@@ -1,4 +1,4 @@
-#include "stage_cost.hpp"
+#include "netkf/cli/live/stage_cost.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "theory_worker.hpp"
+#include "netkf/cli/live/theory_worker.hpp"
 
 #include <exception>
 

@@ -1,4 +1,4 @@
-#include "mcap_writer.hpp"
+#include "netkf/cli/recording/mcap_writer.hpp"
 
 #include <stdexcept>
 

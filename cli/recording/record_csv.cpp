@@ -1,4 +1,4 @@
-#include "record_csv.hpp"
+#include "netkf/cli/recording/record_csv.hpp"
 
 #include <cmath>
 #include <algorithm>
@@ -6,7 +6,7 @@
 #include <limits>
 #include <sstream>
 
-#include "period_join.hpp"
+#include "netkf/cli/live/period_join.hpp"
 
 namespace netkf::cli {
 

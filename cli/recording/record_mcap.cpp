@@ -1,4 +1,4 @@
-#include "record_mcap.hpp"
+#include "netkf/cli/recording/record_mcap.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-#include "channel_catalogue.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
 
 namespace netkf::cli {
 

@@ -1,4 +1,4 @@
-#include "recording.hpp"
+#include "netkf/cli/recording/recording.hpp"
 
 #include <algorithm>
 #include <cerrno>
@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <utility>
 
-#include "exit_code.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,4 +1,4 @@
-#include "ros2_bag.hpp"
+#include "netkf/cli/recording/ros2_bag.hpp"
 
 #include <functional>
 #include <set>

@@ -1,4 +1,4 @@
-#include "ros2_cdr_codec.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
 
 #include <cmath>
 #include <cstring>

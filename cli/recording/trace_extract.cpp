@@ -1,5 +1,5 @@
 // The trace a link had in a recording (trace_extract.hpp).
-#include "trace_extract.hpp"
+#include "netkf/cli/recording/trace_extract.hpp"
 
 #include <array>
 #include <charconv>
@@ -15,7 +15,7 @@
 #include "netkf/scenario.hpp"
 
 #include "mcap_reader.hpp"
-#include "record_mcap.hpp"  // is_mcap_path
+#include "netkf/cli/recording/record_mcap.hpp"  // is_mcap_path
 
 namespace netkf::cli {
 namespace {

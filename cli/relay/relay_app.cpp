@@ -1,4 +1,4 @@
-#include "relay_app.hpp"
+#include "netkf/cli/relay/relay_app.hpp"
 
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
 
@@ -24,11 +24,11 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "channel_catalogue.hpp"
-#include "dashboard_server.hpp"
-#include "live_bus.hpp"
-#include "live_metrics.hpp"
-#include "output_file.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
+#include "netkf/cli/dashboard/dashboard_server.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/cli/live/live_metrics.hpp"
+#include "netkf/cli/common/output_file.hpp"
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
 #include "netkf/relay_config.hpp"  // relay_events_to_yaml

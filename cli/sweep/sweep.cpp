@@ -1,4 +1,4 @@
-#include "sweep.hpp"
+#include "netkf/cli/sweep/sweep.hpp"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -21,16 +21,16 @@
 #include <thread>
 #include <yaml-cpp/yaml.h>
 
-#include "progress_bar.hpp"
-#include "run_summary.hpp"
+#include "netkf/cli/common/progress_bar.hpp"
+#include "netkf/cli/live/run_summary.hpp"
 #include "sha256.hpp"
 #include "sweep_report.hpp"
 #include "sweep_runs.hpp"
 #include "sweep_table.hpp"
-#include "exit_code.hpp"
+#include "netkf/cli/common/exit_code.hpp"
 #include "netkf/input_file.hpp"
 #include "netkf/scenario.hpp"
-#include "output_file.hpp"
+#include "netkf/cli/common/output_file.hpp"
 
 namespace netkf::cli::sweep {
 

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "sweep_spec.hpp"
+#include "netkf/cli/sweep/sweep_spec.hpp"
 #include "sweep_table.hpp"
 
 namespace netkf::cli::sweep {

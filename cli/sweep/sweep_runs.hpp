@@ -13,8 +13,8 @@
 #include <vector>
 #include <yaml-cpp/yaml.h>
 
-#include "run_summary.hpp"
-#include "sweep_spec.hpp"
+#include "netkf/cli/live/run_summary.hpp"
+#include "netkf/cli/sweep/sweep_spec.hpp"
 #include "sweep_table.hpp"
 #include "netkf/scenario.hpp"
 

@@ -1,4 +1,4 @@
-#include "sweep_spec.hpp"
+#include "netkf/cli/sweep/sweep_spec.hpp"
 
 #include <algorithm>
 #include <charconv>

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "sweep_spec.hpp"
+#include "netkf/cli/sweep/sweep_spec.hpp"
 
 namespace netkf::cli::sweep {
 

@@ -5,8 +5,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "netkf/input_file.hpp"
-#include "seconds.hpp"
-#include "sweep.hpp"
+#include "netkf/cli/common/seconds.hpp"
+#include "netkf/cli/sweep/sweep.hpp"
 
 #ifndef NETKF_VERSION
 #define NETKF_VERSION "unknown"

@@ -1,4 +1,4 @@
-#include "fit_scenario.hpp"
+#include "netkf/cli/theory/fit_scenario.hpp"
 
 #include <cstdio>
 #include <stdexcept>

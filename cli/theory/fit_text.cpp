@@ -1,5 +1,5 @@
-#include "fit_text.hpp"
-#include "theory_text.hpp"
+#include "netkf/cli/theory/fit_text.hpp"
+#include "netkf/cli/theory/theory_text.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -1,12 +1,12 @@
-#include "measured_links.hpp"
+#include "netkf/cli/theory/measured_links.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
-#include "fit_text.hpp"
-#include "theory_text.hpp"
+#include "netkf/cli/theory/fit_text.hpp"
+#include "netkf/cli/theory/theory_text.hpp"
 #include "netkf/link_trace.hpp"
 
 namespace netkf::cli {

@@ -1,5 +1,5 @@
 // gnuplot figures for the theory commands (see theory_plot.hpp).
-#include "theory_plot.hpp"
+#include "netkf/cli/theory/theory_plot.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -9,7 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "output_file.hpp"
+#include "netkf/cli/common/output_file.hpp"
 
 namespace netkf::cli {
 namespace {

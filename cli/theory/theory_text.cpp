@@ -1,4 +1,4 @@
-#include "theory_text.hpp"
+#include "netkf/cli/theory/theory_text.hpp"
 
 #include <cmath>
 #include <iomanip>

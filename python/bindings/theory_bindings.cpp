@@ -11,14 +11,14 @@
 #include <variant>
 
 #include "bindings.hpp"
-#include "fit_text.hpp"
+#include "netkf/cli/theory/fit_text.hpp"
 #include "netkf/analysis/loss_fit.hpp"
 #include "netkf/analysis/markov.hpp"
 #include "netkf/analysis/report.hpp"
 #include "netkf/link_trace.hpp"
 #include "netkf/monte_carlo.hpp"
 #include "py_convert.hpp"
-#include "theory_text.hpp"
+#include "netkf/cli/theory/theory_text.hpp"
 
 namespace netkf::python {
 namespace {

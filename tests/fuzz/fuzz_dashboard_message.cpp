@@ -9,7 +9,7 @@
 #include <string_view>
 #include <variant>
 
-#include "dashboard_protocol.hpp"
+#include "netkf/cli/dashboard/dashboard_protocol.hpp"
 #include "netkf/link.hpp"
 
 namespace {

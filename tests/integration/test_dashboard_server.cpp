@@ -23,7 +23,7 @@
 #include <thread>
 #include <vector>
 
-#include "dashboard_server.hpp"
+#include "netkf/cli/dashboard/dashboard_server.hpp"
 
 namespace netkf::cli {
 namespace {

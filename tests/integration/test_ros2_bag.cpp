@@ -11,9 +11,9 @@
 #include <string>
 #include <unistd.h>
 
-#include "record_mcap.hpp"
-#include "ros2_cdr_codec.hpp"
-#include "trace_extract.hpp"
+#include "netkf/cli/recording/record_mcap.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
+#include "netkf/cli/recording/trace_extract.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -15,7 +15,7 @@
 #include <thread>
 #include <vector>
 
-#include "commands.hpp"
+#include "netkf/cli/commands/commands.hpp"
 #include "netkf/dds/dds.hpp"
 
 namespace fs = std::filesystem;

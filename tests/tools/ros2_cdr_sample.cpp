@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ros2_cdr_codec.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
 
 namespace {
 

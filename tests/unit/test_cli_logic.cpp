@@ -23,14 +23,14 @@
 #include <sstream>
 #include <thread>
 
-#include "exit_code.hpp"
-#include "launch_files.hpp"
-#include "launch_plan.hpp"
-#include "launch_supervisor.hpp"
-#include "progress_bar.hpp"
-#include "live_status.hpp"
-#include "output_file.hpp"
-#include "record_csv.hpp"
+#include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/launch/launch_files.hpp"
+#include "netkf/cli/launch/launch_plan.hpp"
+#include "netkf/cli/launch/launch_supervisor.hpp"
+#include "netkf/cli/common/progress_bar.hpp"
+#include "netkf/cli/live/live_status.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/record_csv.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "netkf/relay_links.hpp"
-#include "dashboard_protocol.hpp"
-#include "live_model.hpp"
+#include "netkf/cli/dashboard/dashboard_protocol.hpp"
+#include "netkf/cli/live/live_model.hpp"
 
 namespace netkf::cli::dashboard {
 namespace {

@@ -8,8 +8,8 @@
 #include <cstdint>
 
 #include "foxglove_session.hpp"
-#include "live_model.hpp"
-#include "request_policy.hpp"
+#include "netkf/cli/live/live_model.hpp"
+#include "netkf/cli/dashboard/request_policy.hpp"
 
 namespace netkf::cli::dashboard {
 namespace {

@@ -6,13 +6,13 @@
 #include <mutex>
 #include <thread>
 
-#include "live_metrics.hpp"
-#include "live_model.hpp"
+#include "netkf/cli/live/live_metrics.hpp"
+#include "netkf/cli/live/live_model.hpp"
 #include "netkf/relay_links.hpp"
-#include "live_status.hpp"
+#include "netkf/cli/live/live_status.hpp"
 #include "netkf/analysis/operating_point.hpp"
 #include "test_paths.hpp"
-#include "theory_worker.hpp"
+#include "netkf/cli/live/theory_worker.hpp"
 
 namespace netkf::cli {
 namespace {

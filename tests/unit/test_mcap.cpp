@@ -13,11 +13,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "exit_code.hpp"
-#include "mcap_writer.hpp"
-#include "record_mcap.hpp"
-#include "recording.hpp"
-#include "ros2_bag.hpp"
+#include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/recording/mcap_writer.hpp"
+#include "netkf/cli/recording/record_mcap.hpp"
+#include "netkf/cli/recording/recording.hpp"
+#include "netkf/cli/recording/ros2_bag.hpp"
 #include "test_paths.hpp"
 
 namespace netkf::cli {

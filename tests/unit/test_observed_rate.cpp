@@ -8,13 +8,13 @@
 #include <string>
 #include <vector>
 
-#include "channel_catalogue.hpp"
-#include "live_metrics.hpp"
-#include "live_model.hpp"
-#include "live_status.hpp"
-#include "observed_rate.hpp"
-#include "run_summary.hpp"
-#include "theory_worker.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
+#include "netkf/cli/live/live_metrics.hpp"
+#include "netkf/cli/live/live_model.hpp"
+#include "netkf/cli/live/live_status.hpp"
+#include "netkf/cli/live/observed_rate.hpp"
+#include "netkf/cli/live/run_summary.hpp"
+#include "netkf/cli/live/theory_worker.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -11,8 +11,8 @@
 #include <map>
 #include <random>
 
-#include "relay_summary.hpp"
-#include "run_summary.hpp"
+#include "netkf/cli/live/relay_summary.hpp"
+#include "netkf/cli/live/run_summary.hpp"
 
 namespace netkf::cli {
 namespace {

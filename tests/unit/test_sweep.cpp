@@ -9,9 +9,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include "sha256.hpp"
-#include "sweep.hpp"
+#include "netkf/cli/sweep/sweep.hpp"
 #include "sweep_runs.hpp"
-#include "sweep_spec.hpp"
+#include "netkf/cli/sweep/sweep_spec.hpp"
 #include "sweep_table.hpp"
 #include "test_paths.hpp"
 #include "netkf/random.hpp"

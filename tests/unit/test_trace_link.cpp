@@ -20,8 +20,8 @@
 #include "netkf/link_trace.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/scenario.hpp"
-#include "mcap_writer.hpp"
-#include "trace_extract.hpp"
+#include "netkf/cli/recording/mcap_writer.hpp"
+#include "netkf/cli/recording/trace_extract.hpp"
 
 namespace {
 
