@@ -1,5 +1,5 @@
 // netkf: launch and supervise a scenario, tune links, record, analyse, simulate, sweep.
-// Exit codes (README, "Exit codes"; cli/common/exit_code.hpp): 0 done, 1 failure of the run,
+// Exit codes (README, "Exit codes"; cli/common/include/netkf/cli/common/exit_code.hpp): 0 done, 1 failure of the run,
 // 2 bad usage or input, 3 no network answered, 4 the network refused the request.
 #include <iostream>
 

@@ -8,7 +8,7 @@ export const CARD_LINK_LIMIT = 16;
 export const CONTROL_LINK_ID = -1;
 export const linkName = (id) => (id === CONTROL_LINK_ID ? 'control' : String(id));
 export const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
-export const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/observed_rate.hpp)
+export const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/include/netkf/cli/live/observed_rate.hpp)
 export const WINDOW_KEY = 'λ last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples';
 
 export const COLOR = {

@@ -33,7 +33,7 @@ PORT = 8470  # the default; the test's network namespace has it to itself
 DELAY_MS = 3.0                  # link 2's delay, set from the page (below the 8 ms deadline)
 GE_LOSS, GE_BURST = 0.2, 4.0    # link 3 (Gilbert-Elliott) in the user's form, set from the page
 PERIOD_MS = 10                  # the default scenario's period
-WINDOW_SAMPLES = 1000           # the observed rate window's least span (cli/live/observed_rate.hpp)
+WINDOW_SAMPLES = 1000           # the observed rate window's least span (cli/live/include/netkf/cli/live/observed_rate.hpp)
 # The channel reports each link once a second: a report adds 1000 / PERIOD_MS = 100 samples
 # per link. The page and ctl each show the newest report they have, so read within a second of
 # each other they are at most one report apart; 10 % more for the timers' jitter.

@@ -1,4 +1,4 @@
-// The observed arrival rate (cli/live/observed_rate.hpp) from a known sequence of channel
+// The observed arrival rate (cli/live/include/netkf/cli/live/observed_rate.hpp) from a known sequence of channel
 // reports, through every view: LinkView, `ctl status --json` (link_status_json), the
 // dashboard's message, the theory's observed point, the terminal status, the ctl table,
 // /metrics and the run summary. Every expected number is computed by hand in the comments.
