@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "netkf/nodes/estimator_core.hpp"
-#include "netkf/random.hpp"
+#include "netkf/support/random.hpp"
 
 namespace {
 

@@ -58,7 +58,7 @@
 #include <netkf/bench_wire/bench_hopPubSubTypes.h>
 
 #include "netkf/dds/dds.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 // The bare hop's bounded twin of Measurement (--hop-delivery data-sharing).
 template <>

@@ -3,8 +3,8 @@
 // (the same simulation vectorised in NumPy). Results: BENCHMARKS.md, "Monte Carlo throughput".
 #include <benchmark/benchmark.h>
 
-#include "netkf/monte_carlo.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/sim/monte_carlo.hpp"
 
 namespace {
 

@@ -3,7 +3,7 @@
 docs/scenario-format.md ("Link traces") and docs/cli.md ("netkf fit"), from a seeded
 Gilbert-Elliott chain, so anyone can make it again and check what `netkf fit` recovers.
 
-The chain as netkf's links draw it (core/src/loss_model.cpp): it starts in Good; per
+The chain as netkf's links draw it (core/src/links/loss_model.cpp): it starts in Good; per
 sample it first moves (Good->Bad with p, Bad->Good with r), then the sample is dropped with
 the new state's loss. A delivered sample's delay is normal(mean 5 ms, sd 1.5 ms) cut at 0.
 Python's random.Random (Mersenne Twister) with the seed below: a stream of its own, not one

@@ -14,10 +14,13 @@
 #include <spdlog/spdlog.h>
 
 #include "netkf/dds/dds.hpp"
-#include "netkf/relay_links.hpp"
 #include "netkf/dds/presence.hpp"
-#include "netkf/log_throttle.hpp"
-#include "netkf/release_queue.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/relay/relay_links.hpp"
+#include "netkf/support/log_throttle.hpp"
+#include "netkf/support/release_queue.hpp"
 
 namespace netkf::nodes {
 
@@ -334,7 +337,7 @@ class ChannelApp::Impl {
     {
       const std::lock_guard lock(mutex_);
       result = links_.request(c.request_id(), c.sensor_id(), keys, &traces);
-      if (result.applied) applied = links_.status(c.sensor_id())->link;
+      if (result.applied) applied = *links_.link(c.sensor_id());
     }
     if (result.applied) {
       spdlog::info("request {}: link {} set to {} (stationary loss {:.4f}) from its next sample", c.request_id(),

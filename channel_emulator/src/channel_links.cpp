@@ -4,7 +4,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "netkf/link_trace.hpp"
+#include "netkf/links/link_delay.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_trace.hpp"
 
 namespace netkf::nodes {
 
@@ -195,6 +197,12 @@ std::optional<LinkStatus> ChannelLinks::status(int sensor_id) const {
   const auto it = links_.find(sensor_id);
   if (it == links_.end()) return std::nullopt;
   return status_of(it->second);
+}
+
+std::optional<LinkSpec> ChannelLinks::link(int sensor_id) const {
+  const auto it = links_.find(sensor_id);
+  if (it == links_.end()) return std::nullopt;
+  return it->second.spec;
 }
 
 std::optional<double> ChannelLinks::deadline_ms(int sensor_id) const {

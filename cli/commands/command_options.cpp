@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "netkf/cli/common/exit_code.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli {
 

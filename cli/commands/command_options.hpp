@@ -5,10 +5,11 @@
 #include <string>
 #include <vector>
 
-#include "netkf/link.hpp"
+#include "netkf/links/link.hpp"
 
-#include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/common/seconds.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli {
 

@@ -13,12 +13,14 @@
 #include "command_options.hpp"
 #include "netkf/cli/commands/commands.hpp"
 #include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/common/text.hpp"
 #include "netkf/cli/live/channel_catalogue.hpp"
 #include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/live/live_status.hpp"
-#include "netkf/cli/common/serve_loop.hpp"
-#include "netkf/cli/common/text.hpp"
-#include "netkf/relay_links.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/relay/relay_links.hpp"
 
 namespace netkf::cli {
 namespace {

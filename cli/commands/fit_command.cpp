@@ -6,12 +6,12 @@
 #include <vector>
 
 #include "netkf/cli/commands/commands.hpp"
+#include "netkf/cli/common/output_file.hpp"
 #include "netkf/cli/theory/fit_scenario.hpp"
 #include "netkf/cli/theory/fit_text.hpp"
-#include "netkf/analysis/loss_fit.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/cli/common/output_file.hpp"
 #include "netkf/cli/theory/theory_plot.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/links/link_trace.hpp"
 
 namespace netkf::cli {
 namespace {
@@ -49,23 +49,23 @@ std::optional<ScenarioCopy> check_usage(const FitArgs& a) {
   return copy;
 }
 
-analysis::TraceFit fit_trace(const FitArgs& a, const LinkTrace& trace) {
-  analysis::LossFitOptions o;
-  if (a.model != "auto") o.family = analysis::parse_loss_family(a.model);
+fit::TraceFit fit_trace(const FitArgs& a, const LinkTrace& trace) {
+  fit::LossFitOptions o;
+  if (a.model != "auto") o.family = fit::parse_loss_family(a.model);
   o.seed = a.seed;
   try {
-    return analysis::fit_loss_model(trace.delivered, o);
+    return fit::fit_loss_model(trace.delivered, o);
   } catch (const std::exception& e) {
     fail(2, a.trace + ": " + e.what());
   }
 }
 
-void write_outputs(const FitArgs& a, const std::optional<ScenarioCopy>& copy, const analysis::TraceFit& r,
-                   const std::optional<analysis::DelaySummary>& delay) {
+void write_outputs(const FitArgs& a, const std::optional<ScenarioCopy>& copy, const fit::TraceFit& r,
+                   const std::optional<fit::DelaySummary>& delay) {
   const auto& f = r.fit();
   if (!a.plot.empty()) {
     try {
-      plot_burst_histogram(f, a.trace + ": burst lengths against the fitted " + analysis::to_string(f.family), a.plot);
+      plot_burst_histogram(f, a.trace + ": burst lengths against the fitted " + fit::to_string(f.family), a.plot);
     } catch (const std::exception& e) {
       fail(1, e.what());
     }
@@ -73,7 +73,7 @@ void write_outputs(const FitArgs& a, const std::optional<ScenarioCopy>& copy, co
   }
   if (!copy) return;
   const std::string note = "link " + std::to_string(*a.link) + " fitted by `netkf fit` from " + a.trace + ": " +
-                           analysis::to_string(f.family) + ", log-likelihood " + std::to_string(f.log_likelihood) +
+                           fit::to_string(f.family) + ", log-likelihood " + std::to_string(f.log_likelihood) +
                            ", AIC " + std::to_string(f.aic);
   try {
     write_output_file({"-o", a.output}, copy->with_link(fitted_link_json(f, delay), note, a.output));
@@ -106,8 +106,8 @@ void add_fit_command(CLI::App& app) {
     } catch (const std::exception& e) {
       fail(2, e.what());
     }
-    const analysis::TraceFit r = fit_trace(*a, trace);
-    const auto delay = trace.has_delay ? analysis::summarize_delays(trace.delay_ms) : std::nullopt;
+    const fit::TraceFit r = fit_trace(*a, trace);
+    const auto delay = trace.has_delay ? fit::summarize_delays(trace.delay_ms) : std::nullopt;
     if (a->json) std::cout << fit_json(a->trace, r, delay).dump(2) << "\n";
     else print_fit(std::cout, a->trace, r, delay);
     write_outputs(*a, copy, r, delay);

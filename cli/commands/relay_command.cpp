@@ -16,13 +16,14 @@
 #include "command_options.hpp"
 #include "netkf/cli/commands/commands.hpp"
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/scenario.hpp"
-#include "netkf/dds/participant.hpp"  // resolve_naming
-#include "netkf/relay_config.hpp"
 #include "netkf/cli/common/output_file.hpp"
-#include "netkf/cli/relay/relay_app.hpp"
-#include "netkf/cli/live/relay_summary.hpp"
 #include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/live/relay_summary.hpp"
+#include "netkf/cli/relay/relay_app.hpp"
+#include "netkf/dds/participant.hpp"  // resolve_naming
+#include "netkf/links/link_keys.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/relay/relay_config.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -8,13 +8,13 @@
 #include <string>
 
 #include "netkf/cli/commands/commands.hpp"
-#include "netkf/cli/theory/measured_links.hpp"
 #include "netkf/cli/common/progress_bar.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/monte_carlo.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/cli/theory/measured_links.hpp"
 #include "netkf/cli/theory/theory_plot.hpp"
 #include "netkf/cli/theory/theory_text.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli {
 namespace {
@@ -97,8 +97,8 @@ void check_region_sensor_or_fail(const Scenario& s, const AnalyzeArgs& args) {
   }
 }
 
-analysis::AnalyzeOptions analyze_options(const AnalyzeArgs& args) {
-  analysis::AnalyzeOptions o;
+theory::AnalyzeOptions analyze_options(const AnalyzeArgs& args) {
+  theory::AnalyzeOptions o;
   o.region = args.region;
   o.sweep = args.sweep || (!args.plot.empty() && !args.region);  // a plot without --region is the sweep's
   o.use_lmi = !args.no_lmi;
@@ -109,7 +109,7 @@ analysis::AnalyzeOptions analyze_options(const AnalyzeArgs& args) {
 }
 
 // --plot: the (gamma, nu) region, the (lambda1, lambda2) region, or the sweep's bounds.
-void plot_analysis(const Scenario& s, const analysis::AnalysisReport& r, const AnalyzeArgs& args) {
+void plot_analysis(const Scenario& s, const theory::AnalysisReport& r, const AnalyzeArgs& args) {
   try {
     if (args.region && r.actuation_region) {
       plot_actuation_region(r, s.name + ": closed-loop stability region (sensor " +
@@ -136,13 +136,13 @@ void run_analyze(const AnalyzeArgs& args) {
   check_plot_or_fail("analyze", args.plot);
   check_region_sensor_or_fail(s, args);
   std::vector<MeasuredLink> measured = fit_links_or_fail(s, args.links);
-  analysis::AnalyzeOptions o = analyze_options(args);
-  analysis::AnalysisReport r;
+  theory::AnalyzeOptions o = analyze_options(args);
+  theory::AnalysisReport r;
   try {
     // The region's grid is the long part of an analysis (an LMI bisection per point).
     ProgressBar bar(std::cerr, "analyze --region", args.region && progress_bar_wanted(stderr_is_terminal(), args.json));
     o.progress = bar.callback();
-    r = analysis::analyze(s, o);
+    r = theory::analyze(s, o);
     judge_measured_links(s, measured);
   } catch (const std::exception& e) {
     fail("analyze", e.what());
@@ -220,9 +220,9 @@ void add_simulate_command(CLI::App& app) {
     else print_monte_carlo(std::cout, s, r);
     if (!args->plot.empty()) {
       try {
-        analysis::AnalyzeOptions ao;
+        theory::AnalyzeOptions ao;
         ao.use_lmi = false;
-        const auto bounds = analysis::analyze(s, ao);
+        const auto bounds = theory::analyze(s, ao);
         plot_monte_carlo(r, bounds, s.name + ": Monte Carlo of the filter", args->plot);
       } catch (const std::exception& e) {
         fail("simulate", e.what());

@@ -9,11 +9,11 @@
 
 #include "netkf/cli/commands/commands.hpp"
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/scenario.hpp"
 #include "netkf/cli/common/output_file.hpp"
 #include "netkf/cli/recording/ros2_cdr_codec.hpp"
 #include "netkf/cli/recording/trace_extract.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli {
 namespace {

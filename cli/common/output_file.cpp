@@ -12,7 +12,7 @@
 #include <random>
 
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/input_file.hpp"
+#include "netkf/support/input_file.hpp"
 
 namespace netkf::cli {
 namespace {

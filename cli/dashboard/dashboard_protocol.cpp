@@ -4,7 +4,8 @@
 #include <cmath>
 #include <map>
 
-#include "netkf/analysis/report.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli::dashboard {
 

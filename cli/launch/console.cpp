@@ -7,6 +7,7 @@
 
 #include "netkf/cli/live/live_status.hpp"
 #include "netkf/dds/node_support.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli {
 

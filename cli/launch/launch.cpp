@@ -11,16 +11,17 @@
 
 #include "domain_guard.hpp"
 #include "netkf/cli/common/exit_code.hpp"
+#include "netkf/cli/common/open_files.hpp"
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/common/text.hpp"
+#include "netkf/cli/recording/ros2_cdr_codec.hpp"
 #include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant_slot.hpp"
 #include "netkf/dds/presence.hpp"
 #include "netkf/dds/security.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "netkf/records/checkpoint.hpp"
-#include "netkf/cli/common/open_files.hpp"
-#include "netkf/cli/common/output_file.hpp"
-#include "netkf/cli/recording/ros2_cdr_codec.hpp"
-#include "netkf/cli/common/serve_loop.hpp"
-#include "netkf/cli/common/text.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,4 +1,5 @@
 #include "netkf/cli/launch/run_verdict.hpp"
+#include "netkf/links/link_statistics.hpp"
 
 #include <cerrno>
 #include <cstdio>

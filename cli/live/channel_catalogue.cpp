@@ -3,8 +3,10 @@
 
 #include <cmath>
 
-#include "netkf/analysis/report.hpp"
 #include "netkf/cli/live/observed_rate.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli::catalogue {
 
@@ -23,7 +25,7 @@ json schema_object(json properties, std::vector<std::string> required) {
 json number_array() { return json{{"type", "array"}, {"items", {{"type", "number"}}}}; }
 json nullable_number() { return json{{"type", json::array({"number", "null"})}}; }
 
-// Every link key (netkf/link.hpp): a link is shown and set by the names of a scenario file.
+// Every link key (netkf/links/link.hpp): a link is shown and set by the names of a scenario file.
 json link_model_schema() {
   json props = json::object();
   for (const auto& name : link_key_names()) props[name] = {{"type", link_key_is_word(name) ? "string" : "number"}};
@@ -235,13 +237,13 @@ std::vector<Channel> make_recording_channels() {
 
 
 // The actuation link's side of a verdict (analysis/actuation.hpp); null without one.
-json actuation_json(const std::optional<analysis::ActuationReport>& a) {
+json actuation_json(const std::optional<theory::ActuationReport>& a) {
   if (!a) return nullptr;
   return json{{"arrival_rate", number_or_null(a->arrival_rate)},
               {"critical_rate", optional_number(a->critical_rate)},
               {"critical_rate_lower", optional_number(a->critical_rate_lower)},
               {"mss_radius", optional_number(a->mss_radius)},
-              {"stable", analysis::to_string(a->stable)},
+              {"stable", theory::to_string(a->stable)},
               {"reason", a->stable_reason},
               {"on_loss", to_string(a->on_loss)},
               {"acknowledged", a->acknowledged},
@@ -253,13 +255,13 @@ json actuation_json(const std::optional<analysis::ActuationReport>& a) {
 json assessment_json(const AssessmentView& a) {
   return json{{"arrival_rates", a.arrival_rates},
               // With an actuation link `stable` is the closed loop's; the estimator's alone here.
-              {"estimator_stable", analysis::to_string(a.result.estimator_stable)},
+              {"estimator_stable", theory::to_string(a.result.estimator_stable)},
               {"actuation", actuation_json(a.result.actuation)},
-              {"stable", analysis::to_string(a.result.stable)},
+              {"stable", theory::to_string(a.result.stable)},
               {"lower_trace", optional_number(a.result.lower_trace)},
               {"upper_trace", optional_number(a.result.upper_trace)},
-              {"upper_method", analysis::to_string(a.result.upper_method)},
-              {"upper_standard_error", a.result.upper_method == analysis::BoundMethod::sampled && a.result.upper_trace
+              {"upper_method", theory::to_string(a.result.upper_method)},
+              {"upper_standard_error", a.result.upper_method == theory::BoundMethod::sampled && a.result.upper_trace
                                            ? optional_number(a.result.upper_standard_error)
                                            : json(nullptr)},
               {"markov_criterion", optional_number(a.result.markov_criterion)},
@@ -391,8 +393,8 @@ json fitted_link_json(const LinkModel& model) {
   return j;
 }
 
-json recent_fit_json(const analysis::RecentLossFit& f) {
-  return json{{"family", analysis::to_string(f.family)},
+json recent_fit_json(const fit::RecentLossFit& f) {
+  return json{{"family", fit::to_string(f.family)},
               {"samples", f.samples},
               {"dropped", f.dropped},
               {"loss", number_or_null(f.loss())},

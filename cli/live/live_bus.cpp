@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli {
 

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "netkf/cli/live/observed_rate.hpp"
+#include "netkf/links/link_statistics.hpp"
 
 namespace netkf::cli {
 

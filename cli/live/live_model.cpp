@@ -1,4 +1,6 @@
 #include "netkf/cli/live/live_model.hpp"
+#include "netkf/links/link_delay.hpp"
+#include "netkf/links/link_text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -200,12 +202,12 @@ std::optional<double> LiveModel::observed_actuation_rate_since_change() const {
 }
 
 void LiveModel::set_theory(TheoryView theory) {
-  const auto before = snapshot_.theory.ready ? snapshot_.theory.configured.result.stable : analysis::Verdict::unknown;
+  const auto before = snapshot_.theory.ready ? snapshot_.theory.configured.result.stable : theory::Verdict::unknown;
   const auto now = theory.configured.result.stable;
-  if (before == analysis::Verdict::yes && now == analysis::Verdict::no)
+  if (before == theory::Verdict::yes && now == theory::Verdict::no)
     raise(LiveEvent::Level::warning,
           "link change moved the network below the critical arrival rate: " + theory.configured.result.reason);
-  if (before == analysis::Verdict::no && now == analysis::Verdict::yes)
+  if (before == theory::Verdict::no && now == theory::Verdict::yes)
     raise(LiveEvent::Level::warning, "links are back above the critical arrival rate");
   if (theory.region.empty()) theory.region = std::move(snapshot_.theory.region);
   snapshot_.theory = std::move(theory);

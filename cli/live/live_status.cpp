@@ -7,8 +7,9 @@
 #include <sstream>
 #include <vector>
 
-#include "netkf/analysis/report.hpp"
 #include "netkf/cli/live/observed_rate.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli {
 
@@ -38,14 +39,14 @@ std::string late_share_text(std::uint64_t late, std::uint64_t delivered) {
 }
 
 void render_assessment(std::ostringstream& out, const char* label, const AssessmentView& a) {
-  out << "  theory (" << label << "): stable=" << analysis::to_string(a.result.stable);
+  out << "  theory (" << label << "): stable=" << theory::to_string(a.result.stable);
   out << "  Tr S̄=" << (a.result.lower_trace ? fmt(*a.result.lower_trace) : std::string("∞"));
   out << "  Tr V̄=" << (a.result.upper_trace ? fmt(*a.result.upper_trace) : std::string("∞"));
-  if (a.result.upper_trace && a.result.upper_method == analysis::BoundMethod::sampled)
+  if (a.result.upper_trace && a.result.upper_method == theory::BoundMethod::sampled)
     out << " (sampled ±" << fmt(a.result.upper_standard_error) << ")";
   if (a.result.markov_criterion) out << "  Markov criterion=" << fmt(*a.result.markov_criterion);
   // "unknown" alone does not tell a user whether to wait or why there is no answer.
-  if (a.result.stable == analysis::Verdict::unknown && !a.result.reason.empty()) out << "  (" << a.result.reason << ")";
+  if (a.result.stable == theory::Verdict::unknown && !a.result.reason.empty()) out << "  (" << a.result.reason << ")";
   out << "\n";
 }
 
@@ -117,7 +118,7 @@ void render_links(std::ostringstream& out, const LiveSnapshot& s) {
 
 }  // namespace
 
-std::string describe_recent_fit(const analysis::RecentLossFit& f) {
+std::string describe_recent_fit(const fit::RecentLossFit& f) {
   std::ostringstream out;
   out << "fitted to its last " << f.samples << " samples: ";
   if (const auto* g = std::get_if<GilbertElliottLink>(&f.link)) out << "simple_gilbert p=" << rate4(g->p) << " r=" << rate4(g->r);
@@ -125,7 +126,7 @@ std::string describe_recent_fit(const analysis::RecentLossFit& f) {
   out << ", loss " << rate4(f.loss()) << ", mean burst "
       << (std::isfinite(f.mean_burst()) ? fmt(f.mean_burst()) : std::string("∞"));
   if (!f.aic_gain) out << " (no chain: a transition out of both states not seen yet)";
-  else if (f.family == analysis::LossFamily::simple_gilbert) out << " (bursty: AIC " << fmt(*f.aic_gain) << " below bernoulli)";
+  else if (f.family == fit::LossFamily::simple_gilbert) out << " (bursty: AIC " << fmt(*f.aic_gain) << " below bernoulli)";
   else out << " (drops look independent: a chain does not lower AIC by more than 2)";
   return out.str();
 }

@@ -2,7 +2,7 @@
 
 #include <exception>
 
-#include "netkf/analysis/operating_point.hpp"
+#include "netkf/theory/operating_point.hpp"
 
 namespace netkf::cli {
 
@@ -10,22 +10,22 @@ TheoryView compute_theory(const TheoryRequest& request) {
   TheoryView view;
   view.ready = true;
   view.k = request.k;
-  view.configured.arrival_rates = analysis::configured_arrival_rates(request.configured);
+  view.configured.arrival_rates = theory::configured_arrival_rates(request.configured);
   try {
-    view.configured.result = analysis::assess_configured_links(request.configured);
+    view.configured.result = theory::assess_configured_links(request.configured);
   } catch (const std::exception& e) {
-    view.configured.result.stable = analysis::Verdict::unknown;
+    view.configured.result.stable = theory::Verdict::unknown;
     view.configured.result.reason = std::string("theory unavailable: ") + e.what();
   }
   if (request.configured.estimator.fusable_delay_periods() > 0) {
     // The same assessment with each link's delay folded in at the final estimates' horizon.
     const Scenario at_horizon = with_effective_links(request.configured, request.configured.final_horizon_ms());
     AssessmentView final_estimate;
-    final_estimate.arrival_rates = analysis::configured_arrival_rates(at_horizon);
+    final_estimate.arrival_rates = theory::configured_arrival_rates(at_horizon);
     try {
-      final_estimate.result = analysis::assess_configured_links(at_horizon);
+      final_estimate.result = theory::assess_configured_links(at_horizon);
     } catch (const std::exception& e) {
-      final_estimate.result.stable = analysis::Verdict::unknown;
+      final_estimate.result.stable = theory::Verdict::unknown;
       final_estimate.result.reason = std::string("theory unavailable: ") + e.what();
     }
     view.final_estimate = std::move(final_estimate);
@@ -34,10 +34,10 @@ TheoryView compute_theory(const TheoryRequest& request) {
     AssessmentView observed;
     observed.arrival_rates = *request.observed_rates;
     try {
-      observed.result = analysis::assess_operating_point(request.configured, *request.observed_rates,
+      observed.result = theory::assess_operating_point(request.configured, *request.observed_rates,
                                                          request.observed_actuation_rate);
     } catch (const std::exception& e) {
-      observed.result.stable = analysis::Verdict::unknown;
+      observed.result.stable = theory::Verdict::unknown;
       observed.result.reason = std::string("theory unavailable: ") + e.what();
     }
     view.observed = std::move(observed);
@@ -45,7 +45,7 @@ TheoryView compute_theory(const TheoryRequest& request) {
   if (request.with_region && request.configured.sensors.size() == 2) {
     try {
       const auto& s = request.configured;
-      view.region = analysis::stability_region(s.plant.A, s.plant.Q, s.sensors);
+      view.region = theory::stability_region(s.plant.A, s.plant.Q, s.sensors);
     } catch (const std::exception&) {
       view.region.clear();  // the page then shows no region; the verdict above still stands
     }

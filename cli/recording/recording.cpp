@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "netkf/cli/common/exit_code.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -11,8 +11,8 @@
 #include <string_view>
 #include <vector>
 
-#include "netkf/input_file.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/input_file.hpp"
 
 #include "mcap_reader.hpp"
 #include "netkf/cli/recording/record_mcap.hpp"  // is_mcap_path

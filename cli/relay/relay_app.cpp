@@ -24,15 +24,17 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "netkf/cli/live/channel_catalogue.hpp"
+#include "netkf/cli/common/output_file.hpp"
 #include "netkf/cli/dashboard/dashboard_server.hpp"
+#include "netkf/cli/live/channel_catalogue.hpp"
 #include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/live/live_metrics.hpp"
-#include "netkf/cli/common/output_file.hpp"
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/raw_topic.hpp"
-#include "netkf/relay_config.hpp"  // relay_events_to_yaml
-#include "netkf/release_queue.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/relay/relay_config.hpp"  // relay_events_to_yaml
+#include "netkf/support/release_queue.hpp"
 
 namespace netkf::cli {
 

@@ -28,9 +28,9 @@
 #include "sweep_runs.hpp"
 #include "sweep_table.hpp"
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/input_file.hpp"
-#include "netkf/scenario.hpp"
 #include "netkf/cli/common/output_file.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/input_file.hpp"
 
 namespace netkf::cli::sweep {
 

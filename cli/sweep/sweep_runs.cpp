@@ -3,8 +3,8 @@
 #include <cmath>
 #include <deque>
 
-#include "netkf/analysis/report.hpp"
-#include "netkf/offline_run.hpp"
+#include "netkf/sim/offline_run.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli::sweep {
 
@@ -99,9 +99,9 @@ std::vector<std::optional<double>> summary_values(const nlohmann::json& summary,
 }
 
 Theory point_theory(const Scenario& scenario) {
-  const analysis::AnalysisReport r = analysis::analyze(scenario, analysis::AnalyzeOptions{});
+  const theory::AnalysisReport r = theory::analyze(scenario, theory::AnalyzeOptions{});
   Theory t;
-  if (r.stable != analysis::Verdict::unknown) t.stable = r.stable == analysis::Verdict::yes;
+  if (r.stable != theory::Verdict::unknown) t.stable = r.stable == theory::Verdict::yes;
   t.trace_S_bar = r.lower_trace;
   t.trace_V_bar = r.upper_trace;
   t.trace_P_sampled = r.sampled_trace;

@@ -1,6 +1,6 @@
 #pragma once
 // One run of a sweep, and the theory of one point (docs/experiments.md, "Sweeps").
-//   offline  the core's offline run (netkf/offline_run.hpp) summed into the launch's RunSummary,
+//   offline  the core's offline run (netkf/sim/offline_run.hpp) summed into the launch's RunSummary,
 //            so every quantity has the launch's definition (run_summary.hpp); what an offline run
 //            cannot measure (pipeline latency) has no value, and nothing is late.
 //   live     a real `netkf launch` child writes its --summary JSON; its values are read back.
@@ -16,7 +16,7 @@
 #include "netkf/cli/live/run_summary.hpp"
 #include "netkf/cli/sweep/sweep_spec.hpp"
 #include "sweep_table.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli::sweep {
 

@@ -7,7 +7,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "netkf/random.hpp"
+#include "netkf/support/random.hpp"
 
 namespace netkf::cli::sweep {
 namespace {

@@ -4,9 +4,9 @@
 #include <stdexcept>
 #include <yaml-cpp/yaml.h>
 
-#include "netkf/input_file.hpp"
 #include "netkf/cli/common/seconds.hpp"
 #include "netkf/cli/sweep/sweep.hpp"
+#include "netkf/support/input_file.hpp"
 
 #ifndef NETKF_VERSION
 #define NETKF_VERSION "unknown"

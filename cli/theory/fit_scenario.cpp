@@ -4,9 +4,10 @@
 #include <stdexcept>
 #include <yaml-cpp/yaml.h>
 
-#include "netkf/input_file.hpp"
-#include "netkf/link.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/input_file.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,5 +1,6 @@
 #include "netkf/cli/theory/fit_text.hpp"
 #include "netkf/cli/theory/theory_text.hpp"
+#include "netkf/links/link_text.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -21,7 +22,7 @@ std::string g6(double v) {
 
 std::string show(const std::optional<double>& v, const char* missing = "-") { return v ? g6(*v) : missing; }
 
-json run_test_json(const analysis::RunLengthTest& t) {
+json run_test_json(const fit::RunLengthTest& t) {
   json bins = json::array();
   for (const auto& b : t.bins)
     bins.push_back({{"from", b.from}, {"to", b.to < 0 ? json(nullptr) : json(b.to)}, {"observed", b.observed},
@@ -33,7 +34,7 @@ json run_test_json(const analysis::RunLengthTest& t) {
           {"bins", bins}};
 }
 
-json delay_json(const std::optional<analysis::DelaySummary>& d) {
+json delay_json(const std::optional<fit::DelaySummary>& d) {
   if (!d) return nullptr;
   json q = json::object();
   for (const auto& [p, v] : d->quantiles) q[g6(p)] = v;
@@ -41,9 +42,9 @@ json delay_json(const std::optional<analysis::DelaySummary>& d) {
 }
 
 // One family's fit: its link, numbers, errors and tests.
-json candidate_json(const analysis::LossFit& f, const std::optional<analysis::DelaySummary>& delay) {
+json candidate_json(const fit::LossFit& f, const std::optional<fit::DelaySummary>& delay) {
   json j;
-  j["family"] = analysis::to_string(f.family);
+  j["family"] = fit::to_string(f.family);
   j["link"] = fitted_link_json(f, delay);
   j["loss"] = f.loss.value;
   j["mean_burst"] = number_or_null(f.mean_burst.value);
@@ -61,7 +62,7 @@ json candidate_json(const analysis::LossFit& f, const std::optional<analysis::De
   j["ci95"] = ci;
   j["log_likelihood"] = f.log_likelihood;
   j["aic"] = f.aic;
-  j["free_parameters"] = analysis::free_parameters(f.family);
+  j["free_parameters"] = fit::free_parameters(f.family);
   j["gof"] = {{"bursts", run_test_json(f.bursts)}, {"gaps", run_test_json(f.gaps)}};
   j["method"] = f.starts == 0 ? "closed form" : "Baum-Welch";
   if (f.starts > 0) j["em"] = {{"starts", f.starts}, {"iterations", f.iterations}, {"converged", f.converged}};
@@ -71,14 +72,14 @@ json candidate_json(const analysis::LossFit& f, const std::optional<analysis::De
 
 }  // namespace
 
-std::string fitted_link_text(const analysis::LossFit& fit, const std::optional<analysis::DelaySummary>& delay) {
+std::string fitted_link_text(const fit::LossFit& fit, const std::optional<fit::DelaySummary>& delay) {
   std::string text = "{ model: " + link_model_name(fit.link);
   for (const auto& [key, value] : link_parameters(fit.link)) text += ", " + key + ": " + g6(value);
   if (delay) text += ", delay_ms: " + g6(delay->mean_ms) + ", jitter_ms: " + g6(delay->jitter_ms) + ", delay_distribution: normal";
   return text + " }";
 }
 
-json fitted_link_json(const analysis::LossFit& fit, const std::optional<analysis::DelaySummary>& delay) {
+json fitted_link_json(const fit::LossFit& fit, const std::optional<fit::DelaySummary>& delay) {
   json j;
   j["model"] = link_model_name(fit.link);
   for (const auto& [key, value] : link_parameters(fit.link)) j[key] = value;
@@ -90,9 +91,9 @@ json fitted_link_json(const analysis::LossFit& fit, const std::optional<analysis
   return j;
 }
 
-json fit_json(const std::string& trace_name, const analysis::TraceFit& r,
-              const std::optional<analysis::DelaySummary>& delay) {
-  const analysis::LossFit& f = r.fit();
+json fit_json(const std::string& trace_name, const fit::TraceFit& r,
+              const std::optional<fit::DelaySummary>& delay) {
+  const fit::LossFit& f = r.fit();
   json j = candidate_json(f, delay);
   // The chosen fit's link keys flat beside `model`, as a scenario's link takes them.
   json flat;
@@ -112,19 +113,19 @@ json fit_json(const std::string& trace_name, const analysis::TraceFit& r,
 
 namespace {
 
-std::string interval(const analysis::FittedValue& v) {
+std::string interval(const fit::FittedValue& v) {
   if (!v.free) return "(fixed by the family)";
   if (!v.ci_low) return "-";
   return "[" + g6(*v.ci_low) + ", " + g6(*v.ci_high) + "]";
 }
 
-void print_value(std::ostream& out, const analysis::FittedValue& v) {
+void print_value(std::ostream& out, const fit::FittedValue& v) {
   out << "  " << std::left << std::setw(11) << v.name << std::setw(12) << g6(v.value) << std::setw(12)
       << (v.free ? show(v.stderr_value) : "") << interval(v) << "\n";
 }
 
 // The test's line, and with `table` its bins: observed against expected runs.
-void print_run_test(std::ostream& out, const char* what, const analysis::RunLengthTest& t, bool table) {
+void print_run_test(std::ostream& out, const char* what, const fit::RunLengthTest& t, bool table) {
   out << "  " << what << ": " << t.runs << " complete runs";
   if (!t.chi_square) {
     out << ", too few for a chi-square test\n";
@@ -145,20 +146,20 @@ void print_run_test(std::ostream& out, const char* what, const analysis::RunLeng
   }
 }
 
-void print_candidates(std::ostream& out, const analysis::TraceFit& r) {
+void print_candidates(std::ostream& out, const fit::TraceFit& r) {
   double least = r.candidates.front().aic;
   for (const auto& c : r.candidates) least = std::min(least, c.aic);
   out << "  family           params  log-likelihood  AIC           dAIC        bursts p     gaps p\n";
   for (std::size_t i = 0; i < r.candidates.size(); ++i) {
     const auto& c = r.candidates[i];
-    out << (i == r.chosen ? "* " : "  ") << std::left << std::setw(17) << analysis::to_string(c.family) << std::setw(8)
-        << analysis::free_parameters(c.family) << std::setw(16) << g6(c.log_likelihood) << std::setw(14) << g6(c.aic)
+    out << (i == r.chosen ? "* " : "  ") << std::left << std::setw(17) << fit::to_string(c.family) << std::setw(8)
+        << fit::free_parameters(c.family) << std::setw(16) << g6(c.log_likelihood) << std::setw(14) << g6(c.aic)
         << std::setw(12) << ("+" + g6(c.aic - least)) << std::setw(13) << show(c.bursts.p_value) << show(c.gaps.p_value)
         << "\n";
   }
 }
 
-void print_delay(std::ostream& out, const analysis::DelaySummary& d) {
+void print_delay(std::ostream& out, const fit::DelaySummary& d) {
   out << "delay of the " << d.samples << " delivered samples: mean " << g6(d.mean_ms) << " ms, jitter (std) "
       << g6(d.jitter_ms) << " ms\n  quantiles:";
   for (const auto& [q, v] : d.quantiles)
@@ -168,21 +169,21 @@ void print_delay(std::ostream& out, const analysis::DelaySummary& d) {
 
 }  // namespace
 
-void print_fit(std::ostream& out, const std::string& trace_name, const analysis::TraceFit& r,
-               const std::optional<analysis::DelaySummary>& delay) {
-  const analysis::LossFit& f = r.fit();
+void print_fit(std::ostream& out, const std::string& trace_name, const fit::TraceFit& r,
+               const std::optional<fit::DelaySummary>& delay) {
+  const fit::LossFit& f = r.fit();
   out << "trace " << trace_name << ": " << r.samples << " samples, " << r.dropped << " dropped ("
       << g6(100.0 * static_cast<double>(r.dropped) / static_cast<double>(r.samples)) << "%)\n";
   print_candidates(out, r);
-  out << "chosen: " << analysis::to_string(f.family) << " (" << r.why << ")\n";
+  out << "chosen: " << fit::to_string(f.family) << " (" << r.why << ")\n";
   for (const auto& n : r.notes) out << "note: " << n << "\n";
-  out << "\n" << analysis::to_string(f.family) << " fit ("
+  out << "\n" << fit::to_string(f.family) << " fit ("
       << (f.starts == 0 ? std::string("closed form")
                         : "Baum-Welch, " + std::to_string(f.starts) + " seeded starts, " +
                               std::to_string(f.iterations) + " iterations") << "; 95% intervals from the observed information)\n";
   out << "  key        value       stderr      95% interval\n";
   for (const auto& v : f.parameters) print_value(out, v);
-  if (f.family != analysis::LossFamily::bernoulli) print_value(out, f.loss);  // else it is the parameter
+  if (f.family != fit::LossFamily::bernoulli) print_value(out, f.loss);  // else it is the parameter
   print_value(out, f.mean_burst);
   print_run_test(out, "burst lengths (runs of drops)", f.bursts, true);
   print_run_test(out, "gap lengths (runs of deliveries)", f.gaps, false);

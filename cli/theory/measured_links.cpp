@@ -1,4 +1,5 @@
 #include "netkf/cli/theory/measured_links.hpp"
+#include "netkf/links/link_trace.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +8,6 @@
 
 #include "netkf/cli/theory/fit_text.hpp"
 #include "netkf/cli/theory/theory_text.hpp"
-#include "netkf/link_trace.hpp"
 
 namespace netkf::cli {
 
@@ -36,7 +36,7 @@ std::pair<int, std::string> parse_spec(const std::string& spec) {
   return {id, spec.substr(eq + 1)};
 }
 
-json boundary_json(const analysis::LinkBoundary& b) {
+json boundary_json(const fit::LinkBoundary& b) {
   return {{"critical", number_or_null(b.critical)}, {"searched_to", b.limit}, {"text", b.text}};
 }
 
@@ -54,16 +54,16 @@ std::vector<MeasuredLink> fit_measured_links(Scenario& scenario, const std::vect
     if (std::any_of(links.begin(), links.end(), [&](const MeasuredLink& l) { return l.link_id == m.link_id; }))
       throw std::invalid_argument("--link " + std::to_string(m.link_id) + " given twice");
     const LinkTrace trace = read_link_trace_file(m.trace);
-    m.fit = analysis::fit_loss_model(trace.delivered);
-    if (trace.has_delay) m.delay = analysis::summarize_delays(trace.delay_ms);
-    sensor->link = analysis::fitted_link_spec(sensor->link, m.fit.fit(), m.delay);
+    m.fit = fit::fit_loss_model(trace.delivered);
+    if (trace.has_delay) m.delay = fit::summarize_delays(trace.delay_ms);
+    sensor->link = fit::fitted_link_spec(sensor->link, m.fit.fit(), m.delay);
     links.push_back(std::move(m));
   }
   return links;
 }
 
 void judge_measured_links(const Scenario& scenario, std::vector<MeasuredLink>& links) {
-  for (auto& m : links) m.verdict = analysis::measured_link_verdict(scenario, m.link_id, m.fit.fit());
+  for (auto& m : links) m.verdict = fit::measured_link_verdict(scenario, m.link_id, m.fit.fit());
 }
 
 json measured_links_json(const std::vector<MeasuredLink>& links) {
@@ -76,7 +76,7 @@ json measured_links_json(const std::vector<MeasuredLink>& links) {
       corners.push_back({{"loss", c.loss}, {"mean_burst", c.mean_burst}, {"criterion", number_or_null(c.criterion)}});
     out.push_back({{"link", m.link_id},
                    {"trace", m.trace},
-                   {"family", analysis::to_string(f.family)},
+                   {"family", fit::to_string(f.family)},
                    {"fitted_link", fitted_link_json(f, m.delay)},
                    {"loss", v.loss},
                    {"mean_burst", number_or_null(v.mean_burst)},
@@ -85,7 +85,7 @@ json measured_links_json(const std::vector<MeasuredLink>& links) {
                                                                 : json(nullptr)}}},
                    {"why", m.fit.why},
                    {"markov_criterion", number_or_null(v.criterion)},
-                   {"stable", analysis::to_string(v.stable)},
+                   {"stable", theory::to_string(v.stable)},
                    {"equivalent_criterion", number_or_null(v.equivalent_criterion)},
                    {"loss_margin", boundary_json(v.loss_boundary)},
                    {"mean_burst_margin", boundary_json(v.burst_boundary)},
@@ -100,13 +100,13 @@ void print_measured_links(std::ostream& out, const std::vector<MeasuredLink>& li
     const auto& v = m.verdict;
     const auto& f = m.fit.fit();
     out << "measured link " << m.link_id << " (" << m.trace << ")\n";
-    out << "  fitted         " << analysis::to_string(f.family) << ": " << fitted_link_text(f, m.delay) << "\n";
+    out << "  fitted         " << fit::to_string(f.family) << ": " << fitted_link_text(f, m.delay) << "\n";
     out << "  loss           " << g6(v.loss);
     if (f.loss.ci_low) out << "  95% [" << g6(*f.loss.ci_low) << ", " << g6(*f.loss.ci_high) << "]";
     out << "\n  mean burst     " << g6(v.mean_burst);
     if (f.mean_burst.ci_low) out << "  95% [" << g6(*f.mean_burst.ci_low) << ", " << g6(*f.mean_burst.ci_high) << "]";
     out << "\n  Markov criterion " << (v.criterion ? g6(*v.criterion) : std::string("does not apply"))
-        << " -> stable " << analysis::to_string(v.stable) << "\n";
+        << " -> stable " << theory::to_string(v.stable) << "\n";
     if (v.equivalent_criterion && v.criterion && std::abs(*v.equivalent_criterion - *v.criterion) > 1e-9)
       out << "  (as the simple Gilbert channel of the same loss and mean burst, which the margins move along: "
           << g6(*v.equivalent_criterion) << ")\n";

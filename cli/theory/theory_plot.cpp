@@ -93,7 +93,7 @@ std::string header(const std::filesystem::path& out, const std::string& title) {
 
 }  // namespace
 
-void plot_sweep(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out) {
+void plot_sweep(const theory::AnalysisReport& report, const std::string& title, const std::filesystem::path& out) {
   std::ostringstream s;
   s << header(out, title);
   s << "$bounds << EOD\n";
@@ -120,7 +120,7 @@ void plot_sweep(const analysis::AnalysisReport& report, const std::string& title
   run_gnuplot(s.str());
 }
 
-void plot_region(const analysis::AnalysisReport& report, const std::string& title, const std::filesystem::path& out) {
+void plot_region(const theory::AnalysisReport& report, const std::string& title, const std::filesystem::path& out) {
   std::ostringstream s;
   s << header(out, title);
   s << "$region << EOD\n";
@@ -139,7 +139,7 @@ void plot_region(const analysis::AnalysisReport& report, const std::string& titl
   run_gnuplot(s.str());
 }
 
-void plot_actuation_region(const analysis::AnalysisReport& report, const std::string& title,
+void plot_actuation_region(const theory::AnalysisReport& report, const std::string& title,
                            const std::filesystem::path& out) {
   const auto& region = *report.actuation_region;
   std::ostringstream s;
@@ -158,7 +158,7 @@ void plot_actuation_region(const analysis::AnalysisReport& report, const std::st
   run_gnuplot(s.str());
 }
 
-void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisReport& bounds, const std::string& title,
+void plot_monte_carlo(const MonteCarloResult& result, const theory::AnalysisReport& bounds, const std::string& title,
                       const std::filesystem::path& out) {
   std::ostringstream s;
   s << header(out, title);
@@ -179,7 +179,7 @@ void plot_monte_carlo(const MonteCarloResult& result, const analysis::AnalysisRe
   run_gnuplot(s.str());
 }
 
-void plot_burst_histogram(const analysis::LossFit& fit, const std::string& title, const std::filesystem::path& out) {
+void plot_burst_histogram(const fit::LossFit& fit, const std::string& title, const std::filesystem::path& out) {
   std::ostringstream s;
   s << header(out, title);
   s << "$runs << EOD\n";
@@ -194,7 +194,7 @@ void plot_burst_histogram(const analysis::LossFit& fit, const std::string& title
   s << "set style data histograms\nset style histogram clustered gap 1\nset style fill solid 0.8 border -1\n";
   s << "set yrange [0:*]\n";
   s << "plot $runs using 2:xtic(1) lc rgb '#1f77b4' title 'trace (" << fit.bursts.runs << " bursts)', \\\n"
-       "     $runs using 3 lc rgb '#ff7f0e' title 'fitted " << analysis::to_string(fit.family) << " (expected)' noenhanced\n";
+       "     $runs using 3 lc rgb '#ff7f0e' title 'fitted " << fit::to_string(fit.family) << " (expected)' noenhanced\n";
   run_gnuplot(s.str());
 }
 

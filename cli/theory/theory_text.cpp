@@ -18,7 +18,7 @@ namespace {
 using cli::number_or_null;  // the optional form, beside this one
 json number_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
-json actuation_json(const analysis::ActuationReport& a) {
+json actuation_json(const theory::ActuationReport& a) {
   json j;
   j["link"] = a.link;
   j["on_loss"] = to_string(a.on_loss);
@@ -31,7 +31,7 @@ json actuation_json(const analysis::ActuationReport& a) {
   j["critical_rate"] = number_or_null(a.critical_rate);
   j["critical_rate_reason"] = a.critical_rate_reason;
   j["critical_rate_lower"] = number_or_null(a.critical_rate_lower);
-  j["stable"] = analysis::to_string(a.stable);
+  j["stable"] = theory::to_string(a.stable);
   j["stable_reason"] = a.stable_reason;
   j["gain"] = a.gain;
   j["gain_arrival_rate"] = number_or_null(a.gain_arrival_rate);
@@ -46,14 +46,14 @@ json actuation_json(const analysis::ActuationReport& a) {
   return j;
 }
 
-json report_json(const analysis::AnalysisReport& r) {
+json report_json(const theory::AnalysisReport& r) {
   json j;
   j["spectral_radius"] = number_or_null(r.spectral_radius);
-  j["stable"] = analysis::to_string(r.stable);
+  j["stable"] = theory::to_string(r.stable);
   j["stable_reason"] = r.stable_reason;
   j["expected_covariance"] = {{"lower_trace", number_or_null(r.lower_trace)},
                               {"upper_trace", number_or_null(r.upper_trace)},
-                              {"upper_method", r.iid_bounds ? json(analysis::to_string(r.upper_method)) : json(nullptr)},
+                              {"upper_method", r.iid_bounds ? json(theory::to_string(r.upper_method)) : json(nullptr)},
                               {"upper_trace_standard_error", number_or_null(r.upper_trace_standard_error)},
                               {"sampled_trace", number_or_null(r.sampled_trace)},
                               {"sampled_trace_standard_error", number_or_null(r.sampled_trace_standard_error)}};
@@ -84,12 +84,12 @@ json report_json(const analysis::AnalysisReport& r) {
                        {"effective_arrival_rate", number_or_null(l.effective_arrival_rate)}});
     j["final_estimate"] = {{"max_delay_periods", f.max_delay_periods},
                            {"horizon_ms", number_or_null(f.horizon_ms)},
-                           {"stable", analysis::to_string(f.stable)},
+                           {"stable", theory::to_string(f.stable)},
                            {"stable_reason", f.stable_reason},
                            {"expected_covariance",
                             {{"lower_trace", number_or_null(f.lower_trace)},
                              {"upper_trace", number_or_null(f.upper_trace)},
-                             {"upper_method", f.iid_bounds ? json(analysis::to_string(f.upper_method)) : json(nullptr)},
+                             {"upper_method", f.iid_bounds ? json(theory::to_string(f.upper_method)) : json(nullptr)},
                              {"upper_trace_standard_error", number_or_null(f.upper_trace_standard_error)}}},
                            {"markov_criterion", number_or_null(f.markov_criterion)},
                            {"links", std::move(links)}};
@@ -99,7 +99,7 @@ json report_json(const analysis::AnalysisReport& r) {
   // Only with an actuation link (plant.control.link): absent otherwise, so the output of a
   // scenario without one is unchanged.
   if (r.actuation) {
-    j["estimator_stable"] = analysis::to_string(r.estimator_stable);
+    j["estimator_stable"] = theory::to_string(r.estimator_stable);
     j["estimator_stable_reason"] = r.estimator_stable_reason;
     j["actuation"] = actuation_json(*r.actuation);
   }
@@ -115,19 +115,19 @@ std::string show(const std::optional<double>& v, const char* missing = "unbounde
 }
 
 // Tr V̄ as the report has it: a sampled value says so, with its standard error.
-std::string show_upper(const std::optional<double>& v, const char* missing, analysis::BoundMethod method,
+std::string show_upper(const std::optional<double>& v, const char* missing, theory::BoundMethod method,
                        const std::optional<double>& standard_error) {
-  if (!v || method != analysis::BoundMethod::sampled) return show(v, missing);
+  if (!v || method != theory::BoundMethod::sampled) return show(v, missing);
   return show(v) + " +/- " + show(standard_error) + " (SAMPLED estimate, not a bound)";
 }
 
 }  // namespace
 
 namespace {
-void print_final_estimate(std::ostream& out, const analysis::FinalEstimateReport& f) {
+void print_final_estimate(std::ostream& out, const theory::FinalEstimateReport& f) {
   out << "  final estimate (late_policy fuse_within, D = " << f.max_delay_periods << ": samples within "
       << show(f.horizon_ms) << " ms)\n";
-  out << "    stable                   " << analysis::to_string(f.stable);
+  out << "    stable                   " << theory::to_string(f.stable);
   if (!f.stable_reason.empty()) out << " (" << f.stable_reason << ")";
   out << "\n";
   const char* missing = f.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
@@ -143,15 +143,15 @@ void print_final_estimate(std::ostream& out, const analysis::FinalEstimateReport
 }  // namespace
 
 namespace {
-void print_actuation(std::ostream& out, const analysis::AnalysisReport& r) {
+void print_actuation(std::ostream& out, const theory::AnalysisReport& r) {
   const auto& a = *r.actuation;
-  out << "  estimator alone            " << analysis::to_string(r.estimator_stable) << " ("
+  out << "  estimator alone            " << theory::to_string(r.estimator_stable) << " ("
       << r.estimator_stable_reason << ")\n";
   out << "  actuation link             " << a.link << ", " << to_string(a.on_loss) << " on loss, "
       << (a.acknowledged ? "acknowledged (TCP-like)" : "unacknowledged (UDP-like)") << "\n";
   out << "    arrival rate nu          " << show(a.arrival_rate) << " = (1 - loss " << show(a.loss)
       << ") * P(delay <= " << show(a.deadline_ms) << " ms) " << show(a.in_time) << "\n";
-  out << "    stable                   " << analysis::to_string(a.stable) << " (" << a.stable_reason << ")\n";
+  out << "    stable                   " << theory::to_string(a.stable) << " (" << a.stable_reason << ")\n";
   out << "    mean-square radius       " << show(a.mss_radius, "n/a") << "\n";
   out << "    critical rate            " << show(a.critical_rate, "none") << " (" << a.critical_rate_reason << ")\n";
   if (a.critical_rate_lower)
@@ -171,16 +171,16 @@ void print_actuation(std::ostream& out, const analysis::AnalysisReport& r) {
     out << "  region (sensor " << g.sensor_id << " x actuation): gamma -> estimator, nu below which unstable / above which stable"
         << " (gamma_c in [" << show(g.gamma_lower, "none") << ", " << show(g.gamma_upper, "none") << "])\n";
     for (const auto& p : g.points)
-      out << "    " << std::setw(5) << p.gamma << "  " << std::setw(7) << analysis::to_string(p.estimator) << "  "
+      out << "    " << std::setw(5) << p.gamma << "  " << std::setw(7) << theory::to_string(p.estimator) << "  "
           << std::setw(9) << show(p.nu_lower) << "  " << std::setw(9) << show(p.nu_upper, "none") << "\n";
   }
 }
 }  // namespace
 
-void print_analysis(std::ostream& out, const Scenario& s, const analysis::AnalysisReport& r) {
+void print_analysis(std::ostream& out, const Scenario& s, const theory::AnalysisReport& r) {
   out << "scenario " << s.name << " (" << s.state_dim() << " states, " << s.sensors.size() << " sensors)\n";
   out << "  spectral radius alpha      " << std::setprecision(6) << r.spectral_radius << "\n";
-  out << "  stable                     " << analysis::to_string(r.stable);
+  out << "  stable                     " << theory::to_string(r.stable);
   if (!r.stable_reason.empty()) out << " (" << r.stable_reason << ")";
   out << "\n";
   const char* missing = r.iid_bounds ? "unbounded" : "not reported (links not i.i.d., see notes)";
@@ -219,7 +219,7 @@ void print_analysis(std::ostream& out, const Scenario& s, const analysis::Analys
   for (const auto& n : r.notes) out << "  note: " << n << "\n";
 }
 
-json analysis_json(const analysis::AnalysisReport& r, bool with_region, bool with_sweep) {
+json analysis_json(const theory::AnalysisReport& r, bool with_region, bool with_sweep) {
   json j = report_json(r);
   if (with_region) {
     json region = json::array();
@@ -235,7 +235,7 @@ json analysis_json(const analysis::AnalysisReport& r, bool with_region, bool wit
       json points = json::array();
       for (const auto& p : g.points)
         points.push_back({{"gamma", p.gamma},
-                          {"estimator_stable", analysis::to_string(p.estimator)},
+                          {"estimator_stable", theory::to_string(p.estimator)},
                           {"nu_lower", number_or_null(p.nu_lower)},
                           {"nu_upper", number_or_null(p.nu_upper)}});
       j["actuation_region"] = {{"sensor_id", g.sensor_id},

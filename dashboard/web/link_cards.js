@@ -45,7 +45,7 @@ const BURST_BINS = [
   { lo: 33, hi: 64, label: '33–64' }, { lo: 65, hi: Infinity, label: '≥65' },
 ];
 
-// Stationary loss and mean burst of a Gilbert-Elliott chain (as netkf/link.hpp computes
+// Stationary loss and mean burst of a Gilbert-Elliott chain (as netkf/links/link.hpp computes
 // them): what a model switch shows at once, before the server answers.
 function gilbertStats(g) {
   const bad = g.p + g.r > 0 ? g.p / (g.p + g.r) : 0;

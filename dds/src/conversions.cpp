@@ -2,7 +2,10 @@
 // from the network is untrusted input.
 #include "netkf/dds/conversions.hpp"
 
-#include "netkf/relay_links.hpp"
+#include "netkf/links/link_delay.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/relay/relay_links.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -327,10 +330,10 @@ wire::LinkStatus to_wire(const LinkStatus& f, std::int64_t stamp_ns) {
   s.held(f.held);
   s.past_deadline(f.past_deadline);
   if (f.recent_fit) {
-    const analysis::RecentLossFit& fit = *f.recent_fit;
+    const fit::RecentLossFit& fit = *f.recent_fit;
     s.fit_samples(fit.samples);
     s.fit_dropped(fit.dropped);
-    s.fit_family(analysis::to_string(fit.family));
+    s.fit_family(fit::to_string(fit.family));
     // As a simple Gilbert chain: a Bernoulli loss q is the chain p = q, r = 1 − q.
     if (const auto* g = std::get_if<GilbertElliottLink>(&fit.link)) {
       s.fit_p(g->p);
@@ -370,20 +373,20 @@ LinkStatus from_wire(const wire::LinkStatus& w) {
   return r;
 }
 
-std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& s) {
+std::optional<fit::RecentLossFit> recent_fit_of(const wire::LinkStatus& s) {
   if (s.fit_family().empty() && s.fit_samples() == 0) return std::nullopt;
-  const auto family = analysis::parse_loss_family(s.fit_family());
+  const auto family = fit::parse_loss_family(s.fit_family());
   const auto probability = [](double v) { return std::isfinite(v) && v >= 0.0 && v <= 1.0; };
-  if (!family || (*family != analysis::LossFamily::bernoulli && *family != analysis::LossFamily::simple_gilbert))
+  if (!family || (*family != fit::LossFamily::bernoulli && *family != fit::LossFamily::simple_gilbert))
     throw ConversionError("link status: unknown fit_family '" + s.fit_family() + "'");
   if (s.fit_samples() == 0 || s.fit_dropped() > s.fit_samples() || !probability(s.fit_p()) ||
       !probability(s.fit_r()) || !std::isfinite(s.fit_aic_gain()))
     throw ConversionError("link status: malformed recent-samples fit");
-  analysis::RecentLossFit fit;
+  fit::RecentLossFit fit;
   fit.samples = s.fit_samples();
   fit.dropped = s.fit_dropped();
   fit.family = *family;
-  if (*family == analysis::LossFamily::simple_gilbert)
+  if (*family == fit::LossFamily::simple_gilbert)
     fit.link = GilbertElliottLink{s.fit_p(), s.fit_r(), 0.0, 1.0};
   else
     fit.link = BernoulliLink{s.fit_p()};

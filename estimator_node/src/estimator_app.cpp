@@ -13,7 +13,7 @@
 
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/presence.hpp"
-#include "netkf/log_throttle.hpp"
+#include "netkf/support/log_throttle.hpp"
 
 namespace netkf::nodes {
 

@@ -169,8 +169,10 @@ PeriodEstimate EstimatorCore::step(std::uint64_t k, double t, const std::map<int
 }
 
 PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
-  const Vector x_prior = filter_.x();
-  const Matrix P_prior = filter_.P();
+  // The prior is kept for a re-run only (late fusion, D > 0): with D = 0 nothing reads it.
+  const bool keep_prior = max_delay_periods_ > 0;
+  Vector x_prior = keep_prior ? filter_.x() : Vector();
+  Matrix P_prior = keep_prior ? filter_.P() : Matrix();
   PeriodEstimate e = step(open_->k, open_->t, open_->samples, open_->last_stamp_ns, now_ns);
   // One list is the count and the ids: `late` can never disagree with `late_sensors`.
   e.late_sensors = std::move(late_since_publish_);
@@ -186,17 +188,17 @@ PeriodEstimate EstimatorCore::fuse(std::int64_t now_ns) {
     last_control_ = Vector::Zero(input_dim_);
   }
   last_fused_ = open_->k;
-  if (max_delay_periods_ > 0) remember(e, x_prior, P_prior);
+  if (keep_prior) remember(e, std::move(x_prior), std::move(P_prior));
   open_.reset();
   return e;
 }
 
-void EstimatorCore::remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior) {
+void EstimatorCore::remember(const PeriodEstimate& e, Vector x_prior, Matrix P_prior) {
   FusedPeriod f;
   f.k = e.k;
   f.t = e.t;
-  f.x_prior = x_prior;
-  f.P_prior = P_prior;
+  f.x_prior = std::move(x_prior);
+  f.P_prior = std::move(P_prior);
   // Only the samples the update fused: a rejected one must not be fused by a re-run either.
   for (const int id : e.fused) f.samples.emplace(id, open_->samples.at(id));
   f.last_stamp_ns = open_->last_stamp_ns;

@@ -15,8 +15,8 @@
 
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/presence.hpp"
-#include "netkf/log_throttle.hpp"
 #include "netkf/nodes/plant_simulator.hpp"
+#include "netkf/support/log_throttle.hpp"
 
 namespace netkf::nodes {
 

@@ -1,4 +1,4 @@
-// netkf._core.Filter: the intermittent multi-sensor Kalman filter (netkf/kalman_filter.hpp) on a
+// netkf._core.Filter: the intermittent multi-sensor Kalman filter (netkf/filter/kalman_filter.hpp) on a
 // scenario's model, the same filter the estimator runs, for a user's own data.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
@@ -8,8 +8,8 @@
 #include <optional>
 
 #include "bindings.hpp"
-#include "netkf/kalman_filter.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/model/scenario.hpp"
 #include "py_convert.hpp"
 
 namespace netkf::python {

@@ -4,8 +4,8 @@
 #include <pybind11/pybind11.h>
 
 #include "bindings.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/model/scenario.hpp"
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "netkf's core library: scenarios, the papers' theory, Monte Carlo, loss-model fits and the "

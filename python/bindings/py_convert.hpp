@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "netkf/types.hpp"
+#include "netkf/support/types.hpp"
 
 namespace netkf::python {
 

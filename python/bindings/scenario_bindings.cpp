@@ -1,10 +1,11 @@
-// netkf._core.Scenario: a loaded, validated scenario (netkf/scenario.hpp), read-only.
+// netkf._core.Scenario: a loaded, validated scenario (netkf/model/scenario.hpp), read-only.
 #include <pybind11/eigen.h>
 #include <pybind11/stl.h>
 
 #include "bindings.hpp"
-#include "netkf/link.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::python {
 

@@ -12,11 +12,11 @@
 
 #include "bindings.hpp"
 #include "netkf/cli/theory/fit_text.hpp"
-#include "netkf/analysis/loss_fit.hpp"
-#include "netkf/analysis/markov.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/monte_carlo.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/theory/markov.hpp"
+#include "netkf/theory/report.hpp"
 #include "py_convert.hpp"
 #include "netkf/cli/theory/theory_text.hpp"
 
@@ -35,7 +35,7 @@ py::dict analyze_binding(const Scenario& scenario, bool region, bool sweep, std:
   if (region_sensor && !region) throw py::value_error("region_sensor needs region=True");
   if (region_sensor && !scenario.find_sensor(*region_sensor))
     throw py::value_error("region_sensor: the scenario has no sensor " + std::to_string(*region_sensor));
-  analysis::AnalyzeOptions o;
+  theory::AnalyzeOptions o;
   o.region = region;
   o.sweep = sweep;
   o.use_lmi = lmi;
@@ -44,20 +44,20 @@ py::dict analyze_binding(const Scenario& scenario, bool region, bool sweep, std:
   json j;
   {
     py::gil_scoped_release release;
-    j = cli::analysis_json(analysis::analyze(scenario, o), region, sweep);
+    j = cli::analysis_json(theory::analyze(scenario, o), region, sweep);
   }
   return to_python(j);
 }
 
 py::dict critical_rate_binding(const Scenario& scenario, bool lmi) {
   if (scenario.sensors.empty()) throw py::value_error("critical_rate: the scenario has no sensors");
-  analysis::CriticalRateOptions o;  // the links' models are not read: every link Bernoulli at λ
+  theory::CriticalRateOptions o;  // the links' models are not read: every link Bernoulli at λ
   o.use_lmi = lmi;
   std::vector<std::string> notes;
-  analysis::CriticalRates cr;
+  theory::CriticalRates cr;
   {
     py::gil_scoped_release release;
-    cr = analysis::shared_critical_rates(scenario.plant.A, scenario.plant.Q, scenario.sensors, o, &notes);
+    cr = theory::shared_critical_rates(scenario.plant.A, scenario.plant.Q, scenario.sensors, o, &notes);
   }
   py::dict out;
   out["lower"] = cr.lower;  // the keys of analyze()'s "critical_rate"
@@ -91,7 +91,7 @@ py::tuple bounds_binding(const Scenario& scenario, const py::handle& arrival_rat
   {
     py::gil_scoped_release release;
     for (std::size_t i = 0; i < points.size(); ++i) {
-      const auto b = analysis::iid_trace_bounds(scenario.plant.A, scenario.plant.Q, scenario.sensors, points[i],
+      const auto b = theory::iid_trace_bounds(scenario.plant.A, scenario.plant.Q, scenario.sensors, points[i],
                                                 scenario.seed);
       lo(static_cast<py::ssize_t>(i)) = or_nan(b.lower_trace);
       up(static_cast<py::ssize_t>(i)) = or_nan(b.upper_trace);
@@ -111,10 +111,10 @@ py::dict markov_binding(const Scenario& scenario, const py::object& arrival_rate
                             std::to_string(effective.sensors.size()) + " sensors");
     for (std::size_t i = 0; i < rates.size(); ++i) effective.sensors[i].link.loss = BernoulliLink{1.0 - rates[i]};
   }
-  analysis::MarkovCriterion c;
+  theory::MarkovCriterion c;
   {
     py::gil_scoped_release release;
-    c = analysis::markov_stability_criterion(effective.plant.A, effective.sensors);
+    c = theory::markov_stability_criterion(effective.plant.A, effective.sensors);
   }
   py::dict out;
   out["applies"] = c.applies;
@@ -187,9 +187,9 @@ py::dict simulate_binding(const Scenario& scenario, int runs, int steps, std::op
 
 // trace: a trace file's path (str), or the arrivals as an array of 0/1 (True/False).
 py::dict fit_binding(const py::object& trace, const std::string& model, std::uint64_t seed) {
-  analysis::LossFitOptions o;
+  fit::LossFitOptions o;
   if (model != "auto") {
-    o.family = analysis::parse_loss_family(model);
+    o.family = fit::parse_loss_family(model);
     if (!o.family) throw py::value_error("model: auto, bernoulli, simple_gilbert, gilbert or gilbert_elliott");
   }
   o.seed = seed;
@@ -210,12 +210,12 @@ py::dict fit_binding(const py::object& trace, const std::string& model, std::uin
     }
   }
   if (t.delivered.empty()) throw py::value_error("trace: empty");
-  analysis::TraceFit f;
-  std::optional<analysis::DelaySummary> delay;
+  fit::TraceFit f;
+  std::optional<fit::DelaySummary> delay;
   {
     py::gil_scoped_release release;
-    f = analysis::fit_loss_model(t.delivered, o);
-    if (t.has_delay) delay = analysis::summarize_delays(t.delay_ms);
+    f = fit::fit_loss_model(t.delivered, o);
+    if (t.has_delay) delay = fit::summarize_delays(t.delay_ms);
   }
   return to_python(cli::fit_json(name, f, delay));
 }

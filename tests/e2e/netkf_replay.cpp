@@ -18,8 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "netkf/kalman_filter.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <variant>
 
 #include "netkf/cli/dashboard/dashboard_protocol.hpp"
-#include "netkf/link.hpp"
+#include "netkf/links/link.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-// Fuzzes the link trace reader (core/src/link_trace.cpp) on arbitrary text: it must return a
+// Fuzzes the link trace reader (core/src/links/link_trace.cpp) on arbitrary text: it must return a
 // trace or throw TraceError ("FILE:LINE:COL: ..."), never crash, hang or throw anything
 // else. An accepted trace must be well formed (a delay per row when the column is there, no
 // delay on a lost row, every delay finite in [0, 60000]), survive write_link_trace and a
@@ -12,8 +12,9 @@
 #include <sstream>
 #include <string>
 
-#include "netkf/link.hpp"
-#include "netkf/link_trace.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_trace.hpp"
 
 namespace {
 

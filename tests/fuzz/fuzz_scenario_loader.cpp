@@ -1,4 +1,4 @@
-// Fuzzes the scenario loader (core/src/scenario_loader.cpp) on arbitrary text, as a
+// Fuzzes the scenario loader (core/src/model/scenario_loader.cpp) on arbitrary text, as a
 // scenario file and as an events file: it must return a valid scenario or throw
 // ScenarioError, never crash, hang or throw anything else. A scenario it accepts must
 // survive the trip to a child process (scenario_to_yaml, parsed again).
@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace {
 

@@ -14,7 +14,10 @@
 
 #include "netkf/dds/conversions.hpp"
 #include "netkf/dds/topics.hpp"
-#include "netkf/link.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_delay.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
 #include "wire_fuzz_input.hpp"
 
 namespace {

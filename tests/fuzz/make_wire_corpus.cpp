@@ -10,6 +10,7 @@
 #include <fastdds/rtps/common/SerializedPayload.h>
 
 #include "netkf/dds/conversions.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "wire_fuzz_input.hpp"
 
 namespace {

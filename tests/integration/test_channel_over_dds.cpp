@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "netkf/dds/dds.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "netkf/nodes/channel_links.hpp"
 
 namespace {

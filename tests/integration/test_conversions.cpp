@@ -10,7 +10,8 @@
 
 #include "netkf/dds/conversions.hpp"
 #include "netkf/dds/topics.hpp"
-#include "netkf/relay_links.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/relay/relay_links.hpp"
 
 namespace {
 
@@ -178,7 +179,7 @@ TEST(Conversions, ARelayedTopicsStatusAndJournalNameTheTopicOfTheirLinkId) {
 }
 
 TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
-  netkf::analysis::RecentArrivals bursty(50), one(5);
+  netkf::fit::RecentArrivals bursty(50), one(5);
   for (int i = 0; i < 80; ++i) bursty.record(i % 10 < 4);  // runs of 4 drops, 6 deliveries
   one.record(true);
   for (const auto& window : {bursty, one}) {
@@ -194,7 +195,7 @@ TEST(Conversions, RecentFitRoundTripsAndIsValidated) {
     EXPECT_EQ(back->link, facts.recent_fit->link);
     EXPECT_EQ(back->aic_gain, facts.recent_fit->aic_gain);
   }
-  EXPECT_EQ(bursty.fit()->family, netkf::analysis::LossFamily::simple_gilbert);
+  EXPECT_EQ(bursty.fit()->family, netkf::fit::LossFamily::simple_gilbert);
   EXPECT_FALSE(one.fit()->aic_gain.has_value());
 
   netkf::LinkStatus status;
@@ -292,7 +293,7 @@ TEST(Conversions, LinkStatusChangeAndReplyRoundTripWhole) {
   status.count(since_change, lifetime);
   status.last_request_id = 11;
   status.rejection_reason = "loss must be in [0, 1]";
-  netkf::analysis::RecentArrivals recent(50);
+  netkf::fit::RecentArrivals recent(50);
   for (int i = 0; i < 60; ++i) recent.record(i % 10 < 3);
   status.recent_fit = recent.fit();
   const netkf::LinkStatus back = dds::from_wire(dds::to_wire(status, 9));

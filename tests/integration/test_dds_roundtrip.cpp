@@ -20,6 +20,7 @@
 
 #include "netkf/dds/dds.hpp"
 #include "netkf/dds/presence.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace {
 

@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "netkf/dds/dds.hpp"
-#include "netkf/kalman_filter.hpp"
+#include "netkf/filter/kalman_filter.hpp"
 #include "netkf/nodes/estimator_app.hpp"
 
 namespace {

@@ -19,7 +19,8 @@
 #include <utility>
 
 #include "netkf/dds/dds.hpp"
-#include "netkf/kalman_filter.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "netkf/nodes/channel_app.hpp"
 #include "netkf/nodes/channel_links.hpp"
 #include "netkf/nodes/estimator_app.hpp"

@@ -11,14 +11,15 @@
 #include <limits>
 
 #include "test_paths.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/analysis/riccati.hpp"
-#include "netkf/analysis/stability.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/theory/operating_point.hpp"
+#include "netkf/theory/report.hpp"
+#include "netkf/theory/riccati.hpp"
+#include "netkf/theory/stability.hpp"
 #include "../validation/theory_systems.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 using netkf::testing::mat;
 
@@ -209,7 +210,7 @@ TEST(Analysis, RegionReportsItsGridPointsAsProgress) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory
 
 namespace {
 
@@ -219,7 +220,7 @@ namespace {
 TEST(AnalyzeLateFusion, FinalEstimateUsesTheLongerHorizon) {
   const auto dir = netkf::test::source_dir() / "deploy" / "scenarios";
   const netkf::Scenario s = netkf::load_scenario_file(dir / "late-fusion-boundary.yaml");
-  const auto report = netkf::analysis::analyze(s);
+  const auto report = netkf::theory::analyze(s);
   ASSERT_TRUE(report.final_estimate.has_value());
   const auto& f = *report.final_estimate;
   EXPECT_EQ(f.max_delay_periods, 1);
@@ -227,14 +228,14 @@ TEST(AnalyzeLateFusion, FinalEstimateUsesTheLongerHorizon) {
   ASSERT_EQ(f.links.size(), 1u);
   EXPECT_NEAR(f.links[0].effective_arrival_rate, 0.405, 1e-12);
   EXPECT_NEAR(report.links[0].effective_arrival_rate, 0.18, 1e-12);
-  EXPECT_EQ(report.stable, netkf::analysis::Verdict::no);
-  EXPECT_EQ(f.stable, netkf::analysis::Verdict::yes);
+  EXPECT_EQ(report.stable, netkf::theory::Verdict::no);
+  EXPECT_EQ(f.stable, netkf::theory::Verdict::yes);
 
   netkf::Scenario bernoulli = s;  // the independent equivalent: no delay, drop, loss 1 - 0.405
   bernoulli.estimator.late_policy = netkf::LatePolicy::drop;
   bernoulli.estimator.max_delay_periods.reset();
   bernoulli.sensors[0].link = netkf::LinkSpec(netkf::BernoulliLink{1.0 - 0.405});
-  const auto equivalent = netkf::analysis::analyze(bernoulli);
+  const auto equivalent = netkf::theory::analyze(bernoulli);
   EXPECT_FALSE(equivalent.final_estimate.has_value());
   EXPECT_EQ(equivalent.stable, f.stable);
   ASSERT_TRUE(equivalent.lower_trace && f.lower_trace);

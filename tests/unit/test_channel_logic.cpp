@@ -9,10 +9,11 @@
 #include <utility>
 #include <vector>
 
-#include "netkf/analysis/loss_fit.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "netkf/nodes/channel_links.hpp"
-#include "netkf/release_queue.hpp"
-#include "netkf/random.hpp"
+#include "netkf/support/random.hpp"
+#include "netkf/support/release_queue.hpp"
 
 namespace {
 
@@ -74,16 +75,16 @@ TEST(ChannelLogic, ReportsFitTheLinksRecentSamples) {
   const auto fit_of = [&](int id) {
     for (const auto& r : links.statuses())
       if (r.sensor_id == id) return r.recent_fit;
-    return std::optional<netkf::analysis::RecentLossFit>{};
+    return std::optional<netkf::fit::RecentLossFit>{};
   };
   const auto f = fit_of(3);
   ASSERT_TRUE(f.has_value());
   EXPECT_EQ(f->samples, 5000u);
   const std::vector<std::uint8_t> last(delivered.end() - 5000, delivered.end());
-  netkf::analysis::LossFitOptions o;
-  o.family = netkf::analysis::LossFamily::simple_gilbert;
-  const auto batch = netkf::analysis::fit_loss_model(last, o).fit();
-  ASSERT_EQ(f->family, netkf::analysis::LossFamily::simple_gilbert);  // p 0.05, r 0.5: bursty
+  netkf::fit::LossFitOptions o;
+  o.family = netkf::fit::LossFamily::simple_gilbert;
+  const auto batch = netkf::fit::fit_loss_model(last, o).fit();
+  ASSERT_EQ(f->family, netkf::fit::LossFamily::simple_gilbert);  // p 0.05, r 0.5: bursty
   const auto& chain = std::get<netkf::GilbertElliottLink>(f->link);
   EXPECT_DOUBLE_EQ(chain.p, std::get<netkf::GilbertElliottLink>(batch.link).p);
   EXPECT_DOUBLE_EQ(chain.r, std::get<netkf::GilbertElliottLink>(batch.link).r);

@@ -5,9 +5,10 @@
 #include <cmath>
 #include <limits>
 
-#include "netkf/relay_links.hpp"
 #include "netkf/cli/dashboard/dashboard_protocol.hpp"
 #include "netkf/cli/live/live_model.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/relay/relay_links.hpp"
 
 namespace netkf::cli::dashboard {
 namespace {

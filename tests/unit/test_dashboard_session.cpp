@@ -8,8 +8,9 @@
 #include <cstdint>
 
 #include "foxglove_session.hpp"
-#include "netkf/cli/live/live_model.hpp"
 #include "netkf/cli/dashboard/request_policy.hpp"
+#include "netkf/cli/live/live_model.hpp"
+#include "netkf/links/link_keys.hpp"
 
 namespace netkf::cli::dashboard {
 namespace {

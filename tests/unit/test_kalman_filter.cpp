@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "netkf/kalman_filter.hpp"
-#include "netkf/random.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/support/random.hpp"
 
 namespace {
 

@@ -1,7 +1,7 @@
-// The link type (netkf/link.hpp) and scenario `events:` (docs/scenario-format.md, "Links"
+// The link type (netkf/links/link.hpp) and scenario `events:` (docs/scenario-format.md, "Links"
 // and "events").
 //
-// Expectations are written here independently of core/src/link.cpp: the Gilbert-Elliott
+// Expectations are written here independently of core/src/links/link.cpp: the Gilbert-Elliott
 // user form by its closed form (r = 1/B, p = r·L/(1 − L)), the stationary statistics by
 // simulation, the delay CDFs by their closed forms (uniform: linear; normal: 0.5·erfc;
 // netem's Pareto: 1 − (1.5 + 0.75 z)^(−3)), the delay draws by a Kolmogorov-Smirnov
@@ -34,11 +34,15 @@
 #include <variant>
 #include <vector>
 
-#include "netkf/link.hpp"
-#include "netkf/loss_model.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_delay.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_text.hpp"
+#include "netkf/links/loss_model.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/nodes/channel_links.hpp"
-#include "netkf/random.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/support/random.hpp"
 
 // Readable failures: links and events as their keys, numbers to 17 digits.
 namespace netkf {

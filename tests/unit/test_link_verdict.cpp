@@ -1,4 +1,4 @@
-// The verdict for a measured link (netkf/analysis/link_verdict.hpp) on Sinopoli's scalar
+// The verdict for a measured link (netkf/fit/link_verdict.hpp) on Sinopoli's scalar
 // plant (A = -1.25), where the Markov criterion has closed forms: a simple Gilbert link is
 // stable iff α²(1 − r) < 1 (Rohr-Marelli-Fu Thm 3.1; multi-sensor paper Thm 4/9), so the
 // critical mean burst is 1/(1 − 1/α²) = 2.778 whatever the loss; an i.i.d. link iff
@@ -8,13 +8,13 @@
 #include <cmath>
 #include <vector>
 
-#include "netkf/analysis/link_verdict.hpp"
-#include "netkf/loss_model.hpp"
+#include "netkf/fit/link_verdict.hpp"
+#include "netkf/links/loss_model.hpp"
 
 namespace {
 
-using netkf::analysis::LossFamily;
-using netkf::analysis::Verdict;
+using netkf::fit::LossFamily;
+using netkf::theory::Verdict;
 
 constexpr double kAlpha2 = 1.25 * 1.25;
 
@@ -38,16 +38,16 @@ std::vector<std::uint8_t> draw(const netkf::LinkModel& link, std::uint64_t seed,
 
 // The scenario with link 1 fitted to `trace` by `family`, and the verdict for it.
 struct Judged {
-  netkf::analysis::LossFit fit;
-  netkf::analysis::MeasuredLinkVerdict verdict;
+  netkf::fit::LossFit fit;
+  netkf::fit::MeasuredLinkVerdict verdict;
 };
 Judged judge(const std::vector<std::uint8_t>& trace, LossFamily family) {
-  netkf::analysis::LossFitOptions o;
+  netkf::fit::LossFitOptions o;
   o.family = family;
-  Judged j{netkf::analysis::fit_loss_model(trace, o).fit(), {}};
+  Judged j{netkf::fit::fit_loss_model(trace, o).fit(), {}};
   netkf::Scenario s = scalar_scenario();
-  s.sensors[0].link = netkf::analysis::fitted_link_spec(s.sensors[0].link, j.fit, std::nullopt);
-  j.verdict = netkf::analysis::measured_link_verdict(s, 1, j.fit);
+  s.sensors[0].link = netkf::fit::fitted_link_spec(s.sensors[0].link, j.fit, std::nullopt);
+  j.verdict = netkf::fit::measured_link_verdict(s, 1, j.fit);
   return j;
 }
 
@@ -93,8 +93,8 @@ TEST(LinkVerdict, ALinkAtTheBoundaryIsUndecidedWithinItsInterval) {
 }
 
 TEST(LinkVerdict, UnknownLinkIdIsRefused) {
-  const netkf::analysis::LossFit fit = netkf::analysis::fit_loss_model(std::vector<std::uint8_t>{1, 0, 1}).fit();
-  EXPECT_THROW(netkf::analysis::measured_link_verdict(scalar_scenario(), 9, fit), std::invalid_argument);
+  const netkf::fit::LossFit fit = netkf::fit::fit_loss_model(std::vector<std::uint8_t>{1, 0, 1}).fit();
+  EXPECT_THROW(netkf::fit::measured_link_verdict(scalar_scenario(), 9, fit), std::invalid_argument);
 }
 
 }  // namespace

@@ -8,9 +8,9 @@
 
 #include "netkf/cli/live/live_metrics.hpp"
 #include "netkf/cli/live/live_model.hpp"
-#include "netkf/relay_links.hpp"
 #include "netkf/cli/live/live_status.hpp"
-#include "netkf/analysis/operating_point.hpp"
+#include "netkf/relay/relay_links.hpp"
+#include "netkf/theory/operating_point.hpp"
 #include "test_paths.hpp"
 #include "netkf/cli/live/theory_worker.hpp"
 
@@ -192,7 +192,7 @@ TEST(LiveModel, CrossingTheCriticalBoundaryRaisesAWarning) {
   TheoryRequest request;
   request.configured = s;
   model.set_theory(compute_theory(request));
-  EXPECT_EQ(model.snapshot().theory.configured.result.stable, analysis::Verdict::yes);
+  EXPECT_EQ(model.snapshot().theory.configured.result.stable, theory::Verdict::yes);
   EXPECT_TRUE(model.take_events().empty());
   request.configured.sensors[0].link = BernoulliLink{0.97};  // λ = 0.03 < 0.36
   model.set_theory(compute_theory(request));
@@ -216,9 +216,9 @@ TEST(LiveModel, FuseWithinShowsTheFinalEstimatesVerdictBesideTheInTimeOne) {
   TheoryRequest request;
   request.configured = s;
   const TheoryView view = compute_theory(request);
-  EXPECT_EQ(view.configured.result.stable, analysis::Verdict::no);
+  EXPECT_EQ(view.configured.result.stable, theory::Verdict::no);
   ASSERT_TRUE(view.final_estimate.has_value());
-  EXPECT_EQ(view.final_estimate->result.stable, analysis::Verdict::yes);
+  EXPECT_EQ(view.final_estimate->result.stable, theory::Verdict::yes);
   ASSERT_EQ(view.final_estimate->arrival_rates.size(), 1u);
   EXPECT_NEAR(view.final_estimate->arrival_rates[0], 0.405, 1e-12);
   EXPECT_NEAR(view.configured.arrival_rates[0], 0.18, 1e-12);
@@ -256,7 +256,7 @@ TEST(TheoryWorker, ComputesOffTheCallersThreadAndMatchesTheDirectAssessment) {
   }
   EXPECT_NE(worker_thread, std::this_thread::get_id());
   EXPECT_EQ(result->k, 12);
-  const auto direct = analysis::assess_operating_point(s, {0.9, 0.8});
+  const auto direct = theory::assess_operating_point(s, {0.9, 0.8});
   ASSERT_TRUE(result->observed);
   EXPECT_EQ(result->observed->result.stable, direct.stable);
   EXPECT_EQ(result->observed->result.upper_trace, direct.upper_trace);

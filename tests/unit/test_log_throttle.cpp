@@ -1,9 +1,9 @@
-// LogThrottle (netkf/log_throttle.hpp): repeated warnings are rate-limited with a count.
+// LogThrottle (netkf/support/log_throttle.hpp): repeated warnings are rate-limited with a count.
 #include <gtest/gtest.h>
 
 #include <chrono>
 
-#include "netkf/log_throttle.hpp"
+#include "netkf/support/log_throttle.hpp"
 
 namespace {
 

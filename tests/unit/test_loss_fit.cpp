@@ -1,7 +1,7 @@
-// Link traces and loss-model fits (netkf/link_trace.hpp, netkf/analysis/loss_fit.hpp):
+// Link traces and loss-model fits (netkf/links/link_trace.hpp, netkf/fit/loss_fit.hpp):
 // the reader's refusals at FILE:LINE:COL; the fits against independent expectations: closed
 // forms (counts, the binomial and Markov-chain standard errors), the likelihood by brute
-// force over every hidden state path, run-length laws against netkf/link.hpp's stationary
+// force over every hidden state path, run-length laws against netkf/links/link.hpp's stationary
 // statistics, the chi-square tail against its closed form; and what `auto` concludes on
 // i.i.d. and bursty traces from fixed seeds.
 #include <gtest/gtest.h>
@@ -11,19 +11,20 @@
 #include <sstream>
 #include <vector>
 
-#include "netkf/analysis/loss_fit.hpp"
-#include "netkf/analysis/recent_loss_fit.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/loss_model.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/fit/recent_loss_fit.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/links/loss_model.hpp"
 
 namespace {
 
 using netkf::BernoulliLink;
 using netkf::GilbertElliottLink;
 using netkf::LinkModel;
-using netkf::analysis::LossFamily;
-using netkf::analysis::LossFitOptions;
-using netkf::analysis::fit_loss_model;
+using netkf::fit::LossFamily;
+using netkf::fit::LossFitOptions;
+using netkf::fit::fit_loss_model;
 
 std::vector<std::uint8_t> draw(const LinkModel& link, std::uint64_t seed, std::size_t n) {
   netkf::LinkLossProcess process(link, seed);
@@ -47,7 +48,7 @@ std::string error_of(const std::string& text, std::size_t limit = netkf::max_tra
   return "";
 }
 
-const netkf::analysis::FittedValue& param(const netkf::analysis::LossFit& fit, const std::string& name) {
+const netkf::fit::FittedValue& param(const netkf::fit::LossFit& fit, const std::string& name) {
   for (const auto& p : fit.parameters)
     if (p.name == name) return p;
   throw std::out_of_range(name);
@@ -158,22 +159,22 @@ TEST(LossFit, LikelihoodEqualsTheSumOverHiddenPaths) {
   const std::vector<std::uint8_t> trace = {1, 1, 0, 0, 1, 0, 1, 1, 1, 0, 0, 0};
   for (const GilbertElliottLink g : {GilbertElliottLink{0.1, 0.4, 0.05, 0.8}, GilbertElliottLink{0.3, 0.2, 0.0, 1.0},
                                      GilbertElliottLink{0.5, 0.5, 0.3, 0.3}}) {
-    EXPECT_NEAR(netkf::analysis::trace_log_likelihood(trace, g), brute_force_log_likelihood(trace, g), 1e-12);
+    EXPECT_NEAR(netkf::fit::trace_log_likelihood(trace, g), brute_force_log_likelihood(trace, g), 1e-12);
   }
   const double m = 6, n = 12;  // Bernoulli: m ln l + (n − m) ln(1 − l)
-  EXPECT_NEAR(netkf::analysis::trace_log_likelihood(trace, BernoulliLink{0.3}),
+  EXPECT_NEAR(netkf::fit::trace_log_likelihood(trace, BernoulliLink{0.3}),
               m * std::log(0.3) + (n - m) * std::log(0.7), 1e-12);
 }
 
 TEST(LossFit, RunLengthLawsMatchTheLinksStationaryStatistics) {
   // Bernoulli: geometric bursts; simple Gilbert: bursts geometric with parameter r.
-  const auto b = netkf::analysis::run_length_distribution(BernoulliLink{0.3}, true, 50);
+  const auto b = netkf::fit::run_length_distribution(BernoulliLink{0.3}, true, 50);
   for (int L = 1; L <= 5; ++L) EXPECT_NEAR(b[L - 1], std::pow(0.3, L - 1) * 0.7, 1e-15);
-  const auto sg = netkf::analysis::run_length_distribution(GilbertElliottLink{0.1, 0.25, 0, 1}, true, 50);
+  const auto sg = netkf::fit::run_length_distribution(GilbertElliottLink{0.1, 0.25, 0, 1}, true, 50);
   for (int L = 1; L <= 5; ++L) EXPECT_NEAR(sg[L - 1], std::pow(0.75, L - 1) * 0.25, 1e-15);
   // Gilbert-Elliott: the law's mean is link.cpp's mean_burst_length (a ratio of rates).
   const GilbertElliottLink ge{0.03, 0.2, 0.02, 0.7};
-  const auto law = netkf::analysis::run_length_distribution(ge, true, 100000);
+  const auto law = netkf::fit::run_length_distribution(ge, true, 100000);
   double mass = 0.0, mean = 0.0;
   for (std::size_t L = 1; L <= law.size(); ++L) {
     mass += law[L - 1];
@@ -182,7 +183,7 @@ TEST(LossFit, RunLengthLawsMatchTheLinksStationaryStatistics) {
   EXPECT_NEAR(mass, 1.0, 1e-9);
   EXPECT_NEAR(mean, netkf::mean_burst_length(ge), 1e-8);
   // Gaps: the mean run of deliveries is (1 − loss)/loss times the mean burst (runs alternate).
-  const auto gaps = netkf::analysis::run_length_distribution(ge, false, 100000);
+  const auto gaps = netkf::fit::run_length_distribution(ge, false, 100000);
   double gap_mean = 0.0;
   for (std::size_t L = 1; L <= gaps.size(); ++L) gap_mean += static_cast<double>(L) * gaps[L - 1];
   const double loss = netkf::stationary_loss(ge);
@@ -191,12 +192,12 @@ TEST(LossFit, RunLengthLawsMatchTheLinksStationaryStatistics) {
 
 TEST(LossFit, RunLengthsLeaveOutTheCensoredEnds) {
   const std::vector<std::uint8_t> t = {0, 0, 1, 0, 1, 1, 0, 0, 0, 1, 0};
-  EXPECT_EQ(netkf::analysis::run_lengths(t, true), (std::vector<std::size_t>{1, 3}));
-  EXPECT_EQ(netkf::analysis::run_lengths(t, false), (std::vector<std::size_t>{1, 2, 1}));
+  EXPECT_EQ(netkf::fit::run_lengths(t, true), (std::vector<std::size_t>{1, 3}));
+  EXPECT_EQ(netkf::fit::run_lengths(t, false), (std::vector<std::size_t>{1, 2, 1}));
 }
 
 TEST(LossFit, ChiSquareTailMatchesItsClosedForms) {
-  using netkf::analysis::chi_square_upper_tail;
+  using netkf::fit::chi_square_upper_tail;
   EXPECT_NEAR(chi_square_upper_tail(3.841458820694124, 1), 0.05, 1e-12);
   for (double x : {0.5, 2.0, 7.0}) EXPECT_NEAR(chi_square_upper_tail(x, 2), std::exp(-x / 2), 1e-14);  // χ²(2)
   EXPECT_NEAR(chi_square_upper_tail(4.0, 4), std::exp(-2.0) * 3.0, 1e-14);  // e^{-x/2}(1 + x/2)
@@ -304,7 +305,7 @@ TEST(LossFit, DegenerateTracesFitBernoulliOnly) {
 TEST(LossFit, DelaySummaryQuantilesInterpolateLikeNumPy) {
   const double nan = std::nan("");
   const std::vector<double> d = {4.0, nan, 1.0, 3.0, 2.0, nan};
-  const auto s = netkf::analysis::summarize_delays(d);
+  const auto s = netkf::fit::summarize_delays(d);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->samples, 4u);
   EXPECT_DOUBLE_EQ(s->mean_ms, 2.5);
@@ -312,7 +313,7 @@ TEST(LossFit, DelaySummaryQuantilesInterpolateLikeNumPy) {
   EXPECT_DOUBLE_EQ(s->quantiles[3].second, 2.5);   // median: numpy.quantile([1,2,3,4], .5)
   EXPECT_DOUBLE_EQ(s->quantiles[2].second, 1.75);  // .25
   EXPECT_DOUBLE_EQ(s->quantiles[7].second, 4.0);   // max
-  EXPECT_FALSE(netkf::analysis::summarize_delays(std::vector<double>{nan}));
+  EXPECT_FALSE(netkf::fit::summarize_delays(std::vector<double>{nan}));
 }
 
 }  // namespace
@@ -321,10 +322,10 @@ TEST(LossFit, DelaySummaryQuantilesInterpolateLikeNumPy) {
 
 namespace {
 
-using netkf::analysis::RecentArrivals;
+using netkf::fit::RecentArrivals;
 
 // The batch fitter's candidate of `family` for `delivered`.
-netkf::analysis::LossFit batch(const std::vector<std::uint8_t>& delivered, LossFamily family) {
+netkf::fit::LossFit batch(const std::vector<std::uint8_t>& delivered, LossFamily family) {
   LossFitOptions o;
   o.family = family;
   return fit_loss_model(delivered, o).fit();

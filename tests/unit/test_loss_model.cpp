@@ -9,7 +9,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "netkf/loss_model.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/loss_model.hpp"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "netkf/lqr.hpp"
+#include "netkf/theory/lqr.hpp"
 
 namespace {
 
@@ -36,10 +36,10 @@ TEST(Lqr, ScalarMatchesClosedForm) {
                        Case{0.5, 2.0, 1.0, 1.0}, Case{1.0, 1.0, 1.0, 1.0}, Case{-3.0, 0.2, 0.01, 5.0}}) {
     SCOPED_TRACE(::testing::Message() << "a=" << c.a << " b=" << c.b << " q=" << c.q << " r=" << c.r);
     const double x = scalar_dare(c.a, c.b, c.q, c.r);
-    const Matrix X = netkf::solve_dare(scalar(c.a), scalar(c.b), scalar(c.q), scalar(c.r));
+    const Matrix X = netkf::theory::solve_dare(scalar(c.a), scalar(c.b), scalar(c.q), scalar(c.r));
     EXPECT_NEAR(X(0, 0), x, 1e-12 * std::max(1.0, x));
     const double gain = c.b * x * c.a / (c.r + c.b * c.b * x);  // (r + b'xb)^{-1} b'xa
-    const Matrix L = netkf::lqr_gain(scalar(c.a), scalar(c.b), scalar(c.q), scalar(c.r));
+    const Matrix L = netkf::theory::lqr_gain(scalar(c.a), scalar(c.b), scalar(c.q), scalar(c.r));
     EXPECT_NEAR(L(0, 0), gain, 1e-12 * std::max(1.0, std::abs(gain)));
     EXPECT_LT(std::abs(c.a - c.b * L(0, 0)), 1.0);
   }
@@ -77,10 +77,10 @@ TEST(Lqr, MatrixCasesAgreeWithTheRiccatiRecursion) {
   for (const Case& c : {Case{A1, Matrix::Identity(3, 3), Matrix::Identity(3, 3), Matrix::Identity(3, 3)},
                         Case{A2, B2, 20.0 * Matrix::Identity(2, 2), scalar(0.5)},
                         Case{A3, B3, Q3, scalar(0.01)}}) {
-    const Matrix X = netkf::solve_dare(c.A, c.B, c.Qx, c.Ru);
+    const Matrix X = netkf::theory::solve_dare(c.A, c.B, c.Qx, c.Ru);
     const Matrix X_ref = riccati_by_recursion(c.A, c.B, c.Qx, c.Ru);
     EXPECT_LT((X - X_ref).norm(), 1e-9 * X_ref.norm()) << "X =\n" << X << "\nrecursion =\n" << X_ref;
-    const Matrix L = netkf::lqr_gain(c.A, c.B, c.Qx, c.Ru);
+    const Matrix L = netkf::theory::lqr_gain(c.A, c.B, c.Qx, c.Ru);
     ASSERT_EQ(L.rows(), c.B.cols());
     ASSERT_EQ(L.cols(), c.A.rows());
     const Matrix L_ref = (c.Ru + c.B.transpose() * X_ref * c.B).inverse() * c.B.transpose() * X_ref * c.A;
@@ -91,7 +91,7 @@ TEST(Lqr, MatrixCasesAgreeWithTheRiccatiRecursion) {
 
 std::string invalid_argument_of(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix& Ru) {
   try {
-    netkf::lqr_gain(A, B, Qx, Ru);
+    netkf::theory::lqr_gain(A, B, Qx, Ru);
   } catch (const std::invalid_argument& e) {
     return e.what();
   }

@@ -8,14 +8,14 @@
 #include <vector>
 
 #include "../validation/theory_systems.hpp"
-#include "netkf/analysis/arrival_groups.hpp"
-#include "netkf/analysis/markov.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/analysis/stability.hpp"
-#include "netkf/random.hpp"
+#include "netkf/support/random.hpp"
+#include "netkf/theory/arrival_groups.hpp"
+#include "netkf/theory/markov.hpp"
+#include "netkf/theory/operating_point.hpp"
+#include "netkf/theory/report.hpp"
+#include "netkf/theory/stability.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 using netkf::testing::mat;
 using netkf::testing::sensor;
@@ -280,4 +280,4 @@ TEST(ManySensors, ManyObservationClassesDecideByBounds) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory

@@ -9,8 +9,8 @@
 #include <utility>
 #include <vector>
 
-#include "netkf/monte_carlo.hpp"
-#include "netkf/progress.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/support/progress.hpp"
 #include "../validation/theory_systems.hpp"
 
 namespace netkf {
@@ -95,7 +95,7 @@ TEST(MonteCarlo, RejectsEmptyRuns) {
   EXPECT_THROW(run_monte_carlo(netkf::testing::sinopoli_scalar(0.6), o), std::invalid_argument);
 }
 
-// Progress (netkf/progress.hpp): what the CLI's bar is drawn from.
+// Progress (netkf/support/progress.hpp): what the CLI's bar is drawn from.
 struct ProgressLog {
   std::mutex mutex;
   std::vector<std::pair<std::int64_t, std::int64_t>> calls;

@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "netkf/gaussian.hpp"
 #include "netkf/nodes/plant_simulator.hpp"
+#include "netkf/support/gaussian.hpp"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include <set>
 #include <vector>
 
-#include "netkf/random.hpp"
+#include "netkf/support/random.hpp"
 
 namespace {
 

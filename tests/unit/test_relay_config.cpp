@@ -1,11 +1,12 @@
-// A `netkf relay` file (netkf/relay_config.hpp, docs/relay.md): what it reads, and each mistake
+// A `netkf relay` file (netkf/relay/relay_config.hpp, docs/relay.md): what it reads, and each mistake
 // named at its line and column, as the scenario loader names a scenario's.
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "netkf/relay_config.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/relay/relay_config.hpp"
 
 namespace {
 

@@ -13,11 +13,12 @@
 #include <utility>
 #include <vector>
 
-#include "netkf/link_trace.hpp"
-#include "netkf/random.hpp"
-#include "netkf/relay_config.hpp"
-#include "netkf/relay_links.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/relay/relay_config.hpp"
+#include "netkf/relay/relay_links.hpp"
+#include "netkf/support/random.hpp"
 
 namespace {
 
@@ -112,7 +113,7 @@ TEST(RelayLinks, ADelayedLinkHoldsDeliveredSamplesOnly) {
 TEST(RelayLinks, ReportsLifetimeCountsTheRecentFitAndTheLastRequestAsAChannelLinkDoes) {
   RelayLinks links({{"rt/a", BernoulliLink{0.3}}}, 4);
   std::uint64_t dropped = 0;
-  netkf::analysis::RecentArrivals independent;  // the channel's window, fed by hand from the fates
+  netkf::fit::RecentArrivals independent;  // the channel's window, fed by hand from the fates
   for (int i = 0; i < 300; ++i) {
     const bool d = !links.on_sample("rt/a")->delivered;
     dropped += d ? 1 : 0;

@@ -6,7 +6,7 @@
 #include <unistd.h>
 
 #include "test_paths.hpp"
-#include "netkf/analysis/operating_point.hpp"
+#include "netkf/theory/operating_point.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,8 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "netkf/input_file.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/input_file.hpp"
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
@@ -208,7 +208,7 @@ TEST(ScenarioErrors, DirectoryIsReported) {
   EXPECT_THAT(error_of([] { netkf::load_scenario_file(kData); }), HasSubstr("is a directory"));
 }
 
-// Inputs are read bounded (netkf/input_file.hpp): a device or a FIFO is refused by its kind,
+// Inputs are read bounded (netkf/support/input_file.hpp): a device or a FIFO is refused by its kind,
 // at once (it used to be read until memory ran out, or to wait for a writer), and so is a file
 // larger than a scenario may be.
 TEST(ScenarioErrors, DevicesFifosAndHugeFilesAreRefusedUnread) {
@@ -512,15 +512,15 @@ TEST(DefaultScenario, IsTheDemoTheDesignAsksFor) {
   // The demo: stable as configured, and link 2 is critical. Degrading it to loss 0.97
   // (the README's walk-through) crosses the boundary; 0.9 does not (the criterion
   // crosses 1 at loss 0.914).
-  const auto configured = netkf::analysis::assess_configured_links(s);
-  EXPECT_EQ(configured.stable, netkf::analysis::Verdict::yes);
+  const auto configured = netkf::theory::assess_configured_links(s);
+  EXPECT_EQ(configured.stable, netkf::theory::Verdict::yes);
   ASSERT_TRUE(configured.markov_criterion);
   EXPECT_LT(*configured.markov_criterion, 0.5);
   netkf::Scenario degraded = s;
   degraded.sensors[1].link = netkf::BernoulliLink{0.97};
-  EXPECT_EQ(netkf::analysis::assess_configured_links(degraded).stable, netkf::analysis::Verdict::no);
+  EXPECT_EQ(netkf::theory::assess_configured_links(degraded).stable, netkf::theory::Verdict::no);
   degraded.sensors[1].link = netkf::BernoulliLink{0.9};
-  EXPECT_EQ(netkf::analysis::assess_configured_links(degraded).stable, netkf::analysis::Verdict::yes);
+  EXPECT_EQ(netkf::theory::assess_configured_links(degraded).stable, netkf::theory::Verdict::yes);
 }
 
 // ---------------------------------------------------------------------------------

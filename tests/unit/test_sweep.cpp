@@ -14,8 +14,8 @@
 #include "netkf/cli/sweep/sweep_spec.hpp"
 #include "sweep_table.hpp"
 #include "test_paths.hpp"
-#include "netkf/random.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/random.hpp"
 
 namespace netkf::cli::sweep {
 namespace {

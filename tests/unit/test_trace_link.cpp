@@ -16,12 +16,14 @@
 #include <unistd.h>
 #include <vector>
 
-#include "netkf/link.hpp"
-#include "netkf/link_trace.hpp"
-#include "netkf/nodes/channel_links.hpp"
-#include "netkf/scenario.hpp"
 #include "netkf/cli/recording/mcap_writer.hpp"
 #include "netkf/cli/recording/trace_extract.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_trace.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/nodes/channel_links.hpp"
 
 namespace {
 

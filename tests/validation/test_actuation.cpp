@@ -1,4 +1,4 @@
-// The actuation link's theory (core/include/netkf/analysis/actuation.hpp) against independent
+// The actuation link's theory (core/include/netkf/theory/actuation.hpp) against independent
 // expectations: the scalar closed forms of Schenato et al. 2007 (zeroing actuator: mean-square
 // stable iff ν̄(a − bℓ)² + (1 − ν̄)a² < 1; the optimal controller's critical rate 1 − 1/a²; the
 // scalar control Riccati equation solved as a quadratic), and Monte Carlo simulations of the
@@ -10,9 +10,9 @@
 #include <random>
 #include <vector>
 
-#include "netkf/analysis/actuation.hpp"
-#include "netkf/lqr.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/theory/actuation.hpp"
+#include "netkf/theory/lqr.hpp"
 
 namespace {
 
@@ -22,28 +22,28 @@ using netkf::LinkModel;
 using netkf::Matrix;
 using netkf::OnLoss;
 using netkf::Vector;
-namespace analysis = netkf::analysis;
+namespace theory = netkf::theory;
 
 Matrix scalar(double v) { return Matrix::Constant(1, 1, v); }
 
 TEST(ActuationTheory, ZeroOnLossRadiusIsTheScalarClosedForm) {
   const double a = 1.3, b = 1.0, l = 1.0;  // a − bℓ = 0.3
-  const auto modes = analysis::actuation_modes(scalar(a), scalar(b), scalar(l), OnLoss::zero);
+  const auto modes = theory::actuation_modes(scalar(a), scalar(b), scalar(l), OnLoss::zero);
   for (double nu : {0.0, 0.2, 0.5, 0.7, 0.9, 1.0}) {
     const double closed_form = nu * (a - b * l) * (a - b * l) + (1.0 - nu) * a * a;
-    EXPECT_NEAR(analysis::mss_radius(modes, BernoulliLink{1.0 - nu}), closed_form, 1e-12) << "nu " << nu;
+    EXPECT_NEAR(theory::mss_radius(modes, BernoulliLink{1.0 - nu}), closed_form, 1e-12) << "nu " << nu;
   }
   // ν_c: the closed form equal to 1.
   const double critical = (a * a - 1.0) / (a * a - (a - b * l) * (a - b * l));
-  const auto found = analysis::actuation_critical_rate(modes, BernoulliLink{0.5});
+  const auto found = theory::actuation_critical_rate(modes, BernoulliLink{0.5});
   ASSERT_TRUE(found.rate.has_value()) << found.reason;
   EXPECT_NEAR(*found.rate, critical, 1e-8);
 }
 
 TEST(ActuationTheory, AStablePlantWithAStableLoopIsStableAtEveryRate) {
   // Zero on loss, a² < 1 and (a − bℓ)² < 1: the closed form is < 1 for every ν̄, ν_c = 0.
-  const auto modes = analysis::actuation_modes(scalar(0.9), scalar(1.0), scalar(0.5), OnLoss::zero);
-  const auto found = analysis::actuation_critical_rate(modes, BernoulliLink{0.5});
+  const auto modes = theory::actuation_modes(scalar(0.9), scalar(1.0), scalar(0.5), OnLoss::zero);
+  const auto found = theory::actuation_critical_rate(modes, BernoulliLink{0.5});
   ASSERT_TRUE(found.rate.has_value()) << found.reason;
   EXPECT_EQ(*found.rate, 0.0);
 }
@@ -76,9 +76,9 @@ Estimate monte_carlo_second_moment(double a, double b, double l, OnLoss on_loss,
 }
 
 // The same from the second-moment operator: Y_i = E[z z' 1{chain in i}], z = x (zero) or [x; u^a_{-1}] (hold).
-double operator_second_moment(const analysis::ActuationModes& modes, const LinkModel& link,
+double operator_second_moment(const theory::ActuationModes& modes, const LinkModel& link,
                               const std::vector<double>& initial_state_probability, int steps) {
-  const Matrix op = analysis::second_moment_operator(modes, link);
+  const Matrix op = theory::second_moment_operator(modes, link);
   const Eigen::Index N = modes.delivered.rows();
   Vector y = Vector::Zero(op.rows());
   for (std::size_t i = 0; i < initial_state_probability.size(); ++i) {
@@ -95,7 +95,7 @@ double operator_second_moment(const analysis::ActuationModes& modes, const LinkM
 TEST(ActuationTheory, HoldSecondMomentMatchesMonteCarloOfTheLoop) {
   const double a = 1.2, b = 1.0, l = 0.9, nu = 0.6;
   const int steps = 12, runs = 400000;
-  const auto modes = analysis::actuation_modes(scalar(a), scalar(b), scalar(l), OnLoss::hold);
+  const auto modes = theory::actuation_modes(scalar(a), scalar(b), scalar(l), OnLoss::hold);
   const double theory = operator_second_moment(modes, BernoulliLink{1.0 - nu}, {1.0}, steps);
   const Estimate mc = monte_carlo_second_moment(
       a, b, l, OnLoss::hold, steps, runs,
@@ -109,13 +109,13 @@ TEST(ActuationTheory, HoldSecondMomentMatchesMonteCarloOfTheLoop) {
 }
 
 TEST(ActuationTheory, GilbertElliottSecondMomentMatchesMonteCarloOfTheLoop) {
-  // The chain moves, then the input's fate is drawn in the state entered (netkf/loss_model.hpp).
+  // The chain moves, then the input's fate is drawn in the state entered (netkf/links/loss_model.hpp).
   const GilbertElliottLink ge{.p = 0.2, .r = 0.5, .loss_good = 0.05, .loss_bad = 0.6};
   const double a = 1.1, b = 1.0, l = 0.8;
   const int steps = 8, runs = 400000;
   const double pi_bad = ge.p / (ge.p + ge.r);
   for (OnLoss on_loss : {OnLoss::zero, OnLoss::hold}) {
-    const auto modes = analysis::actuation_modes(scalar(a), scalar(b), scalar(l), on_loss);
+    const auto modes = theory::actuation_modes(scalar(a), scalar(b), scalar(l), on_loss);
     const double theory = operator_second_moment(modes, ge, {1.0 - pi_bad, pi_bad}, steps);
     const Estimate mc = monte_carlo_second_moment(
         a, b, l, on_loss, steps, runs,
@@ -138,7 +138,7 @@ TEST(ActuationTheory, OptimalControllerCriticalRateIsOneMinusOneOverASquared) {
   // Schenato et al. 2007 (and the TCP-case paper): for B square and invertible the optimal
   // controller's critical rate is ν_c = 1 − 1/α², where both bounds meet.
   const double a = 1.25;
-  const auto rates = analysis::optimal_control_rates(scalar(a), scalar(1.0), scalar(1.0), scalar(0.5),
+  const auto rates = theory::optimal_control_rates(scalar(a), scalar(1.0), scalar(1.0), scalar(0.5),
                                                      /*use_lmi=*/false);
   EXPECT_NEAR(rates.lower, 1.0 - 1.0 / (a * a), 1e-12);
   ASSERT_TRUE(rates.upper_iteration.has_value());
@@ -151,14 +151,14 @@ TEST(ActuationTheory, LossyControlRiccatiIsTheScalarQuadratic) {
   for (double nu : {0.5, 0.7, 0.95, 1.0}) {
     const double A2 = b * b * (1.0 - a * a + nu * a * a), B1 = r * (1.0 - a * a) - q * b * b, C0 = -q * r;
     const double S = (-B1 + std::sqrt(B1 * B1 - 4.0 * A2 * C0)) / (2.0 * A2);
-    const auto solved = netkf::solve_lossy_dare(scalar(a), scalar(b), scalar(q), scalar(r), nu);
+    const auto solved = netkf::theory::solve_lossy_dare(scalar(a), scalar(b), scalar(q), scalar(r), nu);
     ASSERT_TRUE(solved.has_value()) << "nu " << nu;
     EXPECT_NEAR((*solved)(0, 0), S, 1e-8 * S) << "nu " << nu;
-    const Matrix L = netkf::lossy_lqr_gain(scalar(a), scalar(b), scalar(q), scalar(r), nu);
+    const Matrix L = netkf::theory::lossy_lqr_gain(scalar(a), scalar(b), scalar(q), scalar(r), nu);
     EXPECT_NEAR(L(0, 0), b * S * a / (b * b * S + r), 1e-8) << "nu " << nu;
   }
   // Below ν_c = 1 − 1/a² = 0.36 there is no solution.
-  EXPECT_FALSE(netkf::solve_lossy_dare(scalar(a), scalar(b), scalar(q), scalar(r), 0.3).has_value());
+  EXPECT_FALSE(netkf::theory::solve_lossy_dare(scalar(a), scalar(b), scalar(q), scalar(r), 0.3).has_value());
 }
 
 TEST(ActuationTheory, LongRunCostMatchesMonteCarloOfTheLoopWithItsState) {
@@ -166,9 +166,9 @@ TEST(ActuationTheory, LongRunCostMatchesMonteCarloOfTheLoopWithItsState) {
   // applied) over a long run of the noisy scalar loop.
   const double a = 1.2, b = 1.0, l = 0.8, q = 0.3, qx = 1.0, ru = 0.5, nu = 0.75;
   for (OnLoss on_loss : {OnLoss::zero, OnLoss::hold}) {
-    const auto modes = analysis::actuation_modes(scalar(a), scalar(b), scalar(l), on_loss);
+    const auto modes = theory::actuation_modes(scalar(a), scalar(b), scalar(l), on_loss);
     const auto model =
-        analysis::actuation_cost_model(scalar(a), scalar(q), modes, BernoulliLink{1.0 - nu}, scalar(qx), scalar(ru));
+        theory::actuation_cost_model(scalar(a), scalar(q), modes, BernoulliLink{1.0 - nu}, scalar(qx), scalar(ru));
     ASSERT_TRUE(model.has_value());
     std::mt19937_64 rng(on_loss == OnLoss::zero ? 21 : 22);
     std::normal_distribution<double> noise(0.0, std::sqrt(q));
@@ -201,7 +201,7 @@ TEST(ActuationTheory, RegionOfTheScalarLoopIsTheProductOfTheClosedForms) {
   const netkf::Scenario scenario = netkf::parse_scenario(text, "region.yaml");
   const double gamma_c = 1.0 - 1.0 / (a * a);
   const double nu_c = (a * a - 1.0) / (a * a - (a - b * l) * (a - b * l));
-  const auto region = analysis::actuation_region(scenario, 4, 11);
+  const auto region = theory::actuation_region(scenario, 4, 11);
   EXPECT_EQ(region.sensor_id, 4);
   ASSERT_TRUE(region.gamma_lower && region.gamma_upper);
   EXPECT_NEAR(*region.gamma_lower, gamma_c, 1e-5);
@@ -209,11 +209,11 @@ TEST(ActuationTheory, RegionOfTheScalarLoopIsTheProductOfTheClosedForms) {
   ASSERT_EQ(region.points.size(), 11u);
   for (const auto& p : region.points) {
     if (p.gamma < gamma_c - 1e-9) {
-      EXPECT_EQ(p.estimator, analysis::Verdict::no) << p.gamma;
+      EXPECT_EQ(p.estimator, theory::Verdict::no) << p.gamma;
       EXPECT_EQ(p.nu_lower, 1.0) << p.gamma;  // no ν̄ makes the loop stable
       EXPECT_FALSE(p.nu_upper) << p.gamma;
     } else if (p.gamma > gamma_c + 1e-9) {
-      EXPECT_EQ(p.estimator, analysis::Verdict::yes) << p.gamma;
+      EXPECT_EQ(p.estimator, theory::Verdict::yes) << p.gamma;
       EXPECT_NEAR(p.nu_lower, nu_c, 1e-8) << p.gamma;
       ASSERT_TRUE(p.nu_upper) << p.gamma;
       EXPECT_NEAR(*p.nu_upper, nu_c, 1e-8) << p.gamma;

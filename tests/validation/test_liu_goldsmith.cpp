@@ -5,13 +5,13 @@
 
 #include <cmath>
 
-#include "netkf/analysis/critical_rate.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/analysis/riccati.hpp"
+#include "netkf/theory/critical_rate.hpp"
+#include "netkf/theory/operating_point.hpp"
+#include "netkf/theory/report.hpp"
+#include "netkf/theory/riccati.hpp"
 #include "theory_systems.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 
 TEST(LiuGoldsmith, Case1InvertibleSensorsBoundsCoincide) {
@@ -119,4 +119,4 @@ TEST(LiuGoldsmith, TwoSensorMapWithOneSensorAlwaysLostIsSinopoli) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory

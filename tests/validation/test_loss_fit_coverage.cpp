@@ -15,13 +15,14 @@
 #include <string>
 #include <vector>
 
-#include "netkf/analysis/loss_fit.hpp"
-#include "netkf/loss_model.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/loss_model.hpp"
 
 namespace {
 
-using netkf::analysis::FittedValue;
-using netkf::analysis::LossFamily;
+using netkf::fit::FittedValue;
+using netkf::fit::LossFamily;
 
 constexpr int kSeeds = 20;
 constexpr int kMinInside = 16;
@@ -55,9 +56,9 @@ void expect_coverage(LossFamily family, const netkf::GilbertElliottLink& truth, 
   int burst_test_passes = 0;
   for (int s = 0; s < kSeeds; ++s) {
     const auto trace = draw(truth, first_seed + static_cast<std::uint64_t>(s), kSamples);
-    netkf::analysis::LossFitOptions o;
+    netkf::fit::LossFitOptions o;
     o.family = family;
-    const auto fit = netkf::analysis::fit_loss_model(trace, o).fit();
+    const auto fit = netkf::fit::fit_loss_model(trace, o).fit();
     for (const auto& v : fit.parameters)
       if (v.free && inside(v, truths_at(values, v.name))) ++hits[v.name];
     if (inside(fit.loss, truths_at(values, "loss"))) ++hits["loss"];
@@ -100,9 +101,9 @@ TEST(LossFitCoverage, BernoulliClosedForm) {
   int hits = 0, burst_passes = 0;
   for (int s = 0; s < kSeeds; ++s) {
     const auto trace = draw(truth, 4000 + static_cast<std::uint64_t>(s), kSamples);
-    netkf::analysis::LossFitOptions o;
+    netkf::fit::LossFitOptions o;
     o.family = LossFamily::bernoulli;
-    const auto fit = netkf::analysis::fit_loss_model(trace, o).fit();
+    const auto fit = netkf::fit::fit_loss_model(trace, o).fit();
     if (inside(fit.loss, truth.loss)) ++hits;
     if (fit.bursts.p_value && *fit.bursts.p_value >= 0.01) ++burst_passes;
   }
@@ -121,7 +122,7 @@ TEST(LossFitCoverage, IidTracesAreRarelyCalledBursty) {
   // The 4-parameter fit must lose to bernoulli on AIC in as many.
   int not_bursty = 0, bernoulli_beats_ge = 0;
   for (int s = 0; s < kSeeds; ++s) {
-    const auto r = netkf::analysis::fit_loss_model(draw(netkf::BernoulliLink{0.2}, 5000 + static_cast<std::uint64_t>(s), kSamples));
+    const auto r = netkf::fit::fit_loss_model(draw(netkf::BernoulliLink{0.2}, 5000 + static_cast<std::uint64_t>(s), kSamples));
     ASSERT_EQ(r.candidates.size(), 4u);
     if (r.fit().family == LossFamily::bernoulli) ++not_bursty;
     if (r.candidates[3].aic > r.candidates[0].aic) ++bernoulli_beats_ge;

@@ -9,15 +9,15 @@
 #include <string>
 #include <utility>
 
-#include "netkf/analysis/markov.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/loss_model.hpp"
-#include "netkf/monte_carlo.hpp"
-#include "netkf/random.hpp"
+#include "netkf/links/loss_model.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/support/random.hpp"
+#include "netkf/theory/markov.hpp"
+#include "netkf/theory/operating_point.hpp"
+#include "netkf/theory/report.hpp"
 #include "theory_systems.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 using netkf::testing::mat;
 
@@ -143,4 +143,4 @@ TEST(Markov, JordanBlockIsReportedAsNotApplicable) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory

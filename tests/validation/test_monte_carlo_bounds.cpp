@@ -4,17 +4,17 @@
 
 #include <cmath>
 
-#include "netkf/analysis/report.hpp"
-#include "netkf/monte_carlo.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/theory/report.hpp"
 #include "theory_systems.hpp"
 
 namespace netkf {
 namespace {
 
 void expect_between_bounds(const Scenario& s, int runs, int steps) {
-  analysis::AnalyzeOptions options;
+  theory::AnalyzeOptions options;
   options.use_lmi = false;
-  const auto bounds = analysis::analyze(s, options);
+  const auto bounds = theory::analyze(s, options);
   ASSERT_TRUE(bounds.lower_trace && bounds.upper_trace);
   MonteCarloOptions o;
   o.runs = runs;

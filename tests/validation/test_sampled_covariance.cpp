@@ -10,11 +10,11 @@
 
 #include <cmath>
 
-#include "netkf/analysis/report.hpp"
-#include "netkf/analysis/sampled_covariance.hpp"
+#include "netkf/theory/report.hpp"
+#include "netkf/theory/sampled_covariance.hpp"
 #include "theory_systems.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 using netkf::testing::mat;
 using netkf::testing::sensor;
@@ -101,4 +101,4 @@ TEST(SampledCovariance, ARunThatDivergesGivesNoEstimate) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory

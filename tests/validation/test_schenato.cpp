@@ -28,8 +28,8 @@
 #include <tuple>
 #include <vector>
 
-#include "netkf/analysis/actuation.hpp"
-#include "netkf/lqr.hpp"
+#include "netkf/theory/actuation.hpp"
+#include "netkf/theory/lqr.hpp"
 
 namespace {
 
@@ -37,7 +37,7 @@ using netkf::BernoulliLink;
 using netkf::Matrix;
 using netkf::OnLoss;
 using netkf::SensorSpec;
-namespace analysis = netkf::analysis;
+namespace theory = netkf::theory;
 
 Matrix scalar(double v) { return Matrix::Constant(1, 1, v); }
 
@@ -46,28 +46,28 @@ Matrix scalar(double v) { return Matrix::Constant(1, 1, v); }
 struct LibraryBounds {
   double lower = 0.0;
   double upper = 0.0;
-  analysis::CostModel model;
-  analysis::FilteredCovarianceBounds pi;
+  theory::CostModel model;
+  theory::FilteredCovarianceBounds pi;
   Matrix gain;
 };
 std::optional<LibraryBounds> library_bounds(const Matrix& A, const Matrix& B, const Matrix& C, const Matrix& Q,
                                             const Matrix& R, const Matrix& W, const Matrix& U, double gamma,
                                             double nu) {
-  if (!netkf::solve_lossy_dare(A, B, W, U, nu)) return std::nullopt;
+  if (!netkf::theory::solve_lossy_dare(A, B, W, U, nu)) return std::nullopt;
   LibraryBounds out;
-  out.gain = netkf::lossy_lqr_gain(A, B, W, U, nu);
-  const auto modes = analysis::actuation_modes(A, B, out.gain, OnLoss::zero);
-  const auto model = analysis::actuation_cost_model(A, Q, modes, BernoulliLink{1.0 - nu}, W, U);
+  out.gain = netkf::theory::lossy_lqr_gain(A, B, W, U, nu);
+  const auto modes = theory::actuation_modes(A, B, out.gain, OnLoss::zero);
+  const auto model = theory::actuation_cost_model(A, Q, modes, BernoulliLink{1.0 - nu}, W, U);
   SensorSpec sensor;
   sensor.C = C;
   sensor.R = R;
   sensor.link = BernoulliLink{1.0 - gamma};
   const std::vector<SensorSpec> sensors{sensor};
-  const auto pi = analysis::filtered_covariance_bounds(A, Q, sensors);
+  const auto pi = theory::filtered_covariance_bounds(A, Q, sensors);
   if (!model || !pi) return std::nullopt;
   out.model = *model;
   out.pi = *pi;
-  std::tie(out.lower, out.upper) = analysis::cost_bounds(*model, *pi);
+  std::tie(out.lower, out.upper) = theory::cost_bounds(*model, *pi);
   return out;
 }
 
@@ -122,7 +122,7 @@ TEST(ActuationSchenato, ScalarStabilityRegionIsTheProductOfTheCriticalRates) {
   };
   const double critical = 1.0 - 1.0 / (a * a);
   EXPECT_NEAR(critical, 0.36, 1e-15);
-  EXPECT_NEAR(analysis::optimal_control_rates(scalar(a), one, one, one, /*use_lmi=*/false).lower, critical, 1e-12);
+  EXPECT_NEAR(theory::optimal_control_rates(scalar(a), one, one, one, /*use_lmi=*/false).lower, critical, 1e-12);
   for (double other : {0.4, 0.7, 1.0}) {
     EXPECT_TRUE(finite(critical + 0.02, other)) << "γ̄ just above, ν̄ " << other;
     EXPECT_FALSE(finite(critical - 0.02, other)) << "γ̄ just below, ν̄ " << other;

@@ -5,14 +5,14 @@
 
 #include <cmath>
 
-#include "netkf/analysis/critical_rate.hpp"
-#include "netkf/analysis/lmi.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/analysis/report.hpp"
-#include "netkf/analysis/riccati.hpp"
+#include "netkf/theory/critical_rate.hpp"
+#include "netkf/theory/lmi.hpp"
+#include "netkf/theory/operating_point.hpp"
+#include "netkf/theory/report.hpp"
+#include "netkf/theory/riccati.hpp"
 #include "theory_systems.hpp"
 
-namespace netkf::analysis {
+namespace netkf::theory {
 namespace {
 using netkf::testing::mat;
 
@@ -153,4 +153,4 @@ TEST(Sinopoli, StaticGainStabilityThresholds) {
 }
 
 }  // namespace
-}  // namespace netkf::analysis
+}  // namespace netkf::theory

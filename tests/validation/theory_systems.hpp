@@ -3,7 +3,7 @@
 #include <initializer_list>
 #include <vector>
 
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::testing {
 

@@ -1,9 +1,10 @@
 #!/usr/bin/python3
-"""The walls between the CLI's rooms hold (tests/walls/CMakeLists.txt).
+"""The walls between the rooms hold (tests/walls/CMakeLists.txt).
 
 1. A probe that includes another room's public header builds (the control: the probe's set-up
    is right, so the next failure means the wall).
-2. A probe that includes another room's private header does not: the compiler cannot find it.
+2. A probe that includes another room's private header does not: the compiler cannot find it
+   (a CLI room's, and a core room's from a target that links netkf_core).
 3. No source or header of the project's rooms climbs out of its folder with a relative include.
 
 Usage: check_walls.py BUILD_DIR SOURCE_DIR
@@ -30,6 +31,11 @@ def main():
         failures.append("another room's private header (domain_guard.hpp) was found: the wall is open")
     elif not re.search(r"domain_guard\.hpp: No such file", out):
         failures.append("the private probe failed for another reason than the wall:\n" + out[-2000:])
+    rc, out = build(build_dir, "netkf_wall_probe_core_private")
+    if rc == 0:
+        failures.append("a core room's private header (link_detail.hpp) was found: the wall is open")
+    elif not re.search(r"link_detail\.hpp: No such file", out):
+        failures.append("the core private probe failed for another reason than the wall:\n" + out[-2000:])
     climbing = re.compile(r'#include\s+"\.\./')
     for room in ["cli", "core", "dds", "node_main", "plant_node", "sensor_node", "channel_emulator",
                  "estimator_node", "python/bindings"]:

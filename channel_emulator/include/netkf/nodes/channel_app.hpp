@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "netkf/dds/participant.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/nodes/channel_links.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
 

@@ -11,12 +11,13 @@
 #include <utility>
 #include <vector>
 
-#include "netkf/analysis/recent_loss_fit.hpp"
-#include "netkf/loss_model.hpp"
+#include "netkf/fit/recent_loss_fit.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/loss_model.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
 
@@ -64,6 +65,9 @@ class ChannelLinks {
   std::vector<LinkStatus> statuses() const;
   /// One link's status; nullopt for an unknown link.
   std::optional<LinkStatus> status(int sensor_id) const;
+  /// The link as it is now, without its statistics (status() also fits its recent samples);
+  /// nullopt for an unknown link.
+  std::optional<LinkSpec> link(int sensor_id) const;
   /// The deadline a link's delays are judged by (the estimator's; the actuation link's: the
   /// plant's next tick); nullopt for an unknown link.
   std::optional<double> deadline_ms(int sensor_id) const;
@@ -93,7 +97,7 @@ class ChannelLinks {
     std::optional<std::uint64_t> unjournaled_request;  // applied, period not yet known
     std::optional<Ramp> ramp;
     std::int64_t samples_seen = 0;
-    analysis::RecentArrivals recent;  // emptied with `stats`
+    fit::RecentArrivals recent;  // emptied with `stats`
     // A trace link's period 0: the sample of period k gets the trace's row offset + (k − trace_start).
     std::int64_t trace_start = 0;
     bool trace_restart = false;  // a change made it a (new) trace link: its start is the next sample's period

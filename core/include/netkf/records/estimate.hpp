@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "netkf/kalman_filter.hpp"
-#include "netkf/types.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/support/types.hpp"
 
 namespace netkf {
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-#include "netkf/link.hpp"
+#include "netkf/links/link.hpp"
 
 namespace netkf {
 

@@ -7,10 +7,11 @@
 #include <optional>
 #include <string>
 
-#include "netkf/analysis/recent_loss_fit.hpp"
-#include "netkf/link.hpp"
-#include "netkf/loss_model.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/fit/recent_loss_fit.hpp"
+#include "netkf/links/link.hpp"
+#include "netkf/links/link_statistics.hpp"
+#include "netkf/links/loss_model.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf {
 
@@ -33,7 +34,7 @@ struct LinkStatus {
   std::uint64_t last_request_id = 0;  // the last change request handled for this link (0: none)
   std::string rejection_reason;       // why that request was refused (empty when it was applied)
   /// The model the link's last samples show (recent_loss_fit.hpp; none before its first sample).
-  std::optional<analysis::RecentLossFit> recent_fit;
+  std::optional<fit::RecentLossFit> recent_fit;
   /// A link of `netkf relay` (docs/relay.md): the topic it relays (sensor_id is then
   /// relay_topic_link_id of it); empty for a channel's link.
   std::string topic;

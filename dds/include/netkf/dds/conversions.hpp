@@ -8,18 +8,19 @@
 #include <string>
 #include <vector>
 
-#include "netkf/analysis/recent_loss_fit.hpp"
+#include "netkf/dds/wire.hpp"
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/fit/recent_loss_fit.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/links/loss_model.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/kalman_filter.hpp"
-#include "netkf/loss_model.hpp"
-#include "netkf/scenario.hpp"
-#include "netkf/types.hpp"
-#include "netkf/dds/wire.hpp"
+#include "netkf/support/types.hpp"
 
 namespace netkf::dds {
 
@@ -93,7 +94,7 @@ LinkStatus from_wire(const wire::LinkStatus& status);
 /// The recent samples' model a status carries; none before the link's first sample, and
 /// ConversionError when it is malformed (unknown family, probabilities outside [0, 1], more
 /// drops than samples).
-std::optional<analysis::RecentLossFit> recent_fit_of(const wire::LinkStatus& status);
+std::optional<fit::RecentLossFit> recent_fit_of(const wire::LinkStatus& status);
 /// The link a status describes (throws ConversionError when it is not a valid link).
 LinkSpec link_of(const wire::LinkStatus& status);
 /// The answer to one link change request.

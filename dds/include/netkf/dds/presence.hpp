@@ -15,7 +15,7 @@
 
 #include "netkf/dds/endpoints.hpp"
 #include "netkf/dds/participant.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::dds {
 

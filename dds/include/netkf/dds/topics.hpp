@@ -10,7 +10,7 @@
 #include <fastdds/rtps/common/SerializedPayload.h>
 
 #include "netkf/dds/wire.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::dds {
 

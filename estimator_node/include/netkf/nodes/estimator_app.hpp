@@ -23,8 +23,8 @@
 #include <string>
 
 #include "netkf/dds/participant.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/nodes/estimator_core.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
 

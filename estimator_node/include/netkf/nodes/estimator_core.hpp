@@ -34,9 +34,9 @@
 #include <utility>
 #include <vector>
 
+#include "netkf/filter/kalman_filter.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/estimate.hpp"
-#include "netkf/kalman_filter.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::nodes {
 
@@ -137,7 +137,7 @@ class EstimatorCore {
   void flush_revisions(std::vector<PeriodEstimate>& out, std::int64_t now_ns);
   /// A sample for the fused period k: kept for a re-run (true) when fuse_within and k is in the ring.
   bool keep_late(int sensor_id, std::uint64_t k, const Vector& y, std::int64_t stamp_ns, std::int64_t now_ns);
-  void remember(const PeriodEstimate& e, const Vector& x_prior, const Matrix& P_prior);
+  void remember(const PeriodEstimate& e, Vector x_prior, Matrix P_prior);
   void open(std::uint64_t k, std::int64_t now_ns);
   /// From the last fused period to the next: with the input the plant applied (acknowledged:
   /// `applied_input`, empty meaning zero), or with its expectation (unacknowledged); the input

@@ -17,7 +17,7 @@
 
 #include "netkf/dds/node_support.hpp"
 #include "netkf/dds/participant.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::node_main {
 

@@ -18,7 +18,7 @@
 #include <memory>
 
 #include "netkf/dds/participant.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::nodes {
 

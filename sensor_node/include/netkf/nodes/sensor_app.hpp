@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "netkf/dds/participant.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::nodes {
 

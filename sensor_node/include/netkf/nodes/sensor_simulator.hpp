@@ -5,8 +5,8 @@
 #include <optional>
 #include <string>
 
-#include "netkf/gaussian.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/support/gaussian.hpp"
 
 namespace netkf::nodes {
 

@@ -10,7 +10,7 @@
 #include <ostream>
 #include <string>
 
-#include "netkf/progress.hpp"
+#include "netkf/support/progress.hpp"
 
 namespace netkf::cli {
 
@@ -37,7 +37,7 @@ class ProgressBar {
   void update(std::int64_t done, std::int64_t total);
   /// Clears the line (once; also done by the destructor).
   void clear();
-  /// A callback for the core's computations (netkf/progress.hpp) that updates this bar.
+  /// A callback for the core's computations (netkf/support/progress.hpp) that updates this bar.
   ProgressCallback callback();
 
  private:

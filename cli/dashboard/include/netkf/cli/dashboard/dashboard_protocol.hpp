@@ -16,7 +16,8 @@
 
 #include "netkf/cli/live/channel_catalogue.hpp"
 #include "netkf/cli/live/live_snapshot.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli::dashboard {
 

@@ -19,13 +19,14 @@
 #include "netkf/cli/dashboard/dashboard_server.hpp"
 #include "netkf/cli/live/live_metrics.hpp"
 #include "netkf/cli/live/live_model.hpp"
+#include "netkf/cli/live/theory_worker.hpp"
+#include "netkf/links/link_keys.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/log_throttle.hpp"
-#include "netkf/cli/live/theory_worker.hpp"
+#include "netkf/support/log_throttle.hpp"
 
 namespace netkf::cli {
 

@@ -22,14 +22,14 @@
 #include "netkf/cli/launch/launch_files.hpp"
 #include "netkf/cli/launch/launch_plan.hpp"
 #include "netkf/cli/launch/launch_supervisor.hpp"
-#include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/launch/outage_watch.hpp"
-#include "netkf/dds/participant.hpp"
-#include "netkf/scenario.hpp"
-#include "netkf/cli/recording/recording.hpp"
 #include "netkf/cli/launch/run_end_watch.hpp"
-#include "netkf/cli/live/run_summary.hpp"
 #include "netkf/cli/launch/run_verdict.hpp"
+#include "netkf/cli/live/live_bus.hpp"
+#include "netkf/cli/live/run_summary.hpp"
+#include "netkf/cli/recording/recording.hpp"
+#include "netkf/dds/participant.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli {
 

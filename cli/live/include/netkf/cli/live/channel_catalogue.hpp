@@ -9,13 +9,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "netkf/cli/live/live_snapshot.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/cli/live/live_snapshot.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::cli::catalogue {
 
@@ -50,7 +50,7 @@ nlohmann::json truth_message(const Truth& truth);
 /// estimator side (late_total, late_fraction, the observed arrival rate over the window).
 nlohmann::json link_status_json(const LinkStatus& link);
 /// A link's recent-samples fit (`recent_fit` of the link status keys, docs/cli.md).
-nlohmann::json recent_fit_json(const analysis::RecentLossFit& fit);
+nlohmann::json recent_fit_json(const fit::RecentLossFit& fit);
 nlohmann::json link_status_message(const LinkView& link);
 /// Recordings: a delivered measurement, and one entry of the channel's link journal (the
 /// link after the change, keys as in link_status_message).

@@ -14,15 +14,16 @@
 #include <optional>
 #include <string>
 
+#include "netkf/dds/presence.hpp"
+#include "netkf/dds/security.hpp"
+#include "netkf/links/link_keys.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_reply.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/dds/presence.hpp"
-#include "netkf/dds/security.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::wire {
 class LinkStatus;

@@ -9,15 +9,15 @@
 #include <string>
 #include <vector>
 
-#include "netkf/records/estimate.hpp"
-#include "netkf/records/link_change.hpp"
-#include "netkf/records/link_status.hpp"
-#include "netkf/records/truth.hpp"
 #include "netkf/cli/live/live_snapshot.hpp"
 #include "netkf/cli/live/observed_rate.hpp"
 #include "netkf/cli/live/period_join.hpp"
 #include "netkf/cli/live/stage_cost.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/records/estimate.hpp"
+#include "netkf/records/link_change.hpp"
+#include "netkf/records/link_status.hpp"
+#include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
 

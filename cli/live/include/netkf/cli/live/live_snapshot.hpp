@@ -6,13 +6,12 @@
 #include <string>
 #include <vector>
 
+#include "netkf/cli/live/observed_rate.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_status.hpp"
-#include "netkf/cli/live/observed_rate.hpp"
-#include "netkf/analysis/critical_rate.hpp"
-#include "netkf/analysis/operating_point.hpp"
-#include "netkf/records/estimate.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/theory/critical_rate.hpp"
+#include "netkf/theory/operating_point.hpp"
 
 namespace netkf::cli {
 
@@ -36,7 +35,7 @@ struct LinkView : LinkStatus {
 /// The theory for one set of arrival rates.
 struct AssessmentView {
   std::vector<double> arrival_rates;  // per sensor, scenario order
-  analysis::OperatingPointAssessment result;
+  theory::OperatingPointAssessment result;
 };
 
 struct TheoryView {
@@ -45,10 +44,10 @@ struct TheoryView {
   AssessmentView configured;                 // the links as configured (Markov criterion for GE links)
   std::optional<AssessmentView> observed;    // i.i.d. at the observed rates since change, once every link has one
   /// late_policy fuse_within: the final estimates' assessment, the links as configured at the
-  /// horizon deadline + D periods (netkf/analysis/report.hpp, FinalEstimateReport); `configured`
+  /// horizon deadline + D periods (netkf/theory/report.hpp, FinalEstimateReport); `configured`
   /// stays the in-time one.
   std::optional<AssessmentView> final_estimate;
-  std::vector<analysis::RegionPoint> region; // two-sensor scenarios: Liu-Goldsmith (λ1, λ2) region
+  std::vector<theory::RegionPoint> region; // two-sensor scenarios: Liu-Goldsmith (λ1, λ2) region
 };
 
 /// A process of the launch, for the views.

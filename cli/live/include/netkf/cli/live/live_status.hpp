@@ -5,15 +5,15 @@
 #include <string>
 #include <vector>
 
-#include "netkf/records/link_status.hpp"
 #include "netkf/cli/live/live_snapshot.hpp"
+#include "netkf/records/link_status.hpp"
 
 namespace netkf::cli {
 
 /// Table of links (used by `ctl status`).
 std::string render_link_table(const std::vector<LinkStatus>& links);
 /// One line: the model a link's recent samples show (LinkStatus::recent_fit).
-std::string describe_recent_fit(const analysis::RecentLossFit& fit);
+std::string describe_recent_fit(const fit::RecentLossFit& fit);
 
 /// Multi-line status text. `theory_pending`: an assessment is being computed.
 std::string render_status(const LiveSnapshot& snapshot, bool theory_pending);

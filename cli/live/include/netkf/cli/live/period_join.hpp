@@ -7,7 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "netkf/types.hpp"
+#include "netkf/support/types.hpp"
 
 namespace netkf::cli {
 

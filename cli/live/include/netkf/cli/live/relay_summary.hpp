@@ -18,8 +18,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "netkf/loss_model.hpp"
 #include "netkf/cli/live/run_summary.hpp"
+#include "netkf/links/loss_model.hpp"
 
 namespace netkf::cli {
 

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <optional>
 
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::cli {
 

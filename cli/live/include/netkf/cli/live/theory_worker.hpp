@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "netkf/cli/live/live_snapshot.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli {
 

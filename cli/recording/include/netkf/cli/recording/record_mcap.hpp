@@ -27,14 +27,14 @@
 #include <string>
 
 #include "netkf/cli/live/live_model.hpp"
+#include "netkf/cli/recording/mcap_writer.hpp"
+#include "netkf/cli/recording/ros2_bag.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/cli/recording/mcap_writer.hpp"
-#include "netkf/cli/recording/ros2_bag.hpp"
-#include "netkf/scenario.hpp"
 
 namespace netkf::cli {
 

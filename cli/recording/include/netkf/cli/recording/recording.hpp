@@ -15,15 +15,15 @@
 #include <string>
 #include <vector>
 
+#include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/recording/record_csv.hpp"
+#include "netkf/cli/recording/record_mcap.hpp"
+#include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
 #include "netkf/records/link_change.hpp"
 #include "netkf/records/link_status.hpp"
 #include "netkf/records/truth.hpp"
-#include "netkf/scenario.hpp"
-#include "netkf/cli/common/output_file.hpp"
-#include "netkf/cli/recording/record_csv.hpp"
-#include "netkf/cli/recording/record_mcap.hpp"
 
 namespace netkf::cli {
 

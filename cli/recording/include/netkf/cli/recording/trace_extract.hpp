@@ -9,8 +9,8 @@
 #include <set>
 #include <string>
 
-#include "netkf/link_trace.hpp"
 #include "netkf/cli/recording/ros2_bag.hpp"
+#include "netkf/links/link_trace.hpp"
 
 namespace netkf::cli {
 

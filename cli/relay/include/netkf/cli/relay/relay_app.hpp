@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "netkf/relay_links.hpp"
-#include "netkf/scenario.hpp"  // TopicNaming
+#include "netkf/model/scenario.hpp"  // TopicNaming
+#include "netkf/relay/relay_links.hpp"
 
 namespace netkf::cli {
 

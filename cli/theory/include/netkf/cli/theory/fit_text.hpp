@@ -6,25 +6,25 @@
 #include <ostream>
 #include <string>
 
-#include "netkf/analysis/loss_fit.hpp"
+#include "netkf/fit/loss_fit.hpp"
 
 namespace netkf::cli {
 
 /// The fitted link as a scenario's `link:` takes it: model and its keys ({model, loss} or
 /// {model, p, r, loss_good, loss_bad}), and, when the trace had delays, the delay as a
 /// normal distribution of its mean and jitter (delay_ms, jitter_ms, delay_distribution).
-nlohmann::json fitted_link_json(const analysis::LossFit& fit, const std::optional<analysis::DelaySummary>& delay);
+nlohmann::json fitted_link_json(const fit::LossFit& fit, const std::optional<fit::DelaySummary>& delay);
 
 /// The same as one line of YAML: "{ model: gilbert_elliott, p: 0.03, r: 0.25, ... }".
-std::string fitted_link_text(const analysis::LossFit& fit, const std::optional<analysis::DelaySummary>& delay);
+std::string fitted_link_text(const fit::LossFit& fit, const std::optional<fit::DelaySummary>& delay);
 
 /// The whole fit: the chosen fit's keys flat (model, its link keys, loss, mean_burst,
 /// stderr, ci95, log_likelihood, aic, gof), `family`, `link` (the pasteable object), `why`,
 /// every candidate, and the delay summary.
-nlohmann::json fit_json(const std::string& trace_name, const analysis::TraceFit& fit,
-                        const std::optional<analysis::DelaySummary>& delay);
+nlohmann::json fit_json(const std::string& trace_name, const fit::TraceFit& fit,
+                        const std::optional<fit::DelaySummary>& delay);
 
-void print_fit(std::ostream& out, const std::string& trace_name, const analysis::TraceFit& fit,
-               const std::optional<analysis::DelaySummary>& delay);
+void print_fit(std::ostream& out, const std::string& trace_name, const fit::TraceFit& fit,
+               const std::optional<fit::DelaySummary>& delay);
 
 }  // namespace netkf::cli

@@ -1,25 +1,25 @@
 #pragma once
 // `netkf analyze S.yaml --link ID=TRACE.csv`: each trace fitted (`auto`, as `netkf fit`),
 // its link substituted into the scenario, and the verdict for it with its margins
-// (netkf/analysis/link_verdict.hpp).
+// (netkf/fit/link_verdict.hpp).
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <ostream>
 #include <string>
 #include <vector>
 
-#include "netkf/analysis/link_verdict.hpp"
-#include "netkf/analysis/loss_fit.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/fit/link_verdict.hpp"
+#include "netkf/fit/loss_fit.hpp"
+#include "netkf/model/scenario.hpp"
 
 namespace netkf::cli {
 
 struct MeasuredLink {
   int link_id = 0;
   std::string trace;
-  analysis::TraceFit fit;
-  std::optional<analysis::DelaySummary> delay;
-  analysis::MeasuredLinkVerdict verdict;
+  fit::TraceFit fit;
+  std::optional<fit::DelaySummary> delay;
+  fit::MeasuredLinkVerdict verdict;
 };
 
 /// Parses each "ID=TRACE.csv", reads and fits the trace and puts the fitted link into

@@ -6,15 +6,15 @@
 #include <optional>
 #include <ostream>
 
-#include "netkf/analysis/report.hpp"
-#include "netkf/monte_carlo.hpp"
-#include "netkf/scenario.hpp"
+#include "netkf/model/scenario.hpp"
+#include "netkf/sim/monte_carlo.hpp"
+#include "netkf/theory/report.hpp"
 
 namespace netkf::cli {
 
 /// The analysis as JSON, with the region's and the sweep's grids when asked for.
-nlohmann::json analysis_json(const analysis::AnalysisReport& report, bool with_region, bool with_sweep);
-void print_analysis(std::ostream& out, const Scenario& scenario, const analysis::AnalysisReport& report);
+nlohmann::json analysis_json(const theory::AnalysisReport& report, bool with_region, bool with_sweep);
+void print_analysis(std::ostream& out, const Scenario& scenario, const theory::AnalysisReport& report);
 
 nlohmann::json monte_carlo_json(const MonteCarloResult& result);
 void print_monte_carlo(std::ostream& out, const Scenario& scenario, const MonteCarloResult& result);
