@@ -3,6 +3,7 @@
 // "Links"), how a change of some keys applies to a link, and the trace files keys name.
 #include "netkf/links/link.hpp"
 
+#include <memory>
 #include <string>
 #include <variant>
 #include <vector>
