@@ -116,7 +116,7 @@ def test_period_csv_closed_loop_fuse_within_rows_without_estimate(data_dir):
     assert (est["revisions"] > 0).tolist() == [True, False]
 
 
-# The writer's own expected output (tests/unit/test_cli_logic.cpp, PeriodCsv.TruthWithoutEstimateIsARowInOrder
+# The writer's own expected output (tests/unit/cli_recording/test_record_csv.cpp, PeriodCsv.TruthWithoutEstimateIsARowInOrder
 # and PeriodCsv.ClosedLoopRowsCarryTheAppliedInput), read back.
 @pytest.mark.parametrize("text,states,inputs", [
     ("k,t,x0,xhat0,trace_P,fused,late,state,late_samples\n0,0,1,0.5,1,1,0,ok,\n1,0.01,2,,,,,none,\n"

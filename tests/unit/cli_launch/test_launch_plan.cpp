@@ -204,6 +204,80 @@ TEST(LaunchPlan, SensorNiceAppliesToSensorProcessesOnly) {
     EXPECT_EQ(c.spec.nice, c.spec.name == "sensor_node[1]" ? 5 : 0) << c.spec.name;
 }
 
+TEST(LaunchPlan, SensorsAreGroupedInScenarioOrder) {
+  EXPECT_EQ(sensor_process_groups({4, 2, 9}, 1), (std::vector<std::vector<int>>{{4}, {2}, {9}}));
+  EXPECT_EQ(sensor_process_groups({1, 2, 3, 4, 5}, 2), (std::vector<std::vector<int>>{{1, 2}, {3, 4}, {5}}));
+  EXPECT_EQ(sensor_process_groups({1, 2, 3}, 8), (std::vector<std::vector<int>>{{1, 2, 3}}));
+  EXPECT_TRUE(sensor_process_groups({}, 3).empty());
+  EXPECT_THROW(sensor_process_groups({1}, 0), std::invalid_argument);
+  EXPECT_EQ(sensor_process_name({7}), "sensor_node[7]");
+  EXPECT_EQ(sensor_process_name({1, 2}), "sensor_node[1,2]");
+  EXPECT_EQ(sensor_process_name({1, 2, 3}), "sensor_node[1-3]");
+  EXPECT_EQ(sensor_process_name({1, 2, 3, 4, 6, 8, 9, 11, 12, 13}), "sensor_node[1-4,6,8,9,11-13]");
+}
+
+TEST(LaunchPlan, OnlyParsesRolesAndSensorLists) {
+  const std::vector<int> ids{1, 3, 5};
+  auto all = parse_launch_roles("all", ids);
+  EXPECT_TRUE(all.all && all.plant && all.channel && all.estimator);
+  EXPECT_EQ(all.sensor_ids, ids);
+  auto a = parse_launch_roles("plant,sensors", ids);
+  EXPECT_TRUE(a.plant && !a.channel && !a.estimator && !a.all);
+  EXPECT_EQ(a.sensor_ids, ids);
+  auto some = parse_launch_roles("sensors=5,1,channel", ids);
+  EXPECT_EQ(some.sensor_ids, (std::vector<int>{1, 5}));  // in scenario order
+  EXPECT_TRUE(some.channel && !some.plant);
+  EXPECT_EQ(describe_launch_roles(some), "sensors 1,5, channel");
+  EXPECT_EQ(describe_launch_roles(parse_launch_roles("estimator", ids)), "estimator");
+  EXPECT_TRUE(parse_launch_roles("plant,sensors,channel,estimator", ids).all);
+  EXPECT_FALSE(parse_launch_roles("plant,sensors=1,3,channel,estimator", ids).all);
+  auto error_of = [&](const std::string& text) {
+    try {
+      parse_launch_roles(text, ids);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(error_of("plant,sensor").find("unknown role 'sensor'"), std::string::npos);
+  EXPECT_NE(error_of("sensors=2").find("no sensor 2"), std::string::npos);
+  EXPECT_NE(error_of("plant,3").find("unknown role '3'"), std::string::npos);  // an id needs sensors= before it
+  EXPECT_NE(error_of("").find("unknown role ''"), std::string::npos);
+  EXPECT_NE(error_of("sensors=1,x").find("unknown role 'x'"), std::string::npos);
+}
+
+TEST(LaunchPlan, HostsDeriveTheSameRunIdFromScenarioAndDomain) {
+  EXPECT_EQ(derived_run_id(42, 7), derived_run_id(42, 7));
+  EXPECT_NE(derived_run_id(42, 7), derived_run_id(43, 7));
+  EXPECT_NE(derived_run_id(42, 7), derived_run_id(42, 8));
+  EXPECT_NE(derived_run_id(0, 0), 0u);
+}
+
+TEST(SensorGroups, AutoKeepsAtMostTwoSensorProcessesPerCpu) {
+  // One process per sensor up to 2 x CPUs sensors.
+  EXPECT_EQ(auto_sensors_per_process(0, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(3, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(4, 2), 1);
+  EXPECT_EQ(auto_sensors_per_process(8, 4), 1);
+  // Beyond that, the fewest per process that keep ceil(d / K) <= 2 x CPUs.
+  for (unsigned cpus : {1u, 2u, 3u, 8u}) {
+    for (std::size_t d = 1; d <= 300; ++d) {
+      const int k = auto_sensors_per_process(d, cpus);
+      std::vector<int> ids(d);
+      for (std::size_t i = 0; i < d; ++i) ids[i] = static_cast<int>(i + 1);
+      const auto groups = sensor_process_groups(ids, k);
+      EXPECT_LE(groups.size(), 2 * cpus) << d << " sensors, " << cpus << " CPUs";
+      if (k > 1) {
+        EXPECT_GT(sensor_process_groups(ids, k - 1).size(), 2 * cpus) << d << " sensors, " << cpus << " CPUs";
+      }
+    }
+  }
+  EXPECT_EQ(auto_sensors_per_process(8, 2), 2);
+  EXPECT_EQ(auto_sensors_per_process(64, 2), 16);
+  EXPECT_EQ(auto_sensors_per_process(5, 0), 3);  // an unknown CPU count counts as one
+  EXPECT_GE(usable_cpus(), 1u);
+}
+
 // ---------------------------------------------------------------- verdict
 
 RunFacts ran(RunEnd end, std::uint64_t estimates, std::uint64_t fused) {

@@ -11,7 +11,7 @@
 
 #include "netkf/sim/monte_carlo.hpp"
 #include "netkf/support/progress.hpp"
-#include "../validation/theory_systems.hpp"
+#include "validation/theory_systems.hpp"
 
 namespace netkf {
 namespace {

@@ -17,7 +17,7 @@
 #include "netkf/theory/report.hpp"
 #include "netkf/theory/riccati.hpp"
 #include "netkf/theory/stability.hpp"
-#include "../validation/theory_systems.hpp"
+#include "validation/theory_systems.hpp"
 
 namespace netkf::theory {
 namespace {
@@ -172,7 +172,7 @@ TEST(OneVerdict, NoSensorsIsOpenLoopPrediction) {
 
 TEST(OneVerdict, MoreThanSixteenSensorsIsAnAnswer) {
   // 17 lossless sensors of the scalar example: α²(1 − λ)^17 = 0 (Sinopoli Thm 3 with
-  // Liu-Goldsmith's all-lost probability); large networks: tests/unit/test_many_sensors.cpp.
+  // Liu-Goldsmith's all-lost probability); large networks: tests/unit/theory/test_many_sensors.cpp.
   std::vector<SensorSpec> sensors;
   for (int id = 1; id <= 17; ++id) sensors.push_back(netkf::testing::sensor(id, mat({{1.0}}), mat({{1.0}})));
   const auto decision = decide_stability(mat({{1.25}}), mat({{1.0}}), sensors);

@@ -7,7 +7,7 @@
 #include <numbers>
 #include <vector>
 
-#include "../validation/theory_systems.hpp"
+#include "validation/theory_systems.hpp"
 #include "netkf/support/random.hpp"
 #include "netkf/theory/arrival_groups.hpp"
 #include "netkf/theory/markov.hpp"
