@@ -64,8 +64,6 @@ using netkf::LinkSpec;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-
-
 LinkKey word(const std::string& name, const std::string& value) { return {name, value}; }
 LinkKey num(const std::string& name, double value) { return {name, value}; }
 

@@ -36,7 +36,6 @@ class TraceFiles : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-
 // Rows 0..4 delivered 1,0,0,1,1 with delays 3, -, -, 7.5, 2.
 const char* const kTrace =
     "# five rows\n"
@@ -55,7 +54,6 @@ std::string scenario_text(const std::string& link) {
          "sensors:\n"
          "  - { id: 1, C: [[1.0]], R: [[1.0]], link: " + link + " }\n";
 }
-
 
 // The channel replays the trace period for period, and a switch to a model and back
 // restarts the trace at its offset from the period the switch took effect.

@@ -403,7 +403,6 @@ TEST(RunVerdict, ARunThatFailedKeepsItsOwnFailureOverItsChecks) {
   EXPECT_EQ(v.exit, ExitCode::run_failed);
 }
 
-
 // The outages a diverged run is explained by, from what the launch sees.
 using WatchClock = OutageWatch::Clock;
 

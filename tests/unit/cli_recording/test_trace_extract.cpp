@@ -41,7 +41,6 @@ class TraceFiles : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-
 // `netkf trace extract`: the delivered (sensor, period) pairs written here come back as the
 // link's trace, period for period, from a samples CSV and from an MCAP file (written by the
 // project's McapWriter, cut inside its last record as by kill -9).
