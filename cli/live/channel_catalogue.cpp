@@ -236,7 +236,7 @@ std::vector<Channel> make_recording_channels() {
 }
 
 
-// The actuation link's side of a verdict (analysis/actuation.hpp); null without one.
+// The actuation link's side of a verdict (theory/actuation.hpp); null without one.
 json actuation_json(const std::optional<theory::ActuationReport>& a) {
   if (!a) return nullptr;
   return json{{"arrival_rate", number_or_null(a->arrival_rate)},

@@ -41,7 +41,7 @@ struct Theory {
   std::optional<double> trace_V_bar;   // Tr V̄, upper bound
   std::optional<double> critical_margin;  // 1 − Markov criterion (> 0: stable; multi-sensor Thm 7/9)
   // Links with memory (no i.i.d. bound): lim E[Tr P_{k|k−1}] estimated by simulation, ± its
-  // standard error (analysis/sampled_covariance.hpp): an estimate, not a bound.
+  // standard error (core/src/theory/sampled_covariance.hpp): an estimate, not a bound.
   std::optional<double> trace_P_sampled;
   std::optional<double> trace_P_sampled_se;
 };

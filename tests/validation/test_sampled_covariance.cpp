@@ -1,4 +1,4 @@
-// The sampled lim E[Tr P_{k|k-1}] (analysis/sampled_covariance.hpp) against independent
+// The sampled lim E[Tr P_{k|k-1}] (core/src/theory/sampled_covariance.hpp) against independent
 // expectations: closed forms for a scalar plant whose sensor is (almost) noiseless, where
 // P_{k|k-1} = q (1 + a² + … + a^{2J}) with J the number of losses just before k, so the mean
 // is a sum over J's stationary law (derived in docs/validation.md, "Sampled mean covariance"):
@@ -11,7 +11,7 @@
 #include <cmath>
 
 #include "netkf/theory/report.hpp"
-#include "netkf/theory/sampled_covariance.hpp"
+#include "sampled_covariance.hpp"  // theory/ private: the validation sees core/src/theory
 #include "theory_systems.hpp"
 
 namespace netkf::theory {

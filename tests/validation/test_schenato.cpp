@@ -42,7 +42,7 @@ namespace theory = netkf::theory;
 Matrix scalar(double v) { return Matrix::Constant(1, 1, v); }
 
 // The library's J_min, J_max for the optimal TCP-like loop, composed the way `netkf analyze`
-// does (analysis_actuation.cpp): nullopt outside the stability region.
+// does (theory/actuation.cpp): nullopt outside the stability region.
 struct LibraryBounds {
   double lower = 0.0;
   double upper = 0.0;

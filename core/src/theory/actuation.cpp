@@ -1,4 +1,4 @@
-// The control side of a loop closed over a lossy actuation link (see analysis/actuation.hpp).
+// The control side of a loop closed over a lossy actuation link (see theory/actuation.hpp).
 #include "netkf/theory/actuation.hpp"
 
 #include <Eigen/Eigenvalues>

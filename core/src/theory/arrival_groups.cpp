@@ -1,4 +1,4 @@
-// The expected Riccati map for any number of sensors (see analysis/arrival_groups.hpp).
+// The expected Riccati map for any number of sensors (see theory/arrival_groups.hpp).
 #include "netkf/theory/arrival_groups.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -1,4 +1,4 @@
-// Critical arrival rates and stability regions (see analysis/critical_rate.hpp).
+// Critical arrival rates and stability regions (see theory/critical_rate.hpp).
 #include "netkf/theory/critical_rate.hpp"
 
 #include <algorithm>
@@ -6,7 +6,7 @@
 #include <stdexcept>
 
 #include "netkf/theory/arrival_groups.hpp"
-#include "netkf/theory/lmi.hpp"
+#include "lmi.hpp"
 #include "netkf/theory/markov.hpp"
 #include "netkf/theory/riccati.hpp"
 

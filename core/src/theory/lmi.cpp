@@ -1,7 +1,7 @@
-// CSDP wrapper for the stability LMI (see analysis/lmi.hpp).
+// CSDP wrapper for the stability LMI (see core/src/theory/lmi.hpp).
 // CSDP's dual problem is  min a'y  s.t.  Σ y_i A_i − C ⪰ 0  (block-diagonal), i.e. an LMI in
 // y; we put Ψ(Y, Z) − tI, I − Y and 1 − t in three blocks and minimise −t.
-#include "netkf/theory/lmi.hpp"
+#include "lmi.hpp"
 
 #include <fcntl.h>
 #include <unistd.h>

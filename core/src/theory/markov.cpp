@@ -1,4 +1,4 @@
-// Markov-loss stability criterion by the transition-matrix method (see analysis/markov.hpp).
+// Markov-loss stability criterion by the transition-matrix method (see theory/markov.hpp).
 #include "netkf/theory/markov.hpp"
 
 #include "netkf/links/link.hpp"
@@ -225,7 +225,7 @@ struct GroupedBlockResult {
   std::string method;
 };
 
-// The block's rate by observation classes (analysis/markov.hpp).
+// The block's rate by observation classes (theory/markov.hpp).
 GroupedBlockResult grouped_block_rate(const std::vector<CMatrix>& rows, const CMatrix& U_inv,
                                       const std::vector<LinkChain>& links, std::span<const SensorSpec> sensors,
                                       const MarkovOptions& options) {
@@ -377,7 +377,7 @@ void add_block_without_rate(MarkovCriterion& out, EigenBlockCriterion block, con
                         " states: the transition-matrix method (multi-sensor paper Thm 9) needs a periodic block");
 }
 
-// Bounds only (analysis/markov.hpp): decided when the sufficient or necessary side does. False
+// Bounds only (theory/markov.hpp): decided when the sufficient or necessary side does. False
 // when they straddle 1: the block is then listed as undecided and counts in no value.
 bool decide_block_by_bounds(EigenBlockCriterion& block, const GroupedBlockResult& r, BoundsTally& tally,
                             const MarkovOptions& options) {

@@ -1,4 +1,4 @@
-// Theory beside the live network (see analysis/operating_point.hpp).
+// Theory beside the live network (see theory/operating_point.hpp).
 #include "netkf/theory/operating_point.hpp"
 
 #include <algorithm>
@@ -38,7 +38,7 @@ OperatingPointAssessment assess(const Scenario& scenario, const std::vector<Sens
   OperatingPointAssessment out;
   const Matrix& A = scenario.plant.A;
   const Matrix& Q = scenario.plant.Q;
-  // The verdict `netkf analyze` gives for these links (analysis/stability.hpp).
+  // The verdict `netkf analyze` gives for these links (theory/stability.hpp).
   const StabilityDecision decision = decide_stability(A, Q, sensors, scenario.seed);
   out.stable = decision.stable;
   out.reason = decision.reason;

@@ -1,4 +1,4 @@
-// `netkf analyze`: assemble what the papers decide about a scenario (see analysis/report.hpp).
+// `netkf analyze`: assemble what the papers decide about a scenario (see theory/report.hpp).
 #include "netkf/theory/report.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -14,7 +14,7 @@
 #include "netkf/theory/arrival_groups.hpp"
 #include "netkf/theory/markov.hpp"
 #include "netkf/theory/riccati.hpp"
-#include "netkf/theory/sampled_covariance.hpp"
+#include "sampled_covariance.hpp"
 #include "netkf/theory/stability.hpp"
 
 namespace netkf::theory {
@@ -94,7 +94,7 @@ FinalEstimateReport final_estimate_report(const Scenario& configured) {
 
 
 // Links with memory: no i.i.d. bound applies, so where the Markov criterion says stable the
-// mean covariance is estimated by simulation (analysis/sampled_covariance.hpp). Above
+// mean covariance is estimated by simulation (core/src/theory/sampled_covariance.hpp). Above
 // kMaxSampledSensors the runs would cost seconds: not sampled, and the note says so.
 void add_sampled_covariance(AnalysisReport& report, const Scenario& scenario, Verdict stable) {
   constexpr std::size_t kMaxSampledSensors = 64;
@@ -341,7 +341,7 @@ AnalysisReport analyze(const Scenario& configured, const AnalyzeOptions& options
   const Scenario scenario = with_effective_links(configured);
   add_links(report, configured);
   report.spectral_radius = spectral_radius(scenario.plant.A);
-  // The verdict and the bounds it used, as the live status has them (analysis/stability.hpp).
+  // The verdict and the bounds it used, as the live status has them (theory/stability.hpp).
   const StabilityDecision decision =
       decide_stability(scenario.plant.A, scenario.plant.Q, scenario.sensors, scenario.seed);
   const BernoulliRates bernoulli = bernoulli_rates(scenario.sensors);

@@ -1,4 +1,4 @@
-// Expected-covariance maps and their bounds (see analysis/riccati.hpp for the papers' equations).
+// Expected-covariance maps and their bounds (see theory/riccati.hpp for the papers' equations).
 #include "netkf/theory/riccati.hpp"
 
 #include <Eigen/Eigenvalues>

@@ -1,6 +1,6 @@
 // lim E[Tr P_{k|k-1}] by simulating the covariance recursion over the links' loss sequences
-// (see analysis/sampled_covariance.hpp).
-#include "netkf/theory/sampled_covariance.hpp"
+// (see core/src/theory/sampled_covariance.hpp).
+#include "sampled_covariance.hpp"
 
 #include <cmath>
 #include <vector>

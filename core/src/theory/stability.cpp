@@ -1,4 +1,4 @@
-// The one stability verdict (see analysis/stability.hpp).
+// The one stability verdict (see theory/stability.hpp).
 #include "netkf/theory/stability.hpp"
 
 #include <cmath>

@@ -77,7 +77,7 @@ TEST(Analysis, OperatingPointBadInputIsUnknownNotACrash) {
 }
 
 // ---------------------------------------------------------------------------------
-// One verdict: `netkf analyze` and the live status (analysis/stability.hpp).
+// One verdict: `netkf analyze` and the live status (theory/stability.hpp).
 
 // `netkf analyze` and the live status side by side: the same verdict and the same line.
 void expect_one_verdict(const Scenario& s, Verdict expected) {

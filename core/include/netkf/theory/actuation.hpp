@@ -21,7 +21,7 @@
 // Acknowledged inputs (TCP-like): the estimator knows the input applied, the separation
 // principle holds (Schenato et al. 2007, Sec. V; Sinopoli et al., ACC 2005), and x̂_{k|k} moves
 // by the same F_ν driven by the innovations: the closed loop is mean-square stable iff the
-// estimator is (analysis/stability.hpp) and the jump system is. Unacknowledged (UDP-like): the
+// estimator is (theory/stability.hpp) and the jump system is. Unacknowledged (UDP-like): the
 // estimation error depends on inputs the estimator never learns were applied, no separation
 // (Schenato et al. 2007, Sec. VI): decided only where a necessary condition fails.
 #include <optional>
@@ -80,7 +80,7 @@ RateResult actuation_critical_rate(const ActuationModes& modes, const LinkModel&
 /// The optimal controller's critical rates (TCP-like, zero on loss, Bernoulli link; needs the
 /// LQR weights): the rate below which the control Riccati equation of lossy_lqr_gain has no
 /// solution, i.e. no controller has finite cost. By duality it is the estimator's λ̄ of the
-/// system (A', B') (Schenato et al. 2007, Sec. V), found like it (analysis/critical_rate.hpp).
+/// system (A', B') (Schenato et al. 2007, Sec. V), found like it (theory/critical_rate.hpp).
 struct OptimalControlRates {
   double lower = 0.0;                     // ν_min = 1 − 1/α² (α = max |eig A|); = ν_c when B is square and invertible
   std::optional<double> upper;            // bisection on the LMI (CSDP; Sinopoli Thm 5 for the dual)

@@ -6,7 +6,7 @@
 // with M = C_S X C_S' + R_S, the push-through identity gives
 //     X C_S' M⁻¹ C_S X = X − (I + X J_S)⁻¹ X,   A + K_S C_S = A (I + X J_S)⁻¹,
 // so a pattern is carried as C = J_S^{1/2} (at most n rows) with R = I, and every map of
-// analysis/riccati.hpp is unchanged. Sensors with the same (C_i, R_i) are exchangeable in
+// theory/riccati.hpp is unchanged. Sensors with the same (C_i, R_i) are exchangeable in
 // J_S: only how many of them arrived matters, and with independent links of rates λ_j
 // that count is Poisson-binomial (binomial when the rates agree). So the map is an exact
 // sum over Π_g (m_g + 1) count vectors (multinomial over the groups g of m_g sensors)

@@ -37,7 +37,7 @@ RateFamily shared_rate(std::size_t sensors);
 std::optional<double> upper_rate_lmi(const Matrix& A, std::span<const SensorSpec> sensors, const RateFamily& rates,
                                      double lo, double tolerance = 1e-5);
 /// λ̄ by bisection on whether the expected Riccati iteration has a fixed point, summed
-/// exactly (analysis/arrival_groups.hpp); nullopt when the patterns would be sampled.
+/// exactly (theory/arrival_groups.hpp); nullopt when the patterns would be sampled.
 std::optional<double> upper_rate_iteration(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
                                            const RateFamily& rates, double lo, double tolerance = 1e-5);
 /// Exact λ_c by bisection on the Markov criterion (Bernoulli links at the family's rates);

@@ -25,7 +25,7 @@ Matrix lqr_gain(const Matrix& A, const Matrix& B, const Matrix& Qx, const Matrix
 ///   S = A'SA + Qx − ν A'SB (B'SB + Ru)^{-1} B'SA
 /// (Schenato et al. 2007, Sec. V; Sinopoli et al., ACC 2005). Its solution exists iff ν is
 /// above the critical rate ν_c of the optimal controller. It is the estimator's modified
-/// Riccati map g_ν of the dual system (A', B') (analysis/riccati.hpp), and is solved with the
+/// Riccati map g_ν of the dual system (A', B') (theory/riccati.hpp), and is solved with the
 /// same fixed-point iteration. ν = 1 is solve_dare. Same requirements and errors as solve_dare;
 /// std::nullopt when no solution exists (ν ≤ ν_c); throws when ν is outside [0, 1] or the
 /// iteration cannot decide (ν within a hair of ν_c).

@@ -2,7 +2,7 @@
 // Theory next to the running network: is the current operating point stable, and what
 // do the bounds predict for the mean prediction covariance?
 //
-// The verdict and its reason are decide_stability()'s (analysis/stability.hpp), the same
+// The verdict and its reason are decide_stability()'s (theory/stability.hpp), the same
 // as `netkf analyze` gives for the same links.
 //
 // Intended callers: the estimator's published status and `netkf launch` status, about
@@ -10,7 +10,7 @@
 // most stability_upper_bound_iterations iterations, then a few linear solves); dearest
 // where an aperiodic eigen-block runs the Markov chain search to its cap or an operating
 // point near the boundary runs V̄ to the iteration cap. Any number of sensors: the
-// criterion groups them and V̄ is summed over counts or sampled (analysis/arrival_groups.hpp).
+// criterion groups them and V̄ is summed over counts or sampled (theory/arrival_groups.hpp).
 // Measured: BENCHMARKS.md, "Operating-point assessment" and "Theory beyond 16 sensors".
 // No caches, no threads, no logging: safe to call from any thread.
 //
@@ -38,7 +38,7 @@ struct OperatingPointAssessment {
   std::optional<double> markov_criterion;  // < 1 stable (when it applies)
   std::string reason;                  // decide_stability()'s line (which result decided, or why none
                                        // did), or what is wrong with the rates; with an actuation link
-                                       // the closed loop's (analysis/actuation.hpp, closed_loop_verdict)
+                                       // the closed loop's (theory/actuation.hpp, closed_loop_verdict)
   Verdict estimator_stable = Verdict::unknown;  // decide_stability()'s verdict alone
   std::optional<ActuationReport> actuation;     // with plant.control.link (no LMI, no cost)
 };

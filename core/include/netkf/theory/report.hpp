@@ -41,7 +41,7 @@ struct TraceBounds {
   std::optional<double> lower_trace;
   std::optional<double> upper_trace;
 };
-/// `seed` seeds the patterns sampled when there are too many to sum (analysis/arrival_groups.hpp).
+/// `seed` seeds the patterns sampled when there are too many to sum (theory/arrival_groups.hpp).
 /// Throws std::invalid_argument unless there is one rate in [0, 1] per sensor.
 TraceBounds iid_trace_bounds(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
                              std::span<const double> arrival_rates, std::uint64_t seed);
@@ -96,7 +96,7 @@ struct AnalysisReport {
   BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed; sampled: an estimate, not a bound
   std::optional<double> upper_trace_standard_error;    // sampled only
   /// Links with memory (no i.i.d. bound applies) and a stable verdict: lim E[Tr P_{k|k-1}]
-  /// estimated by simulation over the links' own loss sequences (analysis/sampled_covariance.hpp),
+  /// estimated by simulation over the links' own loss sequences (core/src/theory/sampled_covariance.hpp),
   /// with its standard error. An estimate, not a bound; nullopt otherwise.
   std::optional<double> sampled_trace;
   std::optional<double> sampled_trace_standard_error;

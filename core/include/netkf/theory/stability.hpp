@@ -1,6 +1,6 @@
 #pragma once
 // The stability verdict: is lim E[P_{k|k-1}] bounded for the plant and its links?
-// `netkf analyze` (analysis/report.hpp) and the live status (analysis/operating_point.hpp)
+// `netkf analyze` (theory/report.hpp) and the live status (theory/operating_point.hpp)
 // both take it from decide_stability(), so the two never disagree on one scenario.
 #include <optional>
 #include <span>
@@ -30,7 +30,7 @@ struct StabilityDecision {
   bool iid_bounds = false;     // S̄ and V̄ computed: at least one sensor, every link Bernoulli
   std::optional<Matrix> lower;  // S̄ (nullopt: unbounded, or not computed)
   UpperBound upper;            // V̄ (status undecided after 0 iterations when not computed)
-  BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed (analysis/arrival_groups.hpp)
+  BoundMethod upper_method = BoundMethod::enumerated;  // how V̄ was summed (theory/arrival_groups.hpp)
   double upper_standard_error = 0.0;  // sampled V̄ only: standard error of Tr V̄
 };
 
@@ -46,7 +46,7 @@ struct StabilityDecision {
 ///     stationary rates bound nothing for them, so they never decide.
 /// Reads each link's loss model only: pass the sensors of with_effective_links() when links
 /// have delay. Any number of sensors: the criterion groups sensors per eigen-block and V̄
-/// is summed over count vectors or sampled (analysis/markov.hpp, arrival_groups.hpp);
+/// is summed over count vectors or sampled (theory/markov.hpp, arrival_groups.hpp);
 /// `seed` (the scenario's) seeds the sampling.
 StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<const SensorSpec> sensors,
                                    std::uint64_t seed = 0);

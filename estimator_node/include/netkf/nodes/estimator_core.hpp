@@ -18,7 +18,7 @@
 // j is fusable until period j + D is fused, or until j + D's deadline when it was fused
 // before it (all its samples in, or a later tick): then j's window is deadline + D periods
 // after j's tick, whatever the other sensors do, as the theory assumes (the final estimate's
-// arrival rate (1 − loss)·P(delay <= deadline + D·period), analysis/report.hpp). A fusable
+// arrival rate (1 − loss)·P(delay <= deadline + D·period), theory/report.hpp). A fusable
 // sample is added to j's samples and the filter is re-run from j to
 // now: every period from j on gets a revised estimate (revision 1, 2, ... of the same k), the
 // MMSE estimate given every sample that has arrived (multi-sensor paper Thm 1 applied to the
