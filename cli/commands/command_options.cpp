@@ -94,7 +94,7 @@ LinkKeys absolute_trace_paths(LinkKeys keys) {
 LinkKeys checked_link_keys(const LinkKeys& keys) {
   const bool has_model = std::any_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; });
   std::string first_problem;
-  for (const LinkSpec& probe : {LinkSpec(BernoulliLink{0.5}), LinkSpec(GilbertElliottLink{0.1, 0.5, 0.0, 1.0})}) {
+  for (const LinkModel& probe : one_link_of_each_model()) {
     try {
       (void)apply_link_keys(probe, keys);
       return keys;
