@@ -62,7 +62,7 @@ void add_link_flags(CLI::App* cmd, LinkFlags& flags) {
                              "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
                  ->expected(2, 4);
   b->excludes(ge);
-  cmd->add_option("--model", flags.model, "bernoulli, gilbert_elliott or trace (with the keys of that model)");
+  cmd->add_option("--model", flags.model, link_model_choices() + " (with the keys of that model)");
   cmd->add_option("--trace", flags.trace, "Replay a trace file (k,delivered[,delay_ms]): model trace; --set loop=, offset=");
   cmd->add_option("--loss", flags.loss,
                   "Loss: a bernoulli link's P(drop), or a gilbert_elliott link's stationary loss (with --mean-burst)");
