@@ -219,7 +219,8 @@ constexpr WireParameter kWireParameters[] = {
     {"r", [](wire::LinkSpec& w, double v) { w.r(v); }, [](const wire::LinkSpec& w) { return w.r(); }},
     {"loss_good", [](wire::LinkSpec& w, double v) { w.loss_good(v); },
      [](const wire::LinkSpec& w) { return w.loss_good(); }},
-    {"loss_bad", [](wire::LinkSpec& w, double v) { w.loss_bad(v); }, [](const wire::LinkSpec& w) { return w.loss_bad(); }},
+    {"loss_bad", [](wire::LinkSpec& w, double v) { w.loss_bad(v); },
+     [](const wire::LinkSpec& w) { return w.loss_bad(); }},
 };
 
 const WireParameter& wire_parameter(const std::string& name) {

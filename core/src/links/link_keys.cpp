@@ -139,9 +139,11 @@ LinkModel apply_gilbert_elliott_keys(const GilbertElliottLink* now, const KeyMap
 LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
   const bool rebuild = keys.has("model");
   // Rebuilt: the named model's alternative only (its parameters are not used).
-  const std::optional<LinkModel> model = rebuild ? link_model_named(keys.word("model")) : current;
+  const std::optional<LinkModel> model =
+      rebuild ? link_model_named(keys.word("model")) : std::optional<LinkModel>(current);
   if (!model)
-    throw LinkError("model", "unknown link model '" + keys.word("model") + "' (expected " + word_choices("model") + ")");
+    throw LinkError("model",
+                    "unknown link model '" + keys.word("model") + "' (expected " + word_choices("model") + ")");
   return std::visit(overloaded{[&](const BernoulliLink& b) { return apply_bernoulli_keys(b, keys, rebuild); },
                                [&](const GilbertElliottLink& g) {
                                  return apply_gilbert_elliott_keys(rebuild ? nullptr : &g, keys);
