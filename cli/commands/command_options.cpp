@@ -62,7 +62,7 @@ void add_link_flags(CLI::App* cmd, LinkFlags& flags) {
                              "Gilbert-Elliott P R [LOSS_GOOD LOSS_BAD] (defaults 0 and 1)")
                  ->expected(2, 4);
   b->excludes(ge);
-  cmd->add_option("--model", flags.model, "bernoulli, gilbert_elliott or trace (with the keys of that model)");
+  cmd->add_option("--model", flags.model, link_model_choices() + " (with the keys of that model)");
   cmd->add_option("--trace", flags.trace, "Replay a trace file (k,delivered[,delay_ms]): model trace; --set loop=, offset=");
   cmd->add_option("--loss", flags.loss,
                   "Loss: a bernoulli link's P(drop), or a gilbert_elliott link's stationary loss (with --mean-burst)");
@@ -94,7 +94,7 @@ LinkKeys absolute_trace_paths(LinkKeys keys) {
 LinkKeys checked_link_keys(const LinkKeys& keys) {
   const bool has_model = std::any_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; });
   std::string first_problem;
-  for (const LinkSpec& probe : {LinkSpec(BernoulliLink{0.5}), LinkSpec(GilbertElliottLink{0.1, 0.5, 0.0, 1.0})}) {
+  for (const LinkModel& probe : one_link_of_each_model()) {
     try {
       (void)apply_link_keys(probe, keys);
       return keys;

@@ -6,6 +6,7 @@
 #include "netkf/cli/live/observed_rate.hpp"
 #include "netkf/links/link_keys.hpp"
 #include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_text.hpp"
 #include "netkf/theory/report.hpp"
 
 namespace netkf::cli::catalogue {
@@ -29,7 +30,9 @@ json nullable_number() { return json{{"type", json::array({"number", "null"})}};
 json link_model_schema() {
   json props = json::object();
   for (const auto& name : link_key_names()) props[name] = {{"type", link_key_is_word(name) ? "string" : "number"}};
-  props["model"]["enum"] = {"bernoulli", "gilbert_elliott"};
+  json models = json::array();
+  for (const LinkModel& model : one_link_of_each_model()) models.push_back(link_model_name(model));
+  props["model"]["enum"] = models;
   props["delay_distribution"]["enum"] = {"uniform", "normal", "pareto", "paretonormal"};
   return props;
 }
@@ -270,7 +273,8 @@ json assessment_json(const AssessmentView& a) {
 
 }  // namespace
 
-// The link by its keys; a Gilbert-Elliott link also in the user's form (loss, mean_burst).
+// The link by its keys; a model not given by its loss (Gilbert-Elliott) also in the user's
+// form (loss, mean_burst).
 json link_json(const LinkSpec& link) {
   json j = json::object();
   for (const auto& k : link_keys(link)) {
@@ -280,7 +284,7 @@ json link_json(const LinkSpec& link) {
       j[k.name] = number_or_null(std::get<double>(k.value));
     }
   }
-  if (std::holds_alternative<GilbertElliottLink>(link.loss)) {
+  if (!link_parameters_include_loss(link.loss)) {
     j["loss"] = number_or_null(stationary_loss(link.loss));
     j["mean_burst"] = number_or_null(mean_burst_length(link.loss));
   }

@@ -121,8 +121,11 @@ void render_links(std::ostringstream& out, const LiveSnapshot& s) {
 std::string describe_recent_fit(const fit::RecentLossFit& f) {
   std::ostringstream out;
   out << "fitted to its last " << f.samples << " samples: ";
-  if (const auto* g = std::get_if<GilbertElliottLink>(&f.link)) out << "simple_gilbert p=" << rate4(g->p) << " r=" << rate4(g->r);
-  else out << "bernoulli";
+  // Its family's name; a simple Gilbert chain (the only fit with memory) also its p and r.
+  out << fit::to_string(f.family);
+  if (f.family == fit::LossFamily::simple_gilbert)
+    for (const auto& [name, value] : link_parameters(f.link))
+      if (name == "p" || name == "r") out << " " << name << "=" << rate4(value);
   out << ", loss " << rate4(f.loss()) << ", mean burst "
       << (std::isfinite(f.mean_burst()) ? fmt(f.mean_burst()) : std::string("∞"));
   if (!f.aic_gain) out << " (no chain: a transition out of both states not seen yet)";

@@ -5,12 +5,14 @@
 #include "netkf/links/link_delay.hpp"
 #include "netkf/links/link_keys.hpp"
 #include "netkf/links/link_statistics.hpp"
+#include "netkf/links/link_text.hpp"
 #include "netkf/relay/relay_links.hpp"
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iterator>
+#include <stdexcept>
 #include <string>
 
 namespace netkf::dds {
@@ -202,6 +204,32 @@ Estimate from_wire(const wire::Estimate& e, int state_dim) {
   return r;
 }
 
+namespace {
+// The loss models' parameters on the wire, by their names in link_parameters() and the link
+// keys: the one place the wire knows them. A model's parameter needs its field here (and in
+// idl/netkf.idl); the other models' fields stay 0.
+struct WireParameter {
+  const char* name;
+  void (*set)(wire::LinkSpec&, double);
+  double (*get)(const wire::LinkSpec&);
+};
+constexpr WireParameter kWireParameters[] = {
+    {"loss", [](wire::LinkSpec& w, double v) { w.loss(v); }, [](const wire::LinkSpec& w) { return w.loss(); }},
+    {"p", [](wire::LinkSpec& w, double v) { w.p(v); }, [](const wire::LinkSpec& w) { return w.p(); }},
+    {"r", [](wire::LinkSpec& w, double v) { w.r(v); }, [](const wire::LinkSpec& w) { return w.r(); }},
+    {"loss_good", [](wire::LinkSpec& w, double v) { w.loss_good(v); },
+     [](const wire::LinkSpec& w) { return w.loss_good(); }},
+    {"loss_bad", [](wire::LinkSpec& w, double v) { w.loss_bad(v); },
+     [](const wire::LinkSpec& w) { return w.loss_bad(); }},
+};
+
+const WireParameter& wire_parameter(const std::string& name) {
+  for (const auto& field : kWireParameters)
+    if (name == field.name) return field;
+  throw std::logic_error("link parameter '" + name + "' has no field in the wire's LinkSpec (idl/netkf.idl)");
+}
+}  // namespace
+
 wire::LinkSpec to_wire(const LinkSpec& link) {
   wire::LinkSpec w;
   w.model(link_kind(link));
@@ -210,20 +238,15 @@ wire::LinkSpec to_wire(const LinkSpec& link) {
     w.loop(link.trace->loop);
     w.offset(link.trace->offset);
   }
-  if (const auto* b = std::get_if<BernoulliLink>(&link.loss)) {
-    w.loss(b->loss);
-    if (link.trace) {  // a trace's empirical model is a chain on the wire, whatever its form
-      w.p(b->loss);
-      w.r(1.0 - b->loss);
-      w.loss_good(0.0);
-      w.loss_bad(1.0);
-    }
-  } else {
-    const auto& g = std::get<GilbertElliottLink>(link.loss);
-    w.p(g.p);
-    w.r(g.r);
-    w.loss_good(g.loss_good);
-    w.loss_bad(g.loss_bad);
+  for (const auto& [name, value] : link_parameters(link.loss)) wire_parameter(name).set(w, value);
+  if (link.trace && iid_arrival_rate(link.loss)) {
+    // A trace's empirical model is a chain on the wire, whatever its form: i.i.d. drops with
+    // loss q are the chain p = q, r = 1 − q.
+    const double q = stationary_loss(link.loss);
+    w.p(q);
+    w.r(1.0 - q);
+    w.loss_good(0.0);
+    w.loss_bad(1.0);
   }
   w.delay_ms(link.delay.delay_ms);
   w.jitter_ms(link.delay.jitter_ms);
@@ -258,14 +281,10 @@ LinkSpec from_wire(const wire::LinkSpec& w) {
   if (w.model() == "trace") return trace_link_from_wire(w);
   // Through the link's keys: the same names, checks and messages as a file or `ctl`.
   LinkKeys keys{{"model", w.model()}};
-  if (w.model() == "bernoulli") {
-    keys.push_back({"loss", w.loss()});
-  } else {
-    keys.push_back({"p", w.p()});
-    keys.push_back({"r", w.r()});
-    keys.push_back({"loss_good", w.loss_good()});
-    keys.push_back({"loss_bad", w.loss_bad()});
-  }
+  // The named model's parameters (none for an unknown name, which the keys then refuse).
+  if (const auto model = link_model_named(w.model()))
+    for (const auto& parameter : link_parameters(*model))
+      keys.push_back({parameter.first, wire_parameter(parameter.first).get(w)});
   keys.push_back({"delay_ms", w.delay_ms()});
   keys.push_back({"jitter_ms", w.jitter_ms()});
   keys.push_back({"delay_distribution", w.delay_distribution()});
@@ -334,14 +353,17 @@ wire::LinkStatus to_wire(const LinkStatus& f, std::int64_t stamp_ns) {
     s.fit_samples(fit.samples);
     s.fit_dropped(fit.dropped);
     s.fit_family(fit::to_string(fit.family));
-    // As a simple Gilbert chain: a Bernoulli loss q is the chain p = q, r = 1 − q.
-    if (const auto* g = std::get_if<GilbertElliottLink>(&fit.link)) {
-      s.fit_p(g->p);
-      s.fit_r(g->r);
-    } else {
+    // As a simple Gilbert chain (the recent fit's link is bernoulli or one): a Bernoulli loss q
+    // is the chain p = q, r = 1 − q.
+    if (iid_arrival_rate(fit.link)) {
       const double q = stationary_loss(fit.link);
       s.fit_p(q);
       s.fit_r(1.0 - q);
+    } else {
+      for (const auto& [name, value] : link_parameters(fit.link)) {
+        if (name == "p") s.fit_p(value);
+        if (name == "r") s.fit_r(value);
+      }
     }
     s.fit_has_chain(fit.aic_gain.has_value());
     s.fit_aic_gain(fit.aic_gain.value_or(0.0));

@@ -30,9 +30,9 @@ struct Chain {
 };
 
 Chain chain_of(const LinkModel& link) {
-  if (const auto* b = std::get_if<BernoulliLink>(&link)) return {0.0, 1.0, b->loss, b->loss};
-  const auto& g = std::get<GilbertElliottLink>(link);
-  return {g.p, g.r, g.loss_good, g.loss_bad};
+  return std::visit(overloaded{[](const BernoulliLink& b) { return Chain{0.0, 1.0, b.loss, b.loss}; },
+                               [](const GilbertElliottLink& g) { return Chain{g.p, g.r, g.loss_good, g.loss_bad}; }},
+                    link);
 }
 
 std::array<double, 2> stationary(const Chain& c) {

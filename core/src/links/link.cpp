@@ -5,9 +5,11 @@
 #include "netkf/links/link_trace.hpp"
 
 #include <cstdio>
+#include <iterator>
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 namespace netkf {
 namespace {
@@ -43,17 +45,18 @@ std::string link_error_at(const std::string& path, const LinkError& error) {
 }
 
 void validate_link_model(const LinkModel& model) {
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-    check_probability("loss", b->loss);
-    return;
-  }
-  const auto& g = std::get<GilbertElliottLink>(model);
-  check_probability("p", g.p);
-  check_probability("r", g.r);
-  check_probability("loss_good", g.loss_good);
-  check_probability("loss_bad", g.loss_bad);
-  // p = r = 0 leaves the chain's stationary distribution undefined (it would stay wherever it is).
-  if (g.p + g.r <= 0.0) throw LinkError("p", "p and r cannot both be 0 (the chain would never move)");
+  std::visit(overloaded{[](const BernoulliLink& b) { check_probability("loss", b.loss); },
+                        [](const GilbertElliottLink& g) {
+                          check_probability("p", g.p);
+                          check_probability("r", g.r);
+                          check_probability("loss_good", g.loss_good);
+                          check_probability("loss_bad", g.loss_bad);
+                          // p = r = 0 leaves the chain's stationary distribution undefined (it
+                          // would stay wherever it is).
+                          if (g.p + g.r <= 0.0)
+                            throw LinkError("p", "p and r cannot both be 0 (the chain would never move)");
+                        }},
+             model);
 }
 
 void validate_link(const LinkSpec& link) {
@@ -67,11 +70,32 @@ void validate_link(const LinkSpec& link) {
   }
 }
 
-
 std::string link_kind(const LinkSpec& link) { return link.trace ? "trace" : link_model_name(link.loss); }
 
 std::string link_model_name(const LinkModel& model) {
-  return std::holds_alternative<BernoulliLink>(model) ? "bernoulli" : "gilbert_elliott";
+  return std::visit(overloaded{[](const BernoulliLink&) { return "bernoulli"; },
+                               [](const GilbertElliottLink&) { return "gilbert_elliott"; }},
+                    model);
+}
+
+std::vector<LinkModel> one_link_of_each_model() {
+  // Not default-constructed: a change of one key (r: 0 alone) must meet a chain it leaves valid.
+  static constexpr LinkModel kOneOfEach[] = {BernoulliLink{0.5}, GilbertElliottLink{0.1, 0.5, 0.0, 1.0}};
+  static_assert(std::size(kOneOfEach) == std::variant_size_v<LinkModel>, "one link of each model: a model is missing");
+  return {std::begin(kOneOfEach), std::end(kOneOfEach)};
+}
+
+std::optional<LinkModel> link_model_named(const std::string& name) {
+  for (const LinkModel& model : one_link_of_each_model())
+    if (link_model_name(model) == name) return model;
+  return std::nullopt;
+}
+
+std::string link_model_choices() {
+  std::string out;
+  for (const LinkModel& model : one_link_of_each_model()) out += link_model_name(model) + ", ";
+  out.erase(out.size() - 2);
+  return out + " or trace";
 }
 
 }  // namespace netkf

@@ -53,7 +53,7 @@ std::string expected_keys() {
 }
 
 std::string word_choices(const std::string& key) {
-  if (key == "model") return "bernoulli, gilbert_elliott or trace";
+  if (key == "model") return link_model_choices();
   if (key == "trace") return "a trace file";
   if (key == "loop") return "true or false";
   return "uniform, normal, pareto or paretonormal";
@@ -89,27 +89,25 @@ class KeyMap {
   std::map<std::string, KeyValue> values_;
 };
 
-LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
-  const bool rebuild = keys.has("model");
-  const std::string model = rebuild ? keys.word("model") : link_model_name(current);
-  if (model == "bernoulli") {
-    for (const char* k : {"p", "r", "loss_good", "loss_bad", "mean_burst"})
-      if (keys.has(k))
-        throw LinkError(k, std::string(k) + " is a gilbert_elliott key; a bernoulli link has only loss" +
-                               (rebuild ? "" : " (give model: gilbert_elliott to change the model)"));
-    BernoulliLink b;
-    if (!rebuild) b = std::get<BernoulliLink>(current);
-    if (keys.has("loss")) {
-      b.loss = keys.number("loss");
-    } else if (rebuild) {
-      throw LinkError("loss", "a bernoulli link needs loss");
-    }
-    return b;
+// Bernoulli's keys applied to `now` (rebuild: to no link, so loss must be given).
+LinkModel apply_bernoulli_keys(const BernoulliLink& now, const KeyMap& keys, bool rebuild) {
+  for (const char* k : {"p", "r", "loss_good", "loss_bad", "mean_burst"})
+    if (keys.has(k))
+      throw LinkError(k, std::string(k) + " is a gilbert_elliott key; a bernoulli link has only loss" +
+                             (rebuild ? "" : " (give model: gilbert_elliott to change the model)"));
+  BernoulliLink b;
+  if (!rebuild) b = now;
+  if (keys.has("loss")) {
+    b.loss = keys.number("loss");
+  } else if (rebuild) {
+    throw LinkError("loss", "a bernoulli link needs loss");
   }
-  if (model != "gilbert_elliott")
-    throw LinkError("model", "unknown link model '" + model + "' (expected bernoulli, gilbert_elliott or trace)");
+  return b;
+}
 
-  const GilbertElliottLink* now = rebuild ? nullptr : std::get_if<GilbertElliottLink>(&current);
+// Gilbert-Elliott's keys, the chain's (p, r, loss_good, loss_bad) or the user's form (loss,
+// mean_burst), applied to `now` (null when rebuilt).
+LinkModel apply_gilbert_elliott_keys(const GilbertElliottLink* now, const KeyMap& keys) {
   const bool user_form = keys.has("loss") || keys.has("mean_burst");
   for (const char* k : {"p", "r", "loss_good", "loss_bad"}) {
     if (user_form && keys.has(k))
@@ -135,6 +133,22 @@ LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
   if (keys.has("loss_good")) g.loss_good = keys.number("loss_good");
   if (keys.has("loss_bad")) g.loss_bad = keys.number("loss_bad");
   return g;
+}
+
+// The model named by the keys' model (rebuild) or the current one, with the keys applied.
+LinkModel apply_loss_keys(const LinkModel& current, const KeyMap& keys) {
+  const bool rebuild = keys.has("model");
+  // Rebuilt: the named model's alternative only (its parameters are not used).
+  const std::optional<LinkModel> model =
+      rebuild ? link_model_named(keys.word("model")) : std::optional<LinkModel>(current);
+  if (!model)
+    throw LinkError("model",
+                    "unknown link model '" + keys.word("model") + "' (expected " + word_choices("model") + ")");
+  return std::visit(overloaded{[&](const BernoulliLink& b) { return apply_bernoulli_keys(b, keys, rebuild); },
+                               [&](const GilbertElliottLink& g) {
+                                 return apply_gilbert_elliott_keys(rebuild ? nullptr : &g, keys);
+                               }},
+                    *model);
 }
 
 // The loss model's keys, which a trace link refuses: its trace gives the drops.
@@ -237,7 +251,7 @@ LinkSpec apply_link_keys(const LinkSpec& current, const LinkKeys& keys, const Tr
 LinkSpec link_from_keys(const LinkKeys& keys) {
   const bool has_model =
       std::any_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; });
-  if (!has_model) throw LinkError("model", "a link needs model (bernoulli, gilbert_elliott or trace)");
+  if (!has_model) throw LinkError("model", "a link needs model (" + link_model_choices() + ")");
   return apply_link_keys(LinkSpec{}, keys);
 }
 
@@ -261,13 +275,11 @@ double link_key_value(const LinkSpec& link, const std::string& name) {
   if (name == "jitter_ms") return link.delay.jitter_ms;
   if (name == "loss") return stationary_loss(link.loss);
   if (link.trace && name == "offset") return static_cast<double>(link.trace->offset);
-  const auto* g = link.trace ? nullptr : std::get_if<GilbertElliottLink>(&link.loss);
-  if (g) {
-    if (name == "p") return g->p;
-    if (name == "r") return g->r;
-    if (name == "loss_good") return g->loss_good;
-    if (name == "loss_bad") return g->loss_bad;
-    if (name == "mean_burst") return mean_burst_length(*g);
+  if (!link.trace) {
+    for (const auto& [key, value] : link_parameters(link.loss))
+      if (key == name) return value;
+    // A model not given by its loss also reads in the user's form (loss above, mean_burst).
+    if (name == "mean_burst" && !link_parameters_include_loss(link.loss)) return mean_burst_length(link.loss);
   }
   if (link_key_is_word(name)) throw LinkError(name, name + " is a name, not a number");
   throw LinkError(name, "link key '" + name + "' does not apply to a " + link_kind(link) + " link");

@@ -24,24 +24,28 @@ GoodBad stationary_distribution(const GilbertElliottLink& g) {
   return {g.r / total, g.p / total};
 }
 
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
 }  // namespace
 
-
 double stationary_loss(const LinkModel& model) {
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) return b->loss;
-  const auto& g = std::get<GilbertElliottLink>(model);
-  const GoodBad pi = stationary_distribution(g);
-  // (r·loss_good + p·loss_bad)/(p + r)   (docs/scenario-format.md, "Gilbert-Elliott")
-  return pi.good * g.loss_good + pi.bad * g.loss_bad;
+  return std::visit(overloaded{[](const BernoulliLink& b) { return b.loss; },
+                               [](const GilbertElliottLink& g) {
+                                 const GoodBad pi = stationary_distribution(g);
+                                 // (r·loss_good + p·loss_bad)/(p + r)   (docs/scenario-format.md, "Gilbert-Elliott")
+                                 return pi.good * g.loss_good + pi.bad * g.loss_bad;
+                               }},
+                    model);
 }
 
-double mean_burst_length(const LinkModel& model) {
-  constexpr double kInfinity = std::numeric_limits<double>::infinity();
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-    // Burst lengths are geometric: P(length = k) = loss^(k-1) (1 - loss).
-    return b->loss >= 1.0 ? kInfinity : 1.0 / (1.0 - b->loss);
-  }
-  const auto& g = std::get<GilbertElliottLink>(model);
+namespace {
+
+double bernoulli_mean_burst(const BernoulliLink& b) {
+  // Burst lengths are geometric: P(length = k) = loss^(k-1) (1 - loss).
+  return b.loss >= 1.0 ? kInfinity : 1.0 / (1.0 - b.loss);
+}
+
+double chain_mean_burst(const GilbertElliottLink& g) {
   // The simple Gilbert channel: a burst is a sojourn in Bad, geometric with mean 1/r. The
   // general ratio below gives the same for p > 0; at p = 0 (loss 0) it has no drops to
   // measure, but a link given as { loss: 0, mean_burst: 5 } must keep its 5.
@@ -62,6 +66,20 @@ double mean_burst_length(const LinkModel& model) {
   }
   if (burst_starts <= 0.0) return kInfinity;  // drops but never recovers: one endless burst
   return drops / burst_starts;
+}
+
+}  // namespace
+
+double mean_burst_length(const LinkModel& model) {
+  return std::visit(overloaded{[](const BernoulliLink& b) { return bernoulli_mean_burst(b); },
+                               [](const GilbertElliottLink& g) { return chain_mean_burst(g); }},
+                    model);
+}
+
+std::optional<double> iid_arrival_rate(const LinkModel& model) {
+  return std::visit(overloaded{[](const BernoulliLink& b) -> std::optional<double> { return 1.0 - b.loss; },
+                               [](const GilbertElliottLink&) -> std::optional<double> { return std::nullopt; }},
+                    model);
 }
 
 LinkModel empirical_link_model(const LinkTrace& trace) {
@@ -87,11 +105,13 @@ LinkModel empirical_link_model(const LinkTrace& trace) {
 LinkModel effective_loss_model(const LinkSpec& link, double deadline_ms) {
   const double in_time = probability_within(link.delay, deadline_ms);
   const auto thinned = [in_time](double loss) { return 1.0 - (1.0 - loss) * in_time; };
-  if (const auto* b = std::get_if<BernoulliLink>(&link.loss)) return BernoulliLink{thinned(b->loss)};
-  auto g = std::get<GilbertElliottLink>(link.loss);
-  g.loss_good = thinned(g.loss_good);
-  g.loss_bad = thinned(g.loss_bad);
-  return g;
+  return std::visit(overloaded{[&](const BernoulliLink& b) -> LinkModel { return BernoulliLink{thinned(b.loss)}; },
+                               [&](GilbertElliottLink g) -> LinkModel {
+                                 g.loss_good = thinned(g.loss_good);
+                                 g.loss_bad = thinned(g.loss_bad);
+                                 return g;
+                               }},
+                    link.loss);
 }
 
 double arrival_rate(const LinkModel& loss, double in_time) { return (1.0 - stationary_loss(loss)) * in_time; }

@@ -12,9 +12,19 @@
 namespace netkf {
 
 std::vector<std::pair<std::string, double>> link_parameters(const LinkModel& model) {
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) return {{"loss", b->loss}};
-  const auto& g = std::get<GilbertElliottLink>(model);
-  return {{"p", g.p}, {"r", g.r}, {"loss_good", g.loss_good}, {"loss_bad", g.loss_bad}};
+  using Parameters = std::vector<std::pair<std::string, double>>;
+  return std::visit(
+      overloaded{[](const BernoulliLink& b) -> Parameters { return {{"loss", b.loss}}; },
+                 [](const GilbertElliottLink& g) -> Parameters {
+                   return {{"p", g.p}, {"r", g.r}, {"loss_good", g.loss_good}, {"loss_bad", g.loss_bad}};
+                 }},
+      model);
+}
+
+bool link_parameters_include_loss(const LinkModel& model) {
+  for (const auto& parameter : link_parameters(model))
+    if (parameter.first == "loss") return true;
+  return false;
 }
 
 std::string describe_link_model(const LinkModel& model) {
@@ -24,8 +34,8 @@ std::string describe_link_model(const LinkModel& model) {
     std::snprintf(number, sizeof number, "%.4g", value);
     text += " " + name + "=" + number;
   }
-  if (std::holds_alternative<GilbertElliottLink>(model)) {
-    // Both forms: the chain's parameters and what they mean to a user.
+  if (!link_parameters_include_loss(model)) {
+    // Both forms: the model's parameters and what they mean to a user.
     char both[96];
     std::snprintf(both, sizeof both, " (loss %.4g, mean burst %.4g)", stationary_loss(model), mean_burst_length(model));
     text += both;

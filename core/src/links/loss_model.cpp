@@ -35,7 +35,9 @@ bool LinkLossProcess::next_dropped_gilbert_elliott(const GilbertElliottLink& g) 
 
 void LinkLossProcess::set_model(const LinkModel& model) {
   validate_link_model(model);  // throws before anything changes
-  const bool was_gilbert_elliott = std::holds_alternative<GilbertElliottLink>(model_);
+  const bool was_gilbert_elliott = std::visit(overloaded{[](const BernoulliLink&) { return false; },
+                                                          [](const GilbertElliottLink&) { return true; }},
+                                               model_);
   model_ = model;
   // Unlike netem we keep the chain state across parameter changes: a link that is
   // in a bad spell stays in it when the operator retunes p or r. A link that was

@@ -515,7 +515,7 @@ class Loader {
     const YAML::Mark where = mark_of(node, at);
     const LinkKeys keys = read_link_keys(node, at, where);
     if (std::none_of(keys.begin(), keys.end(), [](const LinkKey& k) { return k.name == "model"; }))
-      fail(where, "missing required key '" + at + ".model' (bernoulli, gilbert_elliott or trace)");
+      fail(where, "missing required key '" + at + ".model' (" + link_model_choices() + ")");
     try {
       return link_from_keys(keys);
     } catch (const LinkError& e) {

@@ -16,6 +16,13 @@
 namespace netkf::theory {
 namespace {
 
+// Whether the link's family is the i.i.d. one, whose arrival rates reach 0.
+bool iid_family(const LinkModel& link) {
+  return std::visit(overloaded{[](const BernoulliLink&) { return true; },
+                               [](const GilbertElliottLink&) { return false; }},
+                    link);
+}
+
 // The link's chain: one state for Bernoulli, good and bad for Gilbert-Elliott.
 struct Chain {
   Matrix to;                  // to(j, i) = P(j → i)
@@ -25,18 +32,19 @@ struct Chain {
 
 Chain chain_of(const LinkModel& link) {
   Chain c;
-  if (const auto* b = std::get_if<BernoulliLink>(&link)) {
-    c.to = Matrix::Ones(1, 1);
-    c.loss = {b->loss};
-    c.stationary = {1.0};
-    return c;
-  }
-  const auto& g = std::get<GilbertElliottLink>(link);
-  c.to.resize(2, 2);
-  c.to << 1.0 - g.p, g.p, g.r, 1.0 - g.r;
-  c.loss = {g.loss_good, g.loss_bad};
-  const double sum = g.p + g.r;  // validate_link refuses p = r = 0
-  c.stationary = {g.r / sum, g.p / sum};
+  std::visit(overloaded{[&](const BernoulliLink& b) {
+                          c.to = Matrix::Ones(1, 1);
+                          c.loss = {b.loss};
+                          c.stationary = {1.0};
+                        },
+                        [&](const GilbertElliottLink& g) {
+                          c.to.resize(2, 2);
+                          c.to << 1.0 - g.p, g.p, g.r, 1.0 - g.r;
+                          c.loss = {g.loss_good, g.loss_bad};
+                          const double sum = g.p + g.r;  // validate_link refuses p = r = 0
+                          c.stationary = {g.r / sum, g.p / sum};
+                        }},
+             link);
   return c;
 }
 
@@ -127,7 +135,7 @@ FamilyRate critical_along_family(const LinkModel& link, const std::function<bool
 }
 
 std::string family_words(const LinkModel& link) {
-  return std::holds_alternative<BernoulliLink>(link)
+  return iid_family(link)
              ? "i.i.d. losses"
              : "the link's family (p varied; r, loss_good, loss_bad fixed: the loss at a fixed mean burst for the "
                "simple Gilbert channel)";
@@ -151,9 +159,9 @@ void add_critical_rates(ActuationReport& r, const LinkModel& model, const Actuat
                                "along " + family_words(model);
       break;
     case FamilyRate::Kind::stable_everywhere:
-      if (std::holds_alternative<BernoulliLink>(model)) r.critical_rate = 0.0;
+      if (iid_family(model)) r.critical_rate = 0.0;
       r.critical_rate_reason = "mean-square stable at every arrival rate " +
-                               std::string(std::holds_alternative<BernoulliLink>(model)
+                               std::string(iid_family(model)
                                                ? "(even when no input arrives)"
                                                : "this family reaches (down to " + num(f.rate) + ")");
       break;
@@ -305,39 +313,49 @@ double mss_radius(const ActuationModes& modes, const LinkModel& link) {
 }
 
 double lost_run_rate(const LinkModel& link) {
-  if (const auto* b = std::get_if<BernoulliLink>(&link)) return b->loss;
-  const auto& g = std::get<GilbertElliottLink>(link);
-  // M(to, from) = P(from → to) · loss(to): a lost input followed by another lost one.
-  Matrix M(2, 2);
-  M << (1.0 - g.p) * g.loss_good, g.r * g.loss_good, g.p * g.loss_bad, (1.0 - g.r) * g.loss_bad;
-  return spectral_radius(M);
+  return std::visit(overloaded{[](const BernoulliLink& b) { return b.loss; },
+                               [](const GilbertElliottLink& g) {
+                                 // M(to, from) = P(from → to) · loss(to): a lost input followed by another lost one.
+                                 Matrix M(2, 2);
+                                 M << (1.0 - g.p) * g.loss_good, g.r * g.loss_good, g.p * g.loss_bad,
+                                     (1.0 - g.r) * g.loss_bad;
+                                 return spectral_radius(M);
+                               }},
+                    link);
 }
 
 std::pair<double, double> reachable_arrival_rates(const LinkModel& link) {
-  if (std::holds_alternative<BernoulliLink>(link)) return {0.0, 1.0};
-  const auto& g = std::get<GilbertElliottLink>(link);
-  if (g.r == 0.0 || g.loss_good == g.loss_bad) {
-    const double own = 1.0 - stationary_loss(link);
-    return {own, own};
-  }
-  // ν(p) = 1 − (r l_g + p l_b)/(p + r), monotone in p.
-  const double at0 = 1.0 - g.loss_good;
-  const double at1 = 1.0 - (g.r * g.loss_good + g.loss_bad) / (1.0 + g.r);
-  return {std::min(at0, at1), std::max(at0, at1)};
+  using Rates = std::pair<double, double>;
+  return std::visit(overloaded{[](const BernoulliLink&) -> Rates { return {0.0, 1.0}; },
+                               [&](const GilbertElliottLink& g) -> Rates {
+                                 if (g.r == 0.0 || g.loss_good == g.loss_bad) {
+                                   const double own = 1.0 - stationary_loss(link);
+                                   return {own, own};
+                                 }
+                                 // ν(p) = 1 − (r l_g + p l_b)/(p + r), monotone in p.
+                                 const double at0 = 1.0 - g.loss_good;
+                                 const double at1 = 1.0 - (g.r * g.loss_good + g.loss_bad) / (1.0 + g.r);
+                                 return {std::min(at0, at1), std::max(at0, at1)};
+                               }},
+                    link);
 }
 
 std::optional<LinkModel> link_at_arrival_rate(const LinkModel& link, double arrival_rate) {
   if (!(arrival_rate >= 0.0 && arrival_rate <= 1.0)) return std::nullopt;
-  if (std::holds_alternative<BernoulliLink>(link)) return LinkModel(BernoulliLink{1.0 - arrival_rate});
-  GilbertElliottLink g = std::get<GilbertElliottLink>(link);
-  const auto [lo, hi] = reachable_arrival_rates(link);
-  if (arrival_rate < lo - 1e-15 || arrival_rate > hi + 1e-15) return std::nullopt;
-  if (hi - lo <= 0.0) return LinkModel(g);
-  // (1 − ν)(p + r) = r l_g + p l_b  ⇒  p = r ((1 − ν) − l_g) / (l_b − (1 − ν)).
-  const double loss = 1.0 - arrival_rate;
-  g.p = std::clamp(g.r * (loss - g.loss_good) / (g.loss_bad - loss), 0.0, 1.0);
-  if (!std::isfinite(g.p)) return std::nullopt;
-  return LinkModel(g);
+  using Model = std::optional<LinkModel>;
+  return std::visit(
+      overloaded{[&](const BernoulliLink&) -> Model { return LinkModel(BernoulliLink{1.0 - arrival_rate}); },
+                 [&](GilbertElliottLink g) -> Model {
+                   const auto [lo, hi] = reachable_arrival_rates(link);
+                   if (arrival_rate < lo - 1e-15 || arrival_rate > hi + 1e-15) return std::nullopt;
+                   if (hi - lo <= 0.0) return LinkModel(g);
+                   // (1 − ν)(p + r) = r l_g + p l_b  ⇒  p = r ((1 − ν) − l_g) / (l_b − (1 − ν)).
+                   const double loss = 1.0 - arrival_rate;
+                   g.p = std::clamp(g.r * (loss - g.loss_good) / (g.loss_bad - loss), 0.0, 1.0);
+                   if (!std::isfinite(g.p)) return std::nullopt;
+                   return LinkModel(g);
+                 }},
+      link);
 }
 
 RateResult actuation_critical_rate(const ActuationModes& modes, const LinkModel& link, double tolerance) {
@@ -347,7 +365,7 @@ RateResult actuation_critical_rate(const ActuationModes& modes, const LinkModel&
   switch (f.kind) {
     case FamilyRate::Kind::found: r.rate = f.rate; r.reason = "found"; break;
     case FamilyRate::Kind::stable_everywhere:
-      if (std::holds_alternative<BernoulliLink>(link)) r.rate = 0.0;
+      if (iid_family(link)) r.rate = 0.0;
       r.reason = "stable at every reachable arrival rate (down to " + num(f.rate) + ")";
       break;
     case FamilyRate::Kind::unstable_at_top: r.reason = "not stable even at the highest reachable arrival rate"; break;
@@ -422,9 +440,9 @@ std::optional<FilteredCovarianceBounds> filtered_covariance_bounds(const Matrix&
                                      std::to_string(sensors.size()) + " sensors");
   std::vector<double> rates;
   for (const auto& s : sensors) {
-    const auto* b = std::get_if<BernoulliLink>(&s.link.loss);
-    if (!b) return no("the bounds on E[P_k|k] assume i.i.d. sensor links; a Gilbert-Elliott link has memory");
-    rates.push_back(1.0 - b->loss);
+    const auto rate = iid_arrival_rate(s.link.loss);
+    if (!rate) return no("the bounds on E[P_k|k] assume i.i.d. sensor links; a Gilbert-Elliott link has memory");
+    rates.push_back(*rate);
   }
   const auto patterns = independent_arrival_patterns(sensors, rates);
   const double q = all_lost_probability(rates);

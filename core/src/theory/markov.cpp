@@ -41,16 +41,17 @@ struct LinkChain {
 
 LinkChain link_chain(const LinkModel& model) {
   LinkChain c;
-  if (const auto* b = std::get_if<BernoulliLink>(&model)) {
-    c.T = Matrix::Ones(1, 1);
-    c.arrival = Vector::Constant(1, 1.0 - b->loss);
-  } else {
-    const auto& g = std::get<GilbertElliottLink>(model);
-    c.T.resize(2, 2);
-    c.T << 1.0 - g.p, g.p, g.r, 1.0 - g.r;  // row = from (good, bad)
-    c.arrival.resize(2);
-    c.arrival << 1.0 - g.loss_good, 1.0 - g.loss_bad;
-  }
+  std::visit(overloaded{[&](const BernoulliLink& b) {
+                          c.T = Matrix::Ones(1, 1);
+                          c.arrival = Vector::Constant(1, 1.0 - b.loss);
+                        },
+                        [&](const GilbertElliottLink& g) {
+                          c.T.resize(2, 2);
+                          c.T << 1.0 - g.p, g.p, g.r, 1.0 - g.r;  // row = from (good, bad)
+                          c.arrival.resize(2);
+                          c.arrival << 1.0 - g.loss_good, 1.0 - g.loss_bad;
+                        }},
+             model);
   return c;
 }
 
@@ -168,19 +169,13 @@ double binomial(int m, int k, double p) {
 std::optional<LinkChain> class_chain(const std::vector<const LinkModel*>& members, int max_states) {
   double bernoulli_loss = 1.0;
   std::vector<std::pair<GilbertElliottLink, int>> ge;  // (parameters, members)
-  for (const LinkModel* m : members) {
-    if (const auto* b = std::get_if<BernoulliLink>(m)) {
-      bernoulli_loss *= b->loss;
-      continue;
-    }
-    const auto& g = std::get<GilbertElliottLink>(*m);
-    auto same = [&](const auto& e) {
-      return e.first.p == g.p && e.first.r == g.r && e.first.loss_good == g.loss_good && e.first.loss_bad == g.loss_bad;
-    };
-    auto it = std::find_if(ge.begin(), ge.end(), same);
+  const auto add_chain = [&](const GilbertElliottLink& g) {
+    auto it = std::find_if(ge.begin(), ge.end(), [&](const auto& e) { return e.first == g; });
     if (it == ge.end()) ge.emplace_back(g, 1);
     else ++it->second;
-  }
+  };
+  for (const LinkModel* m : members)
+    std::visit(overloaded{[&](const BernoulliLink& b) { bernoulli_loss *= b.loss; }, add_chain}, *m);
   int size = 1;
   for (const auto& [g, m] : ge) {
     size *= m + 1;

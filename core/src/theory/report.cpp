@@ -152,7 +152,7 @@ struct BernoulliRates {
 BernoulliRates bernoulli_rates(std::span<const SensorSpec> sensors) {
   BernoulliRates b;
   for (const auto& s : sensors) {
-    if (const auto* link = std::get_if<BernoulliLink>(&s.link.loss)) b.rates.push_back(1.0 - link->loss);
+    if (const auto rate = iid_arrival_rate(s.link.loss)) b.rates.push_back(*rate);
     else b.all_bernoulli = false;
   }
   b.shared = b.all_bernoulli && !sensors.empty();

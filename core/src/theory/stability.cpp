@@ -1,6 +1,8 @@
 // The one stability verdict (see theory/stability.hpp).
 #include "netkf/theory/stability.hpp"
 
+#include "netkf/links/link_statistics.hpp"
+
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -51,7 +53,7 @@ StabilityDecision decide_stability(const Matrix& A, const Matrix& Q, std::span<c
 
   std::vector<double> rates;
   for (const auto& s : sensors)
-    if (const auto* b = std::get_if<BernoulliLink>(&s.link.loss)) rates.push_back(1.0 - b->loss);
+    if (const auto rate = iid_arrival_rate(s.link.loss)) rates.push_back(*rate);
   out.iid_bounds = rates.size() == sensors.size();
   double all_lost = 1.0;
   if (out.iid_bounds) {

@@ -40,8 +40,20 @@ struct GilbertElliottLink {
   bool operator==(const GilbertElliottLink&) const = default;
 };
 
-/// How a link drops samples.
+/// How a link drops samples. Code that depends on the model visits it with one overload per
+/// model (std::visit(overloaded{...}, model)), so that a new model does not compile until every
+/// such place handles it; what does not depend on the model reads it by name instead
+/// (link_model_name, link_parameters in link_text.hpp, stationary_loss, mean_burst_length).
 using LinkModel = std::variant<BernoulliLink, GilbertElliottLink>;
+
+/// One call operator per lambda: std::visit(overloaded{[](const BernoulliLink&) {...}, ...}, model).
+/// Without a catch-all overload the visit refuses to compile when an alternative has none.
+template <class... Fs>
+struct overloaded : Fs... {
+  using Fs::operator()...;
+};
+template <class... Fs>
+overloaded(Fs...) -> overloaded<Fs...>;
 
 /// The shape of a link's delay around its base delay (netem's names and meanings).
 enum class DelayDistribution {
@@ -122,5 +134,14 @@ void validate_link_model(const LinkModel& model);
 
 /// "bernoulli" or "gilbert_elliott".
 std::string link_model_name(const LinkModel& model);
+
+/// One valid link of each model, in the variant's order: for a check that must try a change
+/// on every model (`netkf ctl set-link` before it sends one) and for the models' names.
+std::vector<LinkModel> one_link_of_each_model();
+/// The model called `name` ("bernoulli", ...), as one_link_of_each_model() has it; none for
+/// another name ("trace" included: a trace is a link, not a loss model).
+std::optional<LinkModel> link_model_named(const std::string& name);
+/// The models a link's `model` key takes, as a message lists them: "bernoulli, gilbert_elliott or trace".
+std::string link_model_choices();
 
 }  // namespace netkf

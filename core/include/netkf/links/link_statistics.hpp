@@ -3,12 +3,17 @@
 // measured trace, and the loss a sample later than the estimator's deadline adds.
 #include "netkf/links/link.hpp"
 
+#include <optional>
+
 namespace netkf {
 
 /// Stationary probability that a sample is dropped.
 double stationary_loss(const LinkModel& model);
 /// Mean length of a run of consecutive drops (infinite if the link never delivers).
 double mean_burst_length(const LinkModel& model);
+/// The arrival rate 1 − loss of a model whose drops are i.i.d. (Bernoulli); none for a model
+/// with memory (Gilbert-Elliott), to which the i.i.d. closed forms of the theory do not apply.
+std::optional<double> iid_arrival_rate(const LinkModel& model);
 
 /// The theory's model of a trace: the simple Gilbert channel (loss_good 0, loss_bad 1) with
 /// the trace's own loss and mean burst (r = 1/mean burst, p = r·loss/(1 − loss)), which

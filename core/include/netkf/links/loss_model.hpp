@@ -20,8 +20,9 @@ class LinkLossProcess {
   /// Advance by one sample; true when this sample is dropped. Inline: the Monte Carlo
   /// kernels call it once per link and step.
   bool next_dropped() {
-    if (const auto* b = std::get_if<BernoulliLink>(&model_)) return rng_.uniform() < b->loss;
-    return next_dropped_gilbert_elliott(std::get<GilbertElliottLink>(model_));
+    return std::visit(overloaded{[this](const BernoulliLink& b) { return rng_.uniform() < b.loss; },
+                                 [this](const GilbertElliottLink& g) { return next_dropped_gilbert_elliott(g); }},
+                      model_);
   }
 
   /// Replace the model from the next sample on. A Gilbert-Elliott chain keeps its state;
