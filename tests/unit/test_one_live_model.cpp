@@ -25,7 +25,7 @@ namespace netkf::cli {
 namespace {
 
 /// The records of a short run, in an order of arrival that mixes the topics.
-struct Run {
+struct Records {
   std::vector<Truth> truths;
   std::vector<Estimate> estimates;
   std::vector<LinkStatus> statuses;
@@ -34,8 +34,8 @@ struct Run {
 
 constexpr int kPeriods = 40;
 
-Run make_run(const Scenario& s) {
-  Run run;
+Records make_run(const Scenario& s) {
+  Records run;
   const auto n = static_cast<Eigen::Index>(s.state_dim());
   for (int k = 0; k < kPeriods; ++k) {
     std::vector<double> x(static_cast<std::size_t>(n));
@@ -100,7 +100,7 @@ struct Readers {
 };
 
 /// The records in one order of arrival, each to the model first (once), then to the readers.
-void feed(const Run& run, Readers& r) {
+void feed(const Records& run, Readers& r) {
   auto truth = [&](const Truth& t) {
     if (r.model) r.model->add_truth(t);
     r.recorder.truth(t);
@@ -161,7 +161,7 @@ std::vector<nlohmann::json> recorded(const std::string& mcap, const std::string&
 
 TEST(OneLiveModel, TheRecorderAndTheSummaryReadingTheLaunchsModelWriteWhatTheirOwnModelsWrote) {
   Scenario s = default_scenario();
-  const Run run = make_run(s);
+  const Records run = make_run(s);
   Readers own(s, nullptr);
   feed(run, own);
   LiveModel model(s);

@@ -1,8 +1,8 @@
 #pragma once
 // What `netkf launch` shows of its running network, and the steering that comes back: the
-// launch's live model (one snapshot; the launch feeds it each record before the console
-// gets the record, launch.hpp's recording_handlers), the theory computed off the loop, the terminal status, the
-// dashboard (page + Foxglove WebSocket) and /metrics. Everything runs on the launch's
+// launch's live model (one snapshot; the launch feeds it each record before the console gets
+// the record, launch.hpp's recording_handlers), the theory computed off the loop, the terminal
+// status, the dashboard (page + Foxglove WebSocket) and /metrics. Everything runs on the launch's
 // io_context thread except the theory (TheoryWorker); link changes from the page go out
 // through `send_link_control`, the same control path as `netkf ctl`.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
