@@ -53,7 +53,7 @@ int run_record(const RecordOptions& o) {
     BusOptions bus_options = o.network.bus("netkf-record", dds::Role::observer);
     bus_options.scenario_naming = scenario.naming;
     bus_options.presence = BusOptions::Presence{dds::presence_role::record, 0, {}};
-    bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, invalid_samples),
+    bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, nullptr, invalid_samples),
                                     false);
   } catch (const std::exception& e) {
     fail(ExitCode::bad_usage, std::string("DDS: ") + e.what());

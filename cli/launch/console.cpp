@@ -25,12 +25,12 @@ const char* level_prefix(LiveEvent::Level level) {
 }
 }  // namespace
 
-LiveConsole::LiveConsole(boost::asio::io_context& io, const Scenario& scenario, LiveConsoleOptions options,
-                     SendLinkControl send_link_control)
+LiveConsole::LiveConsole(boost::asio::io_context& io, LiveModel& model, LiveConsoleOptions options,
+                         SendLinkControl send_link_control)
     : io_(io),
       options_(std::move(options)),
       send_link_control_(std::move(send_link_control)),
-      model_(scenario),
+      model_(model),
       next_status_(Clock::now()),
       next_refresh_(Clock::now()) {
   // Request ids unlikely to collide with those of a `netkf ctl` or another launch.
@@ -38,6 +38,7 @@ LiveConsole::LiveConsole(boost::asio::io_context& io, const Scenario& scenario, 
   next_request_id_ = ((static_cast<std::uint64_t>(rd()) << 31) ^ rd()) & 0x3fffffffffffffffULL;
   if (next_request_id_ == 0) next_request_id_ = 1;
 
+  const Scenario& scenario = model_.scenario();
   if (options_.dashboard) {
     DashboardServer::Hooks hooks;
     hooks.set_parameters = [this](DashboardServer::ClientId c, const dashboard::SetParameters& r) {
@@ -75,7 +76,6 @@ std::uint64_t LiveConsole::wall_ns() {
 }
 
 void LiveConsole::truth(const Truth& truth) {
-  model_.add_truth(truth);
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::truth, catalogue::truth_message(truth), wall_ns());
 }
 
@@ -85,23 +85,19 @@ void LiveConsole::estimate(const Estimate& estimate) {
     if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
     return;
   }
-  model_.add_estimate(estimate);
   if (estimate.has_pipeline_latency()) metrics_.observe_pipeline_latency(estimate.pipeline_latency_s());
   if (dashboard_) dashboard_->publish(catalogue::ChannelId::estimate, catalogue::estimate_message(estimate), wall_ns());
 }
 
-void LiveConsole::link_status(const LinkStatus& status) {
+void LiveConsole::link_status(const LinkStatus& status, bool link_moved) {
   // This link only: every link reports once a second (a copy of all links per report was
   // quadratic, the launch's whole thread at 4096 links).
   const LinkView* link = model_.find_link(status.sensor_id);
-  // The link as last reported (none before the first report).
-  const std::optional<LinkSpec> before = link && link->reported ? std::optional<LinkSpec>(link->link) : std::nullopt;
-  model_.add_link_status(status);
   if (auto a = applied_.find(status.sensor_id); a != applied_.end() && status.last_request_id == a->second.request_id)
     applied_.erase(a);
   if (link) {
     if (dashboard_) dashboard_->publish(catalogue::ChannelId::link_status, catalogue::link_status_message(*link), wall_ns(), link->sensor_id);
-    if (!before || !(*before == link->link)) {
+    if (link_moved) {
       theory_due_ = true;  // the configured operating point moved: reassess now
       if (dashboard_) dashboard_->broadcast_parameter_values(dashboard::link_parameter_values(*link, std::nullopt));
     }
@@ -133,7 +129,6 @@ void LiveConsole::link_reply(const LinkReply& reply) {
 }
 
 void LiveConsole::link_change(const LinkChange& change) {
-  model_.add_link_change(change);
   emit_events();
   if (change.origin != LinkChange::Origin::request) return;
   if (auto it = pending_.find(change.request_id); it != pending_.end()) {
@@ -147,7 +142,6 @@ void LiveConsole::link_change(const LinkChange& change) {
 }
 
 void LiveConsole::invalid_sample(const std::string& what) {
-  model_.count_invalid();
   if (const auto left_out = invalid_log_.allow())
     log(LiveEvent::Level::warning, "rejected a sample: " + what + dds::left_out_text(*left_out));
 }

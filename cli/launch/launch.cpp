@@ -74,42 +74,48 @@ Scenario load_or_default(const std::optional<std::string>& file) {
   return or_bad_usage([&] { return load_scenario_file(*file); });
 }
 
-BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSummaryBuilder* summary,
-                               std::uint64_t& invalid) {
+BusHandlers recording_handlers(Recording& recording, LiveModel* model, LiveConsole* console,
+                               RunSummaryBuilder* summary, std::uint64_t& invalid) {
   BusHandlers h;
-  h.truth = [&recording, console, summary](Truth&& t) {
+  h.truth = [&recording, model, console, summary](Truth&& t) {
+    if (model) model->add_truth(t);
     recording.truth(t);
     if (console) console->truth(t);
     if (summary) summary->add_truth(t);
   };
-  h.estimate = [&recording, console, summary](Estimate&& e) {
+  h.estimate = [&recording, model, console, summary](Estimate&& e) {
+    // A revision (late_policy fuse_within) corrects an earlier period: the model follows the
+    // in-time estimates. The recording keeps the first and the final estimate of each period,
+    // the summary scores both, the dashboard plots both.
+    if (model && e.revision == 0) model->add_estimate(e);
     recording.estimate(e);
-    // The recording keeps the first and the final estimate of each period, the summary scores
-    // both, the live view takes both (its status and metrics follow the in-time ones).
     if (console) console->estimate(e);
     if (summary) summary->add_estimate(e);
   };
   if (recording.wants_samples()) h.delivered = [&recording](DeliveredMeasurement&& d) { recording.delivered(d); };
   if (recording.journals_changes() || console) {
-    h.link_change = [&recording, console](LinkChange&& c) {
+    h.link_change = [&recording, model, console](LinkChange&& c) {
       // A netkf relay's topic on the same domain is not one of the scenario's links: its
       // journal counts samples of a topic, not periods (ctl status shows it; docs/relay.md).
       if (!c.topic.empty()) return;
+      if (model) model->add_link_change(c);
       recording.link_change(c);
       if (console) console->link_change(c);
     };
   }
   if (console || summary || recording.wants_link_status()) {
-    h.link_status = [&recording, console, summary](LinkStatus&& l) {
+    h.link_status = [&recording, model, console, summary](LinkStatus&& l) {
       if (!l.topic.empty()) return;  // a netkf relay's topic (above)
+      const bool link_moved = model && model->add_link_status(l);
       recording.link_status(l);
       if (summary) summary->add_link_status(l);
-      if (console) console->link_status(l);
+      if (console) console->link_status(l, link_moved);
     };
   }
   if (console) h.link_reply = [console](LinkReply&& r) { console->link_reply(r); };
-  h.invalid = [console, &invalid](const std::string& what) {
+  h.invalid = [model, console, &invalid](const std::string& what) {
     ++invalid;
+    if (model) model->count_invalid();
     if (console) console->invalid_sample(what);
     else std::cerr << "netkf: rejected a sample: " << what << "\n";
   };
@@ -157,7 +163,8 @@ void Launch::read_inputs() {
   if (scenario_.actuation_link()) link_ids.push_back(kControlLinkId);
   for (const auto& text : o_.checks) checks_.push_back(or_bad_usage([&] { return parse_check(text, link_ids); }));
   if (o_.summary) summary_out_ = open_output_stream({"--summary", *o_.summary});
-  if (o_.summary || !checks_.empty()) summary_ = std::make_unique<RunSummaryBuilder>(scenario_);
+  model_ = std::make_unique<LiveModel>(scenario_);
+  if (o_.summary || !checks_.empty()) summary_ = std::make_unique<RunSummaryBuilder>(*model_);
 }
 
 /// The localhost profile, or a Discovery Server (this launch's own with --serve-discovery:
@@ -209,7 +216,7 @@ void Launch::prepare_files() {
 void Launch::open_network() {
   recording_ = std::make_unique<Recording>(
       o_.record, o_.record_samples, scenario_,
-      Recording::mcap_options("--record", o_.record, o_.mcap_profile, ros2::make_fastcdr_codec()));
+      Recording::mcap_options("--record", o_.record, o_.mcap_profile, ros2::make_fastcdr_codec()), model_.get());
   open_console();
   // This run's id: every node stamps it on its samples and drops those of another run. A launch
   // of the whole network draws one; the launches of one network on several hosts (--only) share
@@ -245,7 +252,7 @@ void Launch::open_console() {
     console_options_.dashboard = d;
   }
   console_ = or_bad_usage([&] {
-    return std::make_unique<LiveConsole>(io_, scenario_, console_options_,
+    return std::make_unique<LiveConsole>(io_, *model_, console_options_,
                                          [this](std::uint64_t id, int sensor_id, const LinkKeys& keys) {
                                            return bus_ && bus_->send_link_control(id, sensor_id, keys);
                                          });
@@ -253,7 +260,7 @@ void Launch::open_console() {
 }
 
 void Launch::open_bus() {
-  BusHandlers handlers = recording_handlers(*recording_, console_.get(), summary_.get(), invalid_samples_);
+  BusHandlers handlers = recording_handlers(*recording_, model_.get(), console_.get(), summary_.get(), invalid_samples_);
   outages_ = std::make_unique<OutageWatch>(std::chrono::milliseconds(scenario_.period_ms));
   handlers.truth = [record = std::move(handlers.truth), this](Truth&& t) {
     outages_->truth(t.k, Clock::now());
@@ -522,13 +529,13 @@ void Launch::stop() {
   // A child killed during the run (kill -9, or SIGKILL after the stop timeout) left its Fast
   // DDS shared-memory files: every process of the run has ended, so remove them now.
   remove_stale_shared_memory(domain_, "killed processes of this run");
-  std::cerr << "netkf launch: stopped (" << end_text(facts_) << "); " << console_->model().snapshot().estimates
+  std::cerr << "netkf launch: stopped (" << end_text(facts_) << "); " << model_->snapshot().estimates
             << " estimates seen";
   if (foreign_samples > 0) std::cerr << ", " << foreign_samples << " samples of another run on the domain dropped";
   if (o_.record)
     std::cerr << ", " << recording_->rows() << (is_mcap_path(*o_.record) ? " periods in " : " rows in ") << *o_.record;
   std::cerr << "\n";
-  if (console_->model().saw_non_finite() || invalid_samples_ > 0)
+  if (model_->saw_non_finite() || invalid_samples_ > 0)
     std::cerr << "netkf launch: WARNING: " << invalid_samples_ << " invalid samples were rejected\n";
 }
 
@@ -536,7 +543,7 @@ void Launch::stop() {
 
 /// Checks are judged after everything is recorded; a run that failed keeps its own failure.
 int Launch::conclude() {
-  add_snapshot_facts(console_->model().snapshot(), facts_);
+  add_snapshot_facts(model_->snapshot(), facts_);
   facts_.fused_periods = fused_periods_;
   facts_.ran_for_s = std::chrono::duration<double>(Clock::now() - start_).count();
   RunVerdict verdict = judge_run(facts_);

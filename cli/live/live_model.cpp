@@ -2,13 +2,14 @@
 #include "netkf/links/link_delay.hpp"
 #include "netkf/links/link_text.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <utility>
 
 namespace netkf::cli {
 
-LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)), cost_(scenario_) {
+LiveModel::LiveModel(Scenario scenario) : scenario_(std::move(scenario)), cost_(scenario_), next_event_{0} {
   for (const auto& sensor : scenario_.sensors) {
     LinkView view;
     view.sensor_id = sensor.id;
@@ -141,23 +142,28 @@ void LiveModel::note_own_request(std::uint64_t request_id, std::string source) {
   while (own_requests_.size() > 1000) own_requests_.erase(own_requests_.begin());
 }
 
-void LiveModel::add_link_status(const LinkStatus& status) {
+bool LiveModel::add_link_status(const LinkStatus& status) {
   LinkView* view = link(status.sensor_id);
   if (!view) {
     raise(LiveEvent::Level::warning,
           "link status for sensor " + link_name(status.sensor_id) + ", which is not in the scenario (ignored)");
-    return;
+    return false;
   }
+  const bool moved = !view->reported || !(status.link == view->link);
   const bool changed = view->reported && status.last_request_id != view->last_request_id;
   if (changed) {
     auto own = own_requests_.find(status.last_request_id);
-    const std::string source = own != own_requests_.end() ? own->second : "netkf ctl or another client";
-    if (status.rejection_reason.empty())
-      raise(LiveEvent::Level::info, "link " + link_name(status.sensor_id) + ": " +
-                                        describe_link(status.link) + " (from " + source + ")");
-    else
-      raise(LiveEvent::Level::error, "link " + link_name(status.sensor_id) + ": change refused by the channel (" +
-                                         status.rejection_reason + ", from " + source + ")");
+    const std::string others = "netkf ctl or another client";
+    const std::string& source = own != own_requests_.end() ? own->second : others;
+    const auto text = [&](const std::string& from) {
+      return status.rejection_reason.empty()
+                 ? "link " + link_name(status.sensor_id) + ": " + describe_link(status.link) + " (from " + from + ")"
+                 : "link " + link_name(status.sensor_id) + ": change refused by the channel (" +
+                       status.rejection_reason + ", from " + from + ")";
+    };
+    LiveEvent event{status.rejection_reason.empty() ? LiveEvent::Level::info : LiveEvent::Level::error, text(source)};
+    if (own != own_requests_.end()) event.unattributed_text = text(others);
+    raise(std::move(event));
   }
   ObservedRateWindow& window = windows_[status.sensor_id];
   window.add(status);
@@ -166,6 +172,7 @@ void LiveModel::add_link_status(const LinkStatus& status) {
   view->observed_window_samples = window.samples();
   static_cast<LinkStatus&>(*view) = status;
   view->reported = true;
+  return moved;
 }
 
 void LiveModel::add_link_change(const LinkChange& change) {
@@ -204,19 +211,55 @@ std::optional<double> LiveModel::observed_actuation_rate_since_change() const {
 void LiveModel::set_theory(TheoryView theory) {
   const auto before = snapshot_.theory.ready ? snapshot_.theory.configured.result.stable : theory::Verdict::unknown;
   const auto now = theory.configured.result.stable;
+  LiveEvent crossing{LiveEvent::Level::warning, {}};
+  crossing.from_records = false;
   if (before == theory::Verdict::yes && now == theory::Verdict::no)
-    raise(LiveEvent::Level::warning,
-          "link change moved the network below the critical arrival rate: " + theory.configured.result.reason);
+    crossing.text = "link change moved the network below the critical arrival rate: " + theory.configured.result.reason;
   if (before == theory::Verdict::no && now == theory::Verdict::yes)
-    raise(LiveEvent::Level::warning, "links are back above the critical arrival rate");
+    crossing.text = "links are back above the critical arrival rate";
+  if (!crossing.text.empty()) raise(std::move(crossing));
   if (theory.region.empty()) theory.region = std::move(snapshot_.theory.region);
   snapshot_.theory = std::move(theory);
 }
 
-std::vector<LiveEvent> LiveModel::take_events() {
-  auto out = std::move(events_);
-  events_.clear();
+void LiveModel::raise(LiveEvent event) {
+  // Nobody reads: nothing to keep (a reader sees the events raised after it subscribed).
+  if (std::none_of(next_event_.begin(), next_event_.end(), [](const auto& next) { return next.has_value(); })) {
+    ++first_event_;
+    return;
+  }
+  events_.push_back(std::move(event));
+}
+
+LiveModel::Subscriber LiveModel::subscribe() {
+  next_event_.emplace_back(first_event_ + events_.size());
+  return next_event_.size() - 1;
+}
+
+void LiveModel::unsubscribe(Subscriber reader) {
+  if (reader < next_event_.size()) next_event_[reader].reset();
+  forget_taken_events();
+}
+
+std::vector<LiveEvent> LiveModel::take_events(Subscriber reader) {
+  if (reader >= next_event_.size() || !next_event_[reader]) return {};
+  auto& next = *next_event_[reader];
+  const auto end = first_event_ + events_.size();
+  std::vector<LiveEvent> out(events_.begin() + static_cast<std::ptrdiff_t>(next - first_event_), events_.end());
+  next = end;
+  forget_taken_events();
   return out;
+}
+
+void LiveModel::forget_taken_events() {
+  std::optional<std::uint64_t> oldest;  // the oldest event a reader has still to take
+  for (const auto& next : next_event_)
+    if (next && (!oldest || *next < *oldest)) oldest = *next;
+  const auto keep_from = oldest.value_or(first_event_ + events_.size());
+  while (first_event_ < keep_from) {
+    events_.pop_front();
+    ++first_event_;
+  }
 }
 
 }  // namespace netkf::cli

@@ -1,4 +1,5 @@
 #include "netkf/cli/live/run_summary.hpp"
+#include "netkf/cli/live/live_model.hpp"
 
 #include <algorithm>
 #include <charconv>
@@ -246,6 +247,10 @@ RunSummaryBuilder::RunSummaryBuilder(const Scenario& scenario) {
   }
 }
 
+RunSummaryBuilder::RunSummaryBuilder(const LiveModel& model) : RunSummaryBuilder(model.scenario()) { model_ = &model; }
+
+const PeriodJoin& RunSummaryBuilder::join() const { return model_ ? model_->join() : own_join_; }
+
 LinkSummary* RunSummaryBuilder::link(int sensor_id) {
   for (auto& l : summary_.links)
     if (l.id == sensor_id) return &l;
@@ -253,14 +258,15 @@ LinkSummary* RunSummaryBuilder::link(int sensor_id) {
 }
 
 void RunSummaryBuilder::add_truth(const Truth& truth) {
-  score(join_.add_truth(truth.k, truth.x));
+  if (model_) take_model_score();
+  else score(own_join_.add_truth(truth.k, truth.x));
   score_final(truth.k);
   summary_.cost.add(truth);
 }
 
 void RunSummaryBuilder::score_final(std::int64_t k) {
   auto f = finals_.find(k);
-  const std::vector<double>* x = join_.truth(k);
+  const std::vector<double>* x = join().truth(k);
   if (f == finals_.end() || x == nullptr || static_cast<Eigen::Index>(x->size()) != f->second.x_hat.size()) return;
   double e2 = 0.0;
   for (std::size_t i = 0; i < x->size(); ++i) {
@@ -308,7 +314,8 @@ void RunSummaryBuilder::add_estimate(const Estimate& e) {
     const double ms = e.pipeline_latency_s() * 1e3;
     if (ms >= 0.0) s.latencies_ms.push_back(ms);
   }
-  score(join_.add_estimate(static_cast<std::int64_t>(e.k), e.x_hat));
+  if (model_) take_model_score();
+  else score(own_join_.add_estimate(static_cast<std::int64_t>(e.k), e.x_hat));
   score_final(k);
 }
 
@@ -316,6 +323,12 @@ void RunSummaryBuilder::score(std::optional<double> squared_error) {
   if (!squared_error) return;
   summary_.sum_squared_error += *squared_error;
   ++summary_.periods_scored;
+}
+
+void RunSummaryBuilder::take_model_score() {
+  // The same terms added in the same order as score() would: the same sum, bit for bit.
+  summary_.sum_squared_error = model_->sum_squared_error();
+  summary_.periods_scored = model_->periods_scored();
 }
 
 void RunSummaryBuilder::add_link_status(const LinkStatus& status) {

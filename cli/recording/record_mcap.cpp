@@ -34,12 +34,34 @@ bool is_mcap_path(const std::string& path) {
 }
 
 McapRecorder::McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered, McapOptions options)
+    : McapRecorder(out, std::make_unique<LiveModel>(scenario), nullptr, with_delivered, std::move(options)) {}
+
+McapRecorder::McapRecorder(std::ostream& out, LiveModel& model, bool with_delivered, McapOptions options)
+    : McapRecorder(out, nullptr, &model, with_delivered, std::move(options)) {}
+
+McapRecorder::McapRecorder(std::ostream& out, std::unique_ptr<LiveModel> own_model, LiveModel* shared,
+                           bool with_delivered, McapOptions options)
     : options_(std::move(options)),
       writer_(out, "netkf", ros2() ? "ros2" : "", /*with_summary=*/ros2()),
-      model_(scenario),
-      period_s_(scenario.period_ms / 1000.0),
+      own_model_(std::move(own_model)),
+      model_(own_model_ ? *own_model_ : *shared),
+      reader_(own_model_ ? LiveModel::kFirstReader : model_.subscribe()),
+      period_s_(model_.scenario().period_ms / 1000.0),
       with_delivered_(with_delivered),
-      max_delay_periods_(scenario.estimator.fusable_delay_periods()) {
+      max_delay_periods_(model_.scenario().estimator.fusable_delay_periods()) {
+  try {
+    add_channels();
+  } catch (...) {
+    if (!own_model_) model_.unsubscribe(reader_);  // no destructor runs: the model keeps no events for it
+    throw;
+  }
+}
+
+McapRecorder::~McapRecorder() {
+  if (!own_model_) model_.unsubscribe(reader_);
+}
+
+void McapRecorder::add_channels() {
   if (ros2()) {
     add_ros2_channels();
     return;
@@ -101,7 +123,9 @@ void McapRecorder::write(std::uint16_t channel, std::uint64_t time_ns, const std
 }
 
 void McapRecorder::write_events() {
-  for (const auto& event : model_.take_events()) {
+  for (auto& event : model_.take_events(reader_)) {
+    if (!event.from_records) continue;  // the theory's: the recording keeps what the records raise
+    if (!event.unattributed_text.empty()) event.text = std::move(event.unattributed_text);
     if (ros2()) {
       const std::uint8_t level = event.level == LiveEvent::Level::error     ? ros2::kLogError
                                  : event.level == LiveEvent::Level::warning ? ros2::kLogWarn
@@ -114,9 +138,11 @@ void McapRecorder::write_events() {
   }
 }
 
+void McapRecorder::drop_events() { model_.take_events(reader_); }
+
 void McapRecorder::truth(const Truth& t) {
   if (finished()) return;
-  model_.add_truth(t);
+  if (own_model_) own_model_->add_truth(t);
   note_time(t.t);
   write(truth_, seconds_to_ns(t.t), ros2() ? options_.codec->truth(t) : catalogue::truth_message(t).dump());
 }
@@ -133,7 +159,7 @@ void McapRecorder::estimate(const Estimate& e) {
     else if (e.revision >= f->second.revision) f->second = e;
     return;
   }
-  model_.add_estimate(e);  // counts late samples per link for the link status messages
+  if (own_model_) own_model_->add_estimate(e);  // counts late samples per link for the link status messages
   note_time(e.t);
   write_estimate(e);
   ++estimates_;
@@ -157,6 +183,7 @@ void McapRecorder::finish() {
   if (!finals_.empty()) write_finals(finals_.rbegin()->first);
   if (ros2()) write_bag_metadata();
   writer_.finish();
+  if (!own_model_) model_.unsubscribe(reader_);  // writes nothing more: keeps no events
 }
 
 void McapRecorder::delivered(const DeliveredMeasurement& d) {
@@ -166,7 +193,7 @@ void McapRecorder::delivered(const DeliveredMeasurement& d) {
 
 void McapRecorder::link_status(const LinkStatus& l) {
   if (finished()) return;
-  model_.add_link_status(l);
+  if (own_model_) own_model_->add_link_status(l);
   write_events();
   if (ros2()) {
     write(link_status_, latest_ns_, options_.codec->link_status(l));
@@ -179,9 +206,10 @@ void McapRecorder::link_status(const LinkStatus& l) {
 void McapRecorder::link_change(const LinkChange& c) {
   if (finished()) return;
   std::string json = catalogue::link_change_message(c).dump();
-  if (!changes_seen_.insert(json).second) return;
+  // A repeat is not recorded twice, nor the event it raised again in a model fed before us.
+  if (!changes_seen_.insert(json).second) return drop_events();
   write(link_change_, period_time_ns(c.at_period), ros2() ? options_.codec->link_change(c) : json);
-  model_.add_link_change(c);  // a timeline step is an event too
+  if (own_model_) own_model_->add_link_change(c);  // a timeline step is an event too
   write_events();
 }
 

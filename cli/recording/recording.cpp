@@ -55,7 +55,7 @@ McapOptions Recording::mcap_options(const std::string& periods_option, const std
 }
 
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
-                     const Scenario& scenario, McapOptions mcap)
+                     const Scenario& scenario, McapOptions mcap, LiveModel* model)
     : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario),
                scenario.actuation_link() != nullptr),
       samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
@@ -64,8 +64,9 @@ Recording::Recording(const std::optional<std::string>& periods_file, const std::
   if (periods_file && is_mcap_path(*periods_file)) {
     mcap_out_ = open_output_stream({"the recording", *periods_file});
     if (mcap.file_name.empty()) mcap.file_name = *periods_file;
-    mcap_ = std::make_unique<McapRecorder>(*mcap_out_, scenario, /*with_delivered=*/samples_file.has_value(),
-                                           std::move(mcap));
+    const bool with_delivered = samples_file.has_value();
+    mcap_ = model ? std::make_unique<McapRecorder>(*mcap_out_, *model, with_delivered, std::move(mcap))
+                  : std::make_unique<McapRecorder>(*mcap_out_, scenario, with_delivered, std::move(mcap));
     mcap_out_->flush();
   } else if (periods_file) {
     periods_out_ = open_output_stream({"the recording", *periods_file});

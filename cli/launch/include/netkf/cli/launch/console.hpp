@@ -1,7 +1,8 @@
 #pragma once
 // What `netkf launch` shows of its running network, and the steering that comes back: the
-// live model (one snapshot), the theory computed off the loop, the terminal status, the
-// dashboard (page + Foxglove WebSocket) and /metrics. Everything runs on the launch's
+// launch's live model (one snapshot; the launch feeds it each record before the console gets
+// the record, launch.hpp's recording_handlers), the theory computed off the loop, the terminal
+// status, the dashboard (page + Foxglove WebSocket) and /metrics. Everything runs on the launch's
 // io_context thread except the theory (TheoryWorker); link changes from the page go out
 // through `send_link_control`, the same control path as `netkf ctl`.
 #include <utility>  // before Asio (Boost 1.74 + GCC 12)
@@ -43,13 +44,16 @@ class LiveConsole {
   using Clock = std::chrono::steady_clock;
 
   /// Throws std::runtime_error when the dashboard cannot listen (e.g. its port is taken).
-  LiveConsole(boost::asio::io_context& io, const Scenario& scenario, LiveConsoleOptions options,
-            SendLinkControl send_link_control);
+  /// `model` must outlive the console; the console takes its events as its first reader.
+  LiveConsole(boost::asio::io_context& io, LiveModel& model, LiveConsoleOptions options,
+              SendLinkControl send_link_control);
   ~LiveConsole();
 
+  // Each after the model was fed the record.
   void truth(const Truth& truth);
   void estimate(const Estimate& estimate);
-  void link_status(const LinkStatus& status);
+  /// `link_moved`: what the model's add_link_status said.
+  void link_status(const LinkStatus& status, bool link_moved);
   void link_reply(const LinkReply& reply);
   void link_change(const LinkChange& change);
   void invalid_sample(const std::string& what);
@@ -98,7 +102,7 @@ class LiveConsole {
   boost::asio::io_context& io_;
   LiveConsoleOptions options_;
   SendLinkControl send_link_control_;
-  LiveModel model_;
+  LiveModel& model_;
   LiveMetrics metrics_;
   std::unique_ptr<DashboardServer> dashboard_;
   std::deque<std::string> screen_events_;

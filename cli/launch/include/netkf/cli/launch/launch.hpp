@@ -72,9 +72,11 @@ struct LaunchOptions {
 /// The scenario file (or the built-in default); CommandError(bad_usage) when it is invalid.
 Scenario load_or_default(const std::optional<std::string>& file);
 
-/// Handlers that feed a recording and, when given, the launch's console and its run summary.
-BusHandlers recording_handlers(Recording& recording, LiveConsole* console, RunSummaryBuilder* summary,
-                               std::uint64_t& invalid);
+/// Handlers that feed a recording and, when given, the launch's live model, its console and its
+/// run summary. Each record reaches the model once, first (the in-time estimates only), then
+/// the recording, the console and the summary, which read the model.
+BusHandlers recording_handlers(Recording& recording, LiveModel* model, LiveConsole* console,
+                               RunSummaryBuilder* summary, std::uint64_t& invalid);
 
 class Launch {
  public:
@@ -121,6 +123,9 @@ class Launch {
   TopicNaming naming_ = TopicNaming::netkf;  // flag, $NETKF_NAMING, the scenario's (every child gets it)
   std::vector<Check> checks_;
   std::unique_ptr<std::ostream> summary_out_;  // --summary (output_file.hpp)
+  // The one live model: the console, the MCAP recorder and the summary read it (declared
+  // before them: destroyed after them).
+  std::unique_ptr<LiveModel> model_;
   std::unique_ptr<RunSummaryBuilder> summary_;  // only a run that asks keeps its records
   std::unique_ptr<LaunchFiles> files_;
   std::filesystem::path scenario_path_;

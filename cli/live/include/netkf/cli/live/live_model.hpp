@@ -1,9 +1,14 @@
 #pragma once
 // The live model of `netkf launch`: fed the bus's records, it keeps the one snapshot that
-// every view reads (LiveSnapshot) and raises events (link changes, boundary crossings).
+// every view reads (LiveSnapshot) and raises events (link changes, boundary crossings). A
+// launch owns one, fed once per record before its readers see the record: the console (the
+// terminal, the dashboard, /metrics), the MCAP recorder (its link views and events) and the
+// run summary (the period join's scores) all read it; each reader of the events subscribes
+// and takes them at its own pace.
 // Pure bookkeeping: no DDS, no threads, no theory computation (the caller computes the
 // theory off its loop, see TheoryWorker, and hands the result back with set_theory).
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <string>
@@ -36,7 +41,8 @@ class LiveModel {
 
   void add_truth(const Truth& truth);
   void add_estimate(const Estimate& estimate);
-  void add_link_status(const LinkStatus& status);
+  /// True when the link's model moved: its first report, or another link than last reported.
+  bool add_link_status(const LinkStatus& status);
   /// A journaled link change (the timeline's show up in the event log).
   void add_link_change(const LinkChange& change);
   void count_invalid() { ++snapshot_.invalid_samples; }
@@ -61,9 +67,22 @@ class LiveModel {
   /// The link of a sensor id (kControlLinkId: the actuation link); nullptr when not in the scenario.
   const LinkView* find_link(int sensor_id) const;
   const Scenario& scenario() const { return scenario_; }
-  /// Events raised since the last call.
-  std::vector<LiveEvent> take_events();
-  void raise(LiveEvent::Level level, std::string text) { events_.push_back({level, std::move(text)}); }
+  /// A reader of the events: each takes every event raised after it subscribed, once.
+  using Subscriber = std::size_t;
+  /// The reader made with the model (a model with one reader needs no subscribe()).
+  static constexpr Subscriber kFirstReader = 0;
+  Subscriber subscribe();
+  /// The reader reads no more: the events it did not take are not kept for it.
+  void unsubscribe(Subscriber reader);
+  /// Events raised since the reader's last call.
+  std::vector<LiveEvent> take_events(Subscriber reader = kFirstReader);
+  void raise(LiveEvent::Level level, std::string text) { raise(LiveEvent{level, std::move(text)}); }
+
+  /// The join of truths and in-time estimates, and its running score (the snapshot's
+  /// rms_error): Σ |x_k − x̂_{k|k}|² over the periods scored, in the order they were scored.
+  const PeriodJoin& join() const { return join_; }
+  double sum_squared_error() const { return sum_sq_error_; }
+  std::uint64_t periods_scored() const { return scored_; }
 
   bool saw_non_finite() const { return saw_non_finite_; }
 
@@ -71,6 +90,8 @@ class LiveModel {
   void score(std::optional<double> squared_error);
   void check_late_share();
   LinkView* link(int sensor_id);
+  void raise(LiveEvent event);
+  void forget_taken_events();
 
   Scenario scenario_;
   LiveSnapshot snapshot_;
@@ -90,7 +111,10 @@ class LiveModel {
   bool late_warned_ = false;
   std::map<std::uint64_t, std::string> own_requests_;  // request id -> source ("dashboard")
   std::map<int, ObservedRateWindow> windows_;           // per sensor id
-  std::vector<LiveEvent> events_;
+  // The events not yet taken by every reader; events_.front() is event number first_event_.
+  std::deque<LiveEvent> events_;
+  std::uint64_t first_event_ = 0;
+  std::vector<std::optional<std::uint64_t>> next_event_;  // per reader; nullopt: unsubscribed
 };
 
 }  // namespace netkf::cli

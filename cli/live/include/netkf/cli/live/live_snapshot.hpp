@@ -82,6 +82,12 @@ struct LiveSnapshot {
 struct LiveEvent {
   enum class Level { info = 0, warning = 1, error = 2 } level = Level::info;
   std::string text;
+  /// Raised by a record (an estimate, a link's status or change), not by the theory: a
+  /// recording keeps only these ("the events the records raise", record_mcap.hpp).
+  bool from_records = true;
+  /// A link change this process asked for, as a reader that did not ask for it words it
+  /// ("from netkf ctl or another client"): the recording's text. Empty: as `text`.
+  std::string unattributed_text{};
 };
 
 }  // namespace netkf::cli

@@ -105,10 +105,18 @@ Measured measure(const RunSummary& summary, const std::string& name);
 /// the values at or below it, i.e. the ceil(p/100 × N)-th smallest. NaN when empty.
 double nearest_rank_percentile(std::vector<double> values, double p);
 
+class LiveModel;
+
 /// Builds the summary from the launch's records, in any order of arrival.
 class RunSummaryBuilder {
  public:
+  /// With a period join of its own, fed by add_truth and add_estimate.
   explicit RunSummaryBuilder(const Scenario& scenario);
+  /// Reading the join of `model` (the launch's one live model) and its score: the model's
+  /// owner feeds it each record before the summary gets it; `model` must outlive the builder.
+  /// The live model scores the in-time estimates as the summary does (and drops a non-finite
+  /// one, which the bus's validation never lets through).
+  explicit RunSummaryBuilder(const LiveModel& model);
 
   void add_truth(const Truth& truth);
   void add_estimate(const Estimate& estimate);
@@ -128,8 +136,12 @@ class RunSummaryBuilder {
   std::map<int, Counters> last_;
   std::map<int, ObservedRateWindow> windows_;
   RunSummary summary_;
-  PeriodJoin join_;
+  const LiveModel* model_ = nullptr;  // its join, when given
+  PeriodJoin own_join_;               // without a model
+  const PeriodJoin& join() const;
+  /// rms_error's terms: scored by its own join, or as the model scored them.
   void score(std::optional<double> squared_error);
+  void take_model_score();
   /// rms_error_final: the newest estimate of each recent period, and its term in the sum.
   struct Final {
     std::uint32_t revision = 0;

@@ -12,7 +12,9 @@
 //   netkf/link/status                 t of the newest truth or estimate recorded (0 before)
 //   netkf/events                      likewise: the events the records raise in the live model
 //                                     (link changes, refusals, estimator restarts, silent
-//                                     sensors), as foxglove.Log for Foxglove's Log panel
+//                                     sensors), as foxglove.Log for Foxglove's Log panel; not
+//                                     the theory's, and a change this process asked for worded
+//                                     as by any reader ("from netkf ctl or another client")
 // Records are written as they arrive, so log times are not strictly ordered across channels.
 //
 // The ros2 profile (McapOptions::profile, ros2_bag.hpp) writes the same records at the same log
@@ -55,6 +57,13 @@ class McapRecorder {
   /// `with_delivered`). `out` must be binary and outlive the recorder. Throws
   /// std::invalid_argument for the ros2 profile without a codec.
   McapRecorder(std::ostream& out, const Scenario& scenario, bool with_delivered, McapOptions options = {});
+  /// The same reading `model` (a launch's one live model), which its owner feeds each record
+  /// before the recorder gets it (the in-time estimates only: the recorder feeds its own model
+  /// just those); `model` must outlive the recorder.
+  McapRecorder(std::ostream& out, LiveModel& model, bool with_delivered, McapOptions options = {});
+  ~McapRecorder();
+  McapRecorder(const McapRecorder&) = delete;
+  McapRecorder& operator=(const McapRecorder&) = delete;
 
   void truth(const Truth& t);
   void estimate(const Estimate& e);
@@ -79,12 +88,23 @@ class McapRecorder {
   void write(std::uint16_t channel, std::uint64_t time_ns, const std::string& data);  // JSON or CDR
   void write_events();
   bool ros2() const { return options_.profile == McapProfile::ros2; }
+  void add_channels();
   void add_ros2_channels();
   void write_bag_metadata();
 
+  McapRecorder(std::ostream& out, std::unique_ptr<LiveModel> own_model, LiveModel* shared, bool with_delivered,
+               McapOptions options);
+  /// The events raised since the last write, or none when a record of the model's owner raised
+  /// them for a repeat the recording skips.
+  void drop_events();
+
   McapOptions options_;
   McapWriter writer_;
-  LiveModel model_;  // the link views the dashboard sends (late counts, arrival rates)
+  // The link views the dashboard sends (late counts, arrival rates) and the events: the
+  // launch's model, or (standalone) one of the recorder's own that it feeds itself.
+  std::unique_ptr<LiveModel> own_model_;
+  LiveModel& model_;
+  LiveModel::Subscriber reader_;
   double period_s_;
   bool with_delivered_;
   int max_delay_periods_ = 0;                  // D (0: late_policy drop, no revisions)

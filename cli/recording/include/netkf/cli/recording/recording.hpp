@@ -30,9 +30,11 @@ namespace netkf::cli {
 class Recording {
  public:
   /// Throws CommandError (bad_usage) when a file cannot be opened. `mcap` (profile, codec)
-  /// applies when periods_file is an MCAP file.
+  /// applies when periods_file is an MCAP file. `model`: the launch's live model, which the
+  /// MCAP recorder reads (fed by the launch before each record reaches the recording; it must
+  /// outlive the recording); none: the recorder keeps its own.
   Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
-            const Scenario& scenario, McapOptions mcap = {});
+            const Scenario& scenario, McapOptions mcap = {}, LiveModel* model = nullptr);
   Recording(const Recording&) = delete;
   Recording& operator=(const Recording&) = delete;
   ~Recording();
