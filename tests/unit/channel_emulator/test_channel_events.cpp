@@ -24,30 +24,7 @@
 #include "netkf/model/scenario.hpp"
 #include "netkf/nodes/channel_links.hpp"
 
-// Readable failures: links and events as their keys, numbers to 17 digits.
-namespace netkf {
-inline void PrintTo(const LinkKeys& keys, std::ostream* os) {
-  *os << "{";
-  for (const auto& k : keys) {
-    *os << " " << k.name << ": ";
-    if (const auto* w = std::get_if<std::string>(&k.value)) {
-      *os << *w;
-    } else {
-      *os << std::setprecision(17) << std::get<double>(k.value);
-    }
-  }
-  *os << " }";
-}
-inline void PrintTo(const LinkSpec& link, std::ostream* os) { PrintTo(link_keys(link), os); }
-inline void PrintTo(const BernoulliLink& b, std::ostream* os) { PrintTo(LinkSpec(b), os); }
-inline void PrintTo(const GilbertElliottLink& g, std::ostream* os) { PrintTo(LinkSpec(g), os); }
-inline void PrintTo(const LinkEvent& e, std::ostream* os) {
-  *os << "{ at_period: " << e.at_period << ", link: " << e.link
-      << (e.kind == LinkEvent::Kind::set ? ", set: " : ", ramp over " + std::to_string(e.ramp_periods) + " to: ");
-  PrintTo(e.keys, os);
-  *os << " }";
-}
-}  // namespace netkf
+#include "support/link_printers.hpp"
 
 namespace {
 
@@ -64,8 +41,8 @@ using netkf::LinkSpec;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-LinkKey word(const std::string& name, const std::string& value) { return {name, value}; }
-LinkKey num(const std::string& name, double value) { return {name, value}; }
+using netkf_test::num;
+using netkf_test::word;
 
 const GilbertElliottLink& ge(const LinkSpec& l) { return std::get<GilbertElliottLink>(l.loss); }
 

@@ -13,38 +13,15 @@
 
 #include "netkf/model/scenario.hpp"
 #include "netkf/nodes/channel_links.hpp"
+#include "support/trace_files.hpp"
 
 namespace {
 
 using ::testing::HasSubstr;
 
-// A scratch directory of this test process, removed at the end.
-class TraceFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("netkf-trace-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_ / "traces");
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const auto path = dir_ / name;
-    std::ofstream(path) << text;
-    return path.string();
-  }
-  std::filesystem::path dir_;
-};
+using netkf_test::TraceFiles;
 
-// Rows 0..4 delivered 1,0,0,1,1 with delays 3, -, -, 7.5, 2.
-const char* const kTrace =
-    "# five rows\n"
-    "k,delivered,delay_ms\n"
-    "10,1,3\n"
-    "11,0,\n"
-    "12,0,\n"
-    "13,1,7.5\n"
-    "14,1,2\n";
+using netkf_test::kTrace;
 
 // A scenario in dir_ whose link 1 replays traces/t.csv (named relative to the scenario).
 std::string scenario_text(const std::string& link) {

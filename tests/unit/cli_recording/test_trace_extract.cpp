@@ -18,28 +18,13 @@
 #include "netkf/cli/recording/mcap_writer.hpp"
 #include "netkf/cli/recording/trace_extract.hpp"
 #include "netkf/links/link_trace.hpp"
+#include "support/trace_files.hpp"
 
 namespace {
 
 using ::testing::HasSubstr;
 
-// A scratch directory of this test process, removed at the end.
-class TraceFiles : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("netkf-trace-" + std::to_string(::getpid()) + "-" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_ / "traces");
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const auto path = dir_ / name;
-    std::ofstream(path) << text;
-    return path.string();
-  }
-  std::filesystem::path dir_;
-};
+using netkf_test::TraceFiles;
 
 // `netkf trace extract`: the delivered (sensor, period) pairs written here come back as the
 // link's trace, period for period, from a samples CSV and from an MCAP file (written by the
