@@ -22,6 +22,7 @@
 #include "netkf/links/link_keys.hpp"
 #include "netkf/model/scenario.hpp"
 
+#include "support/events_scenario.hpp"
 #include "support/link_printers.hpp"
 
 namespace {
@@ -42,43 +43,15 @@ using ::testing::StartsWith;
 using netkf_test::num;
 using netkf_test::word;
 
-std::string scenario_error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const netkf::ScenarioError& e) {
-    return e.what();
-  } catch (const std::exception& e) {
-    return std::string("<not a ScenarioError: ") + e.what() + ">";
-  }
-  return "<no ScenarioError thrown>";
-}
+using netkf_test::scenario_error_of;
 
 // ======================================================================================
 // Scenario events: parsing, errors, files, replay.
 
-const char* const kScenarioHead =
-    "period_ms: 10\n"
-    "seed: 7\n"
-    "plant: { A: [[0.5]], Q: [[1.0]] }\n"
-    "sensors:\n"
-    "  - { id: 1, C: [[1.0]], R: [[1.0]], link: { model: bernoulli, loss: 0.3, delay_ms: 4, jitter_ms: 2 } }\n"
-    "  - { id: 2, C: [[1.0]], R: [[1.0]], link: { model: gilbert_elliott, loss: 0.2, mean_burst: 5 } }\n"
-    "  - { id: 3, C: [[1.0]], R: [[1.0]], link: { model: gilbert_elliott, p: 0.1, r: 0.3, loss_good: 0.02, "
-    "loss_bad: 0.7 } }\n"
-    "events:\n";
-constexpr int kFirstEventLine = 9;
-
-std::string with_events(const std::vector<std::string>& lines) {
-  std::string text = kScenarioHead;
-  for (const auto& l : lines) text += l + "\n";
-  return text;
-}
-
-netkf::Scenario base_scenario() {
-  std::string text = kScenarioHead;
-  text.resize(text.size() - std::string("events:\n").size());
-  return netkf::parse_scenario(text, "base.yaml");
-}
+using netkf_test::base_scenario;
+using netkf_test::kFirstEventLine;
+using netkf_test::kScenarioHead;
+using netkf_test::with_events;
 
 TEST(LinkEvents, AtPeriodAtSetAndRampsAreRead) {
   const netkf::Scenario s = netkf::parse_scenario(
