@@ -26,7 +26,7 @@ json schema_object(json properties, std::vector<std::string> required) {
 json number_array() { return json{{"type", "array"}, {"items", {{"type", "number"}}}}; }
 json nullable_number() { return json{{"type", json::array({"number", "null"})}}; }
 
-// Every link key (netkf/links/link.hpp): a link is shown and set by the names of a scenario file.
+// Every link key (netkf/links/link_keys.hpp): a link is shown and set by the names of a scenario file.
 json link_model_schema() {
   json props = json::object();
   for (const auto& name : link_key_names()) props[name] = {{"type", link_key_is_word(name) ? "string" : "number"}};

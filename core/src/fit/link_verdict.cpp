@@ -32,7 +32,7 @@ std::optional<double> criterion_with(const Scenario& scenario, std::size_t index
   return m.value;
 }
 
-// The simple Gilbert channel of a loss and a mean burst (netkf/links/link.hpp's loss + mean_burst
+// The simple Gilbert channel of a loss and a mean burst (netkf/links/link_keys.hpp's loss + mean_burst
 // form); nullopt where that form has no link (loss above B/(B+1)).
 std::optional<LinkModel> simple_gilbert(double loss, double mean_burst) {
   try {

@@ -476,7 +476,7 @@ class Loader {
   }
 
   // A link's keys (a sensor's link, an event's `set` or ramp target). Names, types and
-  // combinations are the link type's rules (netkf/links/link.hpp), the same for ctl and the dashboard.
+  // combinations are the link type's rules (netkf/links/link_keys.hpp), the same for ctl and the dashboard.
   LinkKeys read_link_keys(const YAML::Node& node, const std::string& at, const YAML::Mark& where) {
     if (!node.IsMap())
       fail(where, at + " must be a mapping such as { model: bernoulli, loss: 0.1 }, got " + describe(node));

@@ -445,7 +445,7 @@ MonteCarloResult make_result(const ChunkStats& total, const Setup& setup, const 
 
 MonteCarloResult run_monte_carlo(const Scenario& configured, const MonteCarloOptions& options) {
   // A late sample is a lost one: the simulated links are the effective loss models (exact in
-  // distribution for i.i.d. delays, see netkf/links/link.hpp).
+  // distribution for i.i.d. delays, see netkf/links/link_statistics.hpp).
   const Scenario scenario = with_effective_links(configured);
   if (options.runs < 1) throw std::invalid_argument("monte carlo: runs must be at least 1");
   if (options.steps < 1) throw std::invalid_argument("monte carlo: steps must be at least 1");

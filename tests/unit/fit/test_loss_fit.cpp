@@ -1,7 +1,7 @@
 // Link traces and loss-model fits (netkf/links/link_trace.hpp, netkf/fit/loss_fit.hpp):
 // the reader's refusals at FILE:LINE:COL; the fits against independent expectations: closed
 // forms (counts, the binomial and Markov-chain standard errors), the likelihood by brute
-// force over every hidden state path, run-length laws against netkf/links/link.hpp's stationary
+// force over every hidden state path, run-length laws against netkf/links/link_statistics.hpp's stationary
 // statistics, the chi-square tail against its closed form; and what `auto` concludes on
 // i.i.d. and bursty traces from fixed seeds.
 #include <gtest/gtest.h>

@@ -5,7 +5,7 @@
 // link is from the critical boundary in loss and in mean burst, and whether the verdict
 // holds across the fit's 95% intervals.
 //
-// Margins move the link along the loss / mean-burst form of netkf/links/link.hpp (the simple
+// Margins move the link along the loss / mean-burst form of netkf/links/link_keys.hpp (the simple
 // Gilbert channel with that stationary loss and mean burst, as `ctl set-link --loss` would
 // make it; a bernoulli fit moves its loss along i.i.d. links instead), the link's delay and
 // every other link kept. They assume the criterion grows with the loss and with the mean

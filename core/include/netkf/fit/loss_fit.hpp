@@ -17,7 +17,7 @@
 //    reach the boundary loss_bad = 1.
 //
 // Likelihood, the same for every family so that their AIC compare: log P(x_1..x_n) with the
-// chain started in its stationary distribution, as netkf/links/link.hpp's stationary_loss() reads
+// chain started in its stationary distribution, as netkf/links/link_statistics.hpp's stationary_loss() reads
 // a link, and, as LinkLossProcess draws, the chain first moves, then the sample is dropped
 // with the new state's loss. (The closed forms and the EM's M-step maximise the likelihood
 // given the first state, which differs from it by the first sample's term only, O(1/n).)

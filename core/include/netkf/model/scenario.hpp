@@ -142,7 +142,7 @@ class ScenarioError : public std::runtime_error {
 
 /// The scenario as the estimator sees it: every link replaced by its effective loss model at
 /// the scenario's deadline, without delay (a sample later than the deadline is never fused,
-/// so it counts as lost; netkf/links/link.hpp, effective_loss_model). The theory and the offline
+/// so it counts as lost; netkf/links/link_statistics.hpp, effective_loss_model). The theory and the offline
 /// simulation take this; their link analyses read `link.loss` only.
 Scenario with_effective_links(const Scenario& scenario);
 /// The same for a sample that counts when its delay is at most `horizon_ms` (the final
@@ -224,7 +224,7 @@ void validate_scenario(const Scenario& scenario, const ScenarioLocator& locate);
 void complete_scenario(Scenario& scenario, const ScenarioLocator& locate = {});
 
 /// The rate ν̄ at which inputs reach the plant in time: the actuation link's effective arrival
-/// rate at actuation_deadline_ms() (netkf/links/link.hpp); 1 without an actuation link.
+/// rate at actuation_deadline_ms() (netkf/links/link_statistics.hpp); 1 without an actuation link.
 double actuation_arrival_rate(const Scenario& scenario);
 
 /// Seeded streams of the links' decisions (netkf/support/random.hpp, derive_seed): a sensor's link i
