@@ -10,13 +10,13 @@
 #include "command_options.hpp"
 #include "netkf/cli/commands/commands.hpp"
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/cli/launch/launch.hpp"
-#include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/common/output_file.hpp"
+#include "netkf/cli/common/serve_loop.hpp"
+#include "netkf/cli/launch/launch.hpp"
+#include "netkf/cli/launch/run_end_watch.hpp"
+#include "netkf/cli/live/live_bus.hpp"
 #include "netkf/cli/recording/recording.hpp"
 #include "netkf/cli/recording/ros2_cdr_codec.hpp"
-#include "netkf/cli/launch/run_end_watch.hpp"
-#include "netkf/cli/common/serve_loop.hpp"
 
 namespace netkf::cli {
 namespace {
@@ -53,7 +53,7 @@ int run_record(const RecordOptions& o) {
     BusOptions bus_options = o.network.bus("netkf-record", dds::Role::observer);
     bus_options.scenario_naming = scenario.naming;
     bus_options.presence = BusOptions::Presence{dds::presence_role::record, 0, {}};
-    bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, nullptr, nullptr, nullptr, invalid_samples),
+    bus = std::make_unique<LiveBus>(io, bus_options, recording_handlers(recording, invalid_samples),
                                     false);
   } catch (const std::exception& e) {
     fail(ExitCode::bad_usage, std::string("DDS: ") + e.what());

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/console.hpp"
+#include "console.hpp"
 
 #include <boost/asio/post.hpp>
 #include <algorithm>

@@ -4,12 +4,14 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <iostream>
 #include <set>
 #include <sstream>
 #include <unistd.h>
 
 #include "domain_guard.hpp"
+#include "launch_run.hpp"
 #include "netkf/cli/common/exit_code.hpp"
 #include "netkf/cli/common/open_files.hpp"
 #include "netkf/cli/common/output_file.hpp"
@@ -122,11 +124,21 @@ BusHandlers recording_handlers(Recording& recording, LiveModel* model, LiveConso
   return h;
 }
 
-Launch::Launch(LaunchOptions options) : o_(std::move(options)) {}
+BusHandlers recording_handlers(Recording& recording, std::uint64_t& invalid) {
+  return recording_handlers(recording, nullptr, nullptr, nullptr, invalid);
+}
+
+Launch::Launch(LaunchOptions options) : run_(std::make_unique<LaunchRun>(std::move(options))) {}
 
 Launch::~Launch() = default;
 
-int Launch::run() {
+int Launch::run() { return run_->run(); }
+
+LaunchRun::LaunchRun(LaunchOptions options) : o_(std::move(options)) {}
+
+LaunchRun::~LaunchRun() = default;
+
+int LaunchRun::run() {
   prepare();
   start();
   serve();
@@ -136,7 +148,7 @@ int Launch::run() {
 
 // ---------------------------------------------------------------- prepare
 
-void Launch::prepare() {
+void LaunchRun::prepare() {
   read_inputs();
   check_identities(o_.network.secure, roles_, o_.dashboard != "off");
   resolve_discovery();
@@ -146,7 +158,7 @@ void Launch::prepare() {
 
 /// The scenario, the roles and the user's checks: a mistake in any is exit 2 before
 /// anything starts, not a failed check after a long run.
-void Launch::read_inputs() {
+void LaunchRun::read_inputs() {
   scenario_ = load_or_default(o_.scenario);
   if (o_.events) or_bad_usage([&] { add_replayed_events(scenario_, load_events_file(*o_.events, scenario_)); });
   policy_ = parse_restart_policy(o_.restart_policy);
@@ -169,7 +181,7 @@ void Launch::read_inputs() {
 
 /// The localhost profile, or a Discovery Server (this launch's own with --serve-discovery:
 /// it lives in this process and ends with it).
-void Launch::resolve_discovery() {
+void LaunchRun::resolve_discovery() {
   or_bad_usage([&] {
     domain_ = dds::resolve_domain(o_.network.domain);
     naming_ = dds::resolve_naming(o_.network.naming, scenario_.naming);
@@ -191,7 +203,7 @@ void Launch::resolve_discovery() {
 /// The launch's private files: the effective scenario the children read, the estimator's
 /// checkpoint. A launch killed earlier left its directory and maybe Fast DDS shared-memory
 /// files behind: both are cleaned here.
-void Launch::prepare_files() {
+void LaunchRun::prepare_files() {
   files_ = or_bad_usage([] { return std::make_unique<LaunchFiles>(); });
   for (const auto& stale : files_->removed_stale())
     std::cerr << "netkf launch: removed the files of a launch that is no longer running (" << stale.string() << ")\n";
@@ -213,7 +225,7 @@ void Launch::prepare_files() {
                                    "cannot serve discovery on " + served_->text() + ": ");
 }
 
-void Launch::open_network() {
+void LaunchRun::open_network() {
   recording_ = std::make_unique<Recording>(
       o_.record, o_.record_samples, scenario_,
       Recording::mcap_options("--record", o_.record, o_.mcap_profile, ros2::make_fastcdr_codec()), model_.get());
@@ -228,7 +240,7 @@ void Launch::open_network() {
 /// The console first: a dashboard port that is taken fails the launch before anything starts.
 /// The open-file limit is raised first: the dashboard's connections never take the descriptors
 /// the launch needs for its children's pipes and DDS (connection_cap).
-void Launch::open_console() {
+void LaunchRun::open_console() {
   const std::uint64_t open_files = raise_open_file_limit();
   console_options_.status_interval = o_.status_interval;
   const char* term = std::getenv("TERM");
@@ -259,7 +271,7 @@ void Launch::open_console() {
   });
 }
 
-void Launch::open_bus() {
+void LaunchRun::open_bus() {
   BusHandlers handlers = recording_handlers(*recording_, model_.get(), console_.get(), summary_.get(), invalid_samples_);
   outages_ = std::make_unique<OutageWatch>(std::chrono::milliseconds(scenario_.period_ms));
   handlers.truth = [record = std::move(handlers.truth), this](Truth&& t) {
@@ -294,7 +306,7 @@ void Launch::open_bus() {
 
 // ---------------------------------------------------------------- start
 
-void Launch::start() {
+void LaunchRun::start() {
   guard_domain(*bus_, {domain_, run_id_, scenario_hash_, roles_.all, o_.domain_check});
   SupervisorOptions so;
   so.policy = policy_;
@@ -308,7 +320,7 @@ void Launch::start() {
 
 /// For scripts and tests: name and pid of every running child and spare, rewritten (whole, in
 /// place) after every start, restart and death, so it always names the processes running now.
-void Launch::write_pid_file() {
+void LaunchRun::write_pid_file() {
   if (!o_.pid_file) return;
   std::string pids;
   for (const auto& c : supervisor_->children())
@@ -320,7 +332,7 @@ void Launch::write_pid_file() {
   }
 }
 
-void Launch::start_children() {
+void LaunchRun::start_children() {
   LaunchPlanInputs in;
   in.scenario_file = scenario_path_.string();
   in.checkpoint_file = checkpoint_path_.string();
@@ -377,7 +389,7 @@ void Launch::start_children() {
   fail(ExitCode::run_failed, supervisor_->failure_reason());
 }
 
-void Launch::write_checkpoint_for_restart() {
+void LaunchRun::write_checkpoint_for_restart() {
   try {
     if (!last_estimate_) {
       std::filesystem::remove(checkpoint_path_);
@@ -390,7 +402,7 @@ void Launch::write_checkpoint_for_restart() {
   }
 }
 
-void Launch::print_launch_line() {
+void LaunchRun::print_launch_line() {
   const bool auto_grouping = o_.sensors_per_process == "auto";
   const std::size_t per_process = plan_.sensor_groups.empty() ? 0 : plan_.sensor_groups.front().size();
   std::ostringstream line;
@@ -413,7 +425,7 @@ void Launch::print_launch_line() {
 }
 
 /// The processes of the run: this launch's children, then what the other hosts run (presence).
-std::vector<dds::PresenceRecord> Launch::refresh_processes() {
+std::vector<dds::PresenceRecord> LaunchRun::refresh_processes() {
   auto presences = bus_->processes();
   std::vector<ProcessView> processes;
   std::set<int> children;
@@ -433,7 +445,7 @@ std::vector<dds::PresenceRecord> Launch::refresh_processes() {
 
 /// Trouble: a process that died unexpectedly, a restart, a failure to start; a clean exit
 /// (the plant ending the run, or any exit during the stop) is not.
-void Launch::report(const std::vector<SupervisorEvent>& events, bool stopping) {
+void LaunchRun::report(const std::vector<SupervisorEvent>& events, bool stopping) {
   for (const auto& e : events) {
     const bool clean_exit = e.kind == SupervisorEvent::Kind::exited && e.exit.clean();
     const bool trouble = !stopping && e.kind != SupervisorEvent::Kind::started &&
@@ -448,7 +460,7 @@ void Launch::report(const std::vector<SupervisorEvent>& events, bool stopping) {
 
 // ---------------------------------------------------------------- serve
 
-void Launch::serve() {
+void LaunchRun::serve() {
   signals_ = std::make_unique<boost::asio::signal_set>(io_, SIGINT, SIGTERM);
   signals_->async_wait([this](const boost::system::error_code& ec, int) {
     if (!ec && facts_.end == RunEnd::running) facts_.end = RunEnd::signal;
@@ -461,7 +473,7 @@ void Launch::serve() {
 
 /// One step of the loop (every 50 ms): supervise, flush the recording, follow presence,
 /// decide whether the run is over, refresh the console. False once it is over.
-bool Launch::serve_step() {
+bool LaunchRun::serve_step() {
   report(supervisor_->poll());
   recording_->flush();
   const auto now = Clock::now();
@@ -499,7 +511,7 @@ bool Launch::serve_step() {
 
 /// The children get SIGTERM (SIGKILL after the timeout); then take what DDS still delivered
 /// so the recording ends with the last complete period.
-void Launch::stop() {
+void LaunchRun::stop() {
   console_->set_screen(false);  // from here on, plain lines
   report(supervisor_->stop_all(), /*stopping=*/true);
   io_.restart();
@@ -542,7 +554,7 @@ void Launch::stop() {
 // ---------------------------------------------------------------- conclude
 
 /// Checks are judged after everything is recorded; a run that failed keeps its own failure.
-int Launch::conclude() {
+int LaunchRun::conclude() {
   add_snapshot_facts(model_->snapshot(), facts_);
   facts_.fused_periods = fused_periods_;
   facts_.ran_for_s = std::chrono::duration<double>(Clock::now() - start_).count();

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/launch_files.hpp"
+#include "launch_files.hpp"
 
 #include <signal.h>
 #include <sys/stat.h>

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/launch_plan.hpp"
+#include "launch_plan.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/launch_supervisor.hpp"
+#include "launch_supervisor.hpp"
 
 #include <fcntl.h>
 #include <sched.h>

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/outage_watch.hpp"
+#include "outage_watch.hpp"
 
 #include <algorithm>
 #include <cstdio>

@@ -1,4 +1,4 @@
-#include "netkf/cli/launch/run_verdict.hpp"
+#include "run_verdict.hpp"
 #include "netkf/links/link_statistics.hpp"
 
 #include <cerrno>

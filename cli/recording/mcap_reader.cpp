@@ -5,7 +5,7 @@
 #include <map>
 #include <vector>
 
-#include "netkf/cli/recording/mcap_writer.hpp"
+#include "mcap_writer.hpp"
 
 namespace netkf::cli {
 namespace {

@@ -1,4 +1,4 @@
-#include "netkf/cli/recording/mcap_writer.hpp"
+#include "mcap_writer.hpp"
 
 #include <stdexcept>
 

@@ -1,4 +1,4 @@
-#include "netkf/cli/recording/record_csv.hpp"
+#include "record_csv.hpp"
 
 #include <cmath>
 #include <algorithm>

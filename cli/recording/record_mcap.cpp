@@ -1,4 +1,4 @@
-#include "netkf/cli/recording/record_mcap.hpp"
+#include "record_mcap.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -8,6 +8,8 @@
 
 #include "netkf/cli/common/exit_code.hpp"
 #include "netkf/links/link_keys.hpp"
+#include "record_csv.hpp"
+#include "record_mcap.hpp"
 
 namespace netkf::cli {
 namespace {
@@ -54,36 +56,61 @@ McapOptions Recording::mcap_options(const std::string& periods_option, const std
   return o;
 }
 
+/// What a recording writes to: the CSV recorders and their streams, the MCAP recorder, the
+/// journal of live changes, and the first write that failed.
+struct Recording::Files {
+  struct Journaled {
+    std::uint64_t request_id;
+    LinkEvent event;
+  };
+
+  Files(const Scenario& scenario, std::optional<std::string> periods_name, std::optional<std::string> samples_name)
+      : periods(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario),
+                scenario.actuation_link() != nullptr),
+        samples(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
+        periods_file(std::move(periods_name)),
+        samples_file(std::move(samples_name)) {}
+
+  PeriodCsvRecorder periods;
+  SampleCsvRecorder samples;
+  std::optional<std::string> periods_file;
+  std::optional<std::string> samples_file;
+  std::unique_ptr<std::ostream> periods_out;
+  std::unique_ptr<std::ostream> samples_out;
+  std::unique_ptr<std::ostream> mcap_out;
+  std::unique_ptr<McapRecorder> mcap;  // declared after its stream: destroyed first
+  std::optional<std::string> events_file;
+  std::vector<Journaled> journal;
+  bool journal_changed = false;
+  std::optional<std::string> write_error;
+};
+
 Recording::Recording(const std::optional<std::string>& periods_file, const std::optional<std::string>& samples_file,
                      const Scenario& scenario, McapOptions mcap, LiveModel* model)
-    : periods_(scenario.state_dim(), scenario.estimator.fusable_delay_periods(), input_dim(scenario),
-               scenario.actuation_link() != nullptr),
-      samples_(max_measurement_dim(scenario), scenario.estimator.fusable_delay_periods()),
-      periods_file_(periods_file),
-      samples_file_(samples_file) {
+    : f_(std::make_unique<Files>(scenario, periods_file, samples_file)) {
   if (periods_file && is_mcap_path(*periods_file)) {
-    mcap_out_ = open_output_stream({"the recording", *periods_file});
+    f_->mcap_out = open_output_stream({"the recording", *periods_file});
     if (mcap.file_name.empty()) mcap.file_name = *periods_file;
     const bool with_delivered = samples_file.has_value();
-    mcap_ = model ? std::make_unique<McapRecorder>(*mcap_out_, *model, with_delivered, std::move(mcap))
-                  : std::make_unique<McapRecorder>(*mcap_out_, scenario, with_delivered, std::move(mcap));
-    mcap_out_->flush();
+    f_->mcap = model ? std::make_unique<McapRecorder>(*f_->mcap_out, *model, with_delivered, std::move(mcap))
+                     : std::make_unique<McapRecorder>(*f_->mcap_out, scenario, with_delivered, std::move(mcap));
+    f_->mcap_out->flush();
   } else if (periods_file) {
-    periods_out_ = open_output_stream({"the recording", *periods_file});
-    *periods_out_ << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
-                                               input_dim(scenario), scenario.actuation_link() != nullptr)
-                  << "\n";
+    f_->periods_out = open_output_stream({"the recording", *periods_file});
+    *f_->periods_out << PeriodCsvRecorder::header(scenario.state_dim(), scenario.estimator.fusable_delay_periods(),
+                                                  input_dim(scenario), scenario.actuation_link() != nullptr)
+                     << "\n";
   }
   if (periods_file) {
-    events_file_ = events_file_of(*periods_file);
+    f_->events_file = events_file_of(*periods_file);
     // An empty journal too: a replay of a run without changes is valid.
-    if (!write_events()) fail(ExitCode::bad_usage, *write_error_);
+    if (!write_events()) fail(ExitCode::bad_usage, *f_->write_error);
   }
   if (samples_file) {
-    samples_out_ = open_output_stream({"the samples recording", *samples_file});
-    *samples_out_ << SampleCsvRecorder::header(max_measurement_dim(scenario),
-                                               scenario.estimator.fusable_delay_periods())
-                  << "\n";
+    f_->samples_out = open_output_stream({"the samples recording", *samples_file});
+    *f_->samples_out << SampleCsvRecorder::header(max_measurement_dim(scenario),
+                                                  scenario.estimator.fusable_delay_periods())
+                     << "\n";
   }
 }
 
@@ -95,94 +122,99 @@ Recording::~Recording() {
 }
 
 void Recording::truth(const Truth& t) {
-  if (periods_out_) periods_.add_truth(t);
-  if (mcap_) mcap_->truth(t);
+  if (f_->periods_out) f_->periods.add_truth(t);
+  if (f_->mcap) f_->mcap->truth(t);
 }
 
 void Recording::estimate(const Estimate& e) {
-  if (periods_out_) periods_.add_estimate(e);
-  if (samples_out_) samples_.add_estimate(e);
-  if (mcap_) mcap_->estimate(e);
+  if (f_->periods_out) f_->periods.add_estimate(e);
+  if (f_->samples_out) f_->samples.add_estimate(e);
+  if (f_->mcap) f_->mcap->estimate(e);
 }
 
 void Recording::delivered(const DeliveredMeasurement& d) {
-  if (samples_out_) samples_.add_delivered(d);
-  if (mcap_) mcap_->delivered(d);
+  if (f_->samples_out) f_->samples.add_delivered(d);
+  if (f_->mcap) f_->mcap->delivered(d);
 }
 
 void Recording::link_status(const LinkStatus& l) {
-  if (mcap_) mcap_->link_status(l);
+  if (f_->mcap) f_->mcap->link_status(l);
 }
 
 void Recording::link_change(const LinkChange& c) {
-  if (mcap_) mcap_->link_change(c);
-  if (!events_file_ || c.origin != LinkChange::Origin::request) return;
+  if (f_->mcap) f_->mcap->link_change(c);
+  if (!f_->events_file || c.origin != LinkChange::Origin::request) return;
   LinkEvent e;
   e.at_period = c.at_period;
   e.link = c.sensor_id;
   e.keys = link_keys(c.link);  // the whole link: a replay sets exactly what the run had
-  for (const auto& seen : journal_)
+  for (const auto& seen : f_->journal)
     if (seen.request_id == c.request_id && seen.event == e) return;  // transient-local repeats
-  journal_.push_back({c.request_id, std::move(e)});
-  journal_changed_ = true;
+  f_->journal.push_back({c.request_id, std::move(e)});
+  f_->journal_changed = true;
 }
 
 void Recording::check(const std::ostream& out, const std::string& file, int saved_errno) {
-  if (out || write_error_) return;
-  write_error_ = "writing " + file + " failed" + (saved_errno != 0 ? std::string(": ") + std::strerror(saved_errno) : "");
+  if (out || f_->write_error) return;
+  f_->write_error = "writing " + file + " failed" + (saved_errno != 0 ? std::string(": ") + std::strerror(saved_errno) : "");
 }
 
 void Recording::flush() {
   errno = 0;
-  if (periods_out_) {
-    periods_.flush(*periods_out_);
-    periods_out_->flush();
-    check(*periods_out_, *periods_file_, errno);
+  if (f_->periods_out) {
+    f_->periods.flush(*f_->periods_out);
+    f_->periods_out->flush();
+    check(*f_->periods_out, *f_->periods_file, errno);
   }
-  if (samples_out_) {
-    samples_.flush(*samples_out_);
-    samples_out_->flush();
-    check(*samples_out_, *samples_file_, errno);
+  if (f_->samples_out) {
+    f_->samples.flush(*f_->samples_out);
+    f_->samples_out->flush();
+    check(*f_->samples_out, *f_->samples_file, errno);
   }
-  if (mcap_) {
-    mcap_out_->flush();
-    check(*mcap_out_, *periods_file_, errno);
+  if (f_->mcap) {
+    f_->mcap_out->flush();
+    check(*f_->mcap_out, *f_->periods_file, errno);
   }
-  if (journal_changed_) write_events();
+  if (f_->journal_changed) write_events();
 }
 
 void Recording::finish() {
   // fuse_within: the last D periods' rows wait for a final estimate that no longer comes.
-  if (periods_out_ || samples_out_) {
-    periods_.finish_pending();
-    samples_.finish_pending();
+  if (f_->periods_out || f_->samples_out) {
+    f_->periods.finish_pending();
+    f_->samples.finish_pending();
     flush();
   }
-  if (mcap_ && !mcap_->finished()) {
+  if (f_->mcap && !f_->mcap->finished()) {
     errno = 0;
-    mcap_->finish();
-    mcap_out_->flush();
-    check(*mcap_out_, *periods_file_, errno);
+    f_->mcap->finish();
+    f_->mcap_out->flush();
+    check(*f_->mcap_out, *f_->periods_file, errno);
   }
 }
 
-std::uint64_t Recording::rows() const { return mcap_ ? mcap_->estimates() : periods_.rows_written(); }
+std::uint64_t Recording::rows() const { return f_->mcap ? f_->mcap->estimates() : f_->periods.rows_written(); }
+
+bool Recording::wants_samples() const { return f_->samples_out != nullptr; }
+bool Recording::wants_link_status() const { return f_->mcap != nullptr; }
+bool Recording::journals_changes() const { return f_->events_file.has_value(); }
+const std::optional<std::string>& Recording::write_error() const { return f_->write_error; }
 
 bool Recording::write_events() {
   std::vector<LinkEvent> events;
-  for (const auto& j : journal_) events.push_back(j.event);
+  for (const auto& j : f_->journal) events.push_back(j.event);
   // Written whole and renamed in place: a launch killed mid-write leaves the previous journal.
   try {
-    write_output_file({"the journal", *events_file_},
+    write_output_file({"the journal", *f_->events_file},
                       "# Live link changes of a netkf run, with the period each applied from.\n"
                       "# Replay: netkf launch SCENARIO --events THIS_FILE (same scenario and seed).\n" +
                           events_to_yaml(events),
                       /*sync=*/false);
   } catch (const CommandError& e) {
-    if (!write_error_) write_error_ = e.what();
+    if (!f_->write_error) f_->write_error = e.what();
     return false;
   }
-  journal_changed_ = false;
+  f_->journal_changed = false;
   return true;
 }
 

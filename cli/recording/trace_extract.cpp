@@ -11,11 +11,11 @@
 #include <string_view>
 #include <vector>
 
+#include "netkf/cli/recording/recording.hpp"  // is_mcap_path
 #include "netkf/model/scenario.hpp"
 #include "netkf/support/input_file.hpp"
 
 #include "mcap_reader.hpp"
-#include "netkf/cli/recording/record_mcap.hpp"  // is_mcap_path
 
 namespace netkf::cli {
 namespace {

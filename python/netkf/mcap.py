@@ -1,6 +1,6 @@
 """A small pure-Python MCAP reader (https://mcap.dev/spec, major version 0).
 
-It reads what netkf writes (cli/recording/include/netkf/cli/recording/mcap_writer.hpp: the unchunked, unindexed form,
+It reads what netkf writes (cli/recording/mcap_writer.hpp: the unchunked, unindexed form,
 CRCs 0) and, beyond that, any MCAP file: chunked (uncompressed, or zstd / lz4 compressed when
 Debian's python3-zstandard / python3-lz4 is installed), with a summary section, attachments and
 metadata. Index, statistics and attachment records are skipped (metadata records are kept in

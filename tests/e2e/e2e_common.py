@@ -433,7 +433,7 @@ def primary_estimator(domain):
 
 
 def launch_files_dirs(launch_pid):
-    """The private directories `netkf launch` with this pid keeps its files in (cli/launch/include/netkf/cli/launch/launch_files.hpp)."""
+    """The private directories `netkf launch` with this pid keeps its files in (cli/launch/launch_files.hpp)."""
     runtime = os.environ.get("XDG_RUNTIME_DIR")
     base = os.path.join(runtime, "netkf") if runtime and os.path.isdir(runtime) else \
         os.path.join(tempfile.gettempdir(), "netkf-%d" % os.getuid())

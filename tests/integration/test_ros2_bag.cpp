@@ -11,7 +11,7 @@
 #include <string>
 #include <unistd.h>
 
-#include "netkf/cli/recording/record_mcap.hpp"
+#include "netkf/cli/recording/recording.hpp"
 #include "netkf/cli/recording/ros2_cdr_codec.hpp"
 #include "netkf/cli/recording/trace_extract.hpp"
 
@@ -30,11 +30,12 @@ struct TempDir {
 };
 
 /// The same records, a closed loop's truths (an input, arrived or not) and delivered samples,
-/// in either profile.
+/// in either profile, written as `netkf record --out FILE.mcap --samples FILE` writes them.
 std::string record(const fs::path& path, McapOptions options) {
   const Scenario scenario = default_scenario();
-  std::ofstream out(path, std::ios::binary);
-  McapRecorder r(out, scenario, /*with_delivered=*/true, std::move(options));
+  fs::path samples = path;
+  samples += ".samples.csv";  // given: the MCAP file gets the delivered samples' channel
+  Recording r(path.string(), samples.string(), scenario, std::move(options));
   for (std::int64_t k = 0; k < 12; ++k) {
     const bool arrived = k == 0 || k % 3 != 1;
     r.truth(Truth{k, static_cast<double>(k) * scenario.period_s(),

@@ -10,7 +10,7 @@
 #include <iterator>
 #include <string>
 
-#include "netkf/cli/launch/launch_files.hpp"
+#include "launch_files.hpp"
 
 namespace {
 

@@ -12,9 +12,9 @@
 
 #include <thread>
 
-#include "netkf/cli/launch/launch_plan.hpp"
-#include "netkf/cli/launch/outage_watch.hpp"
-#include "netkf/cli/launch/run_verdict.hpp"
+#include "launch_plan.hpp"
+#include "outage_watch.hpp"
+#include "run_verdict.hpp"
 
 namespace netkf::cli {
 namespace {

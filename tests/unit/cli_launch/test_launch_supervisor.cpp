@@ -19,7 +19,7 @@
 #include <sstream>
 #include <thread>
 
-#include "netkf/cli/launch/launch_supervisor.hpp"
+#include "launch_supervisor.hpp"
 
 namespace netkf::cli {
 namespace {

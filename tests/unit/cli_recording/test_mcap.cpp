@@ -1,5 +1,5 @@
-// The MCAP writer (cli/recording/include/netkf/cli/recording/mcap_writer.hpp) byte for byte against hand-computed records, and
-// the recording's channels (cli/recording/include/netkf/cli/recording/record_mcap.hpp). tests/e2e/test_mcap.py reads a real
+// The MCAP writer (cli/recording/mcap_writer.hpp) byte for byte against hand-computed records, and
+// the recording's channels (cli/recording/record_mcap.hpp). tests/e2e/test_mcap.py reads a real
 // recording with an independent reader (@mcap/core).
 #include <gtest/gtest.h>
 
@@ -14,8 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "netkf/cli/common/exit_code.hpp"
-#include "netkf/cli/recording/mcap_writer.hpp"
-#include "netkf/cli/recording/record_mcap.hpp"
+#include "mcap_writer.hpp"
+#include "record_mcap.hpp"
 #include "netkf/cli/recording/recording.hpp"
 #include "netkf/cli/recording/ros2_bag.hpp"
 #include "test_paths.hpp"

@@ -18,7 +18,7 @@
 
 #include "netkf/cli/live/live_model.hpp"
 #include "netkf/cli/live/run_summary.hpp"
-#include "netkf/cli/recording/record_mcap.hpp"
+#include "record_mcap.hpp"
 #include "mcap_reader.hpp"
 
 namespace netkf::cli {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "netkf/cli/recording/record_csv.hpp"
+#include "record_csv.hpp"
 
 namespace netkf::cli {
 namespace {

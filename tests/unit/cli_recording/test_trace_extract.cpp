@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-#include "netkf/cli/recording/mcap_writer.hpp"
+#include "mcap_writer.hpp"
 #include "netkf/cli/recording/trace_extract.hpp"
 #include "netkf/links/link_trace.hpp"
 #include "support/trace_files.hpp"

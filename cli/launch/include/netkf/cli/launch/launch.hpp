@@ -5,30 +5,15 @@
 // ends), stop (children, recording, presence), conclude (verdict, checks, exit status).
 // Errors of the user's input are CommandError(bad_usage) before anything starts; a run
 // that fails ends in order and then throws CommandError(run_failed) with the reason.
-#include <utility>  // before Asio (Boost 1.74 + GCC 12)
-
-#include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
-#include <chrono>
+#include <cstddef>
 #include <cstdint>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "netkf/cli/launch/console.hpp"
-#include "netkf/cli/launch/launch_files.hpp"
-#include "netkf/cli/launch/launch_plan.hpp"
-#include "netkf/cli/launch/launch_supervisor.hpp"
-#include "netkf/cli/launch/outage_watch.hpp"
-#include "netkf/cli/launch/run_end_watch.hpp"
-#include "netkf/cli/launch/run_verdict.hpp"
+#include "netkf/cli/dashboard/dashboard_server.hpp"  // kDefaultMaxConnections
 #include "netkf/cli/live/live_bus.hpp"
-#include "netkf/cli/live/run_summary.hpp"
-#include "netkf/cli/recording/recording.hpp"
-#include "netkf/dds/participant.hpp"
 #include "netkf/model/scenario.hpp"
 
 namespace netkf::cli {
@@ -72,15 +57,16 @@ struct LaunchOptions {
 /// The scenario file (or the built-in default); CommandError(bad_usage) when it is invalid.
 Scenario load_or_default(const std::optional<std::string>& file);
 
-/// Handlers that feed a recording and, when given, the launch's live model, its console and its
-/// run summary. Each record reaches the model once, first (the in-time estimates only), then
-/// the recording, the console and the summary, which read the model.
-BusHandlers recording_handlers(Recording& recording, LiveModel* model, LiveConsole* console,
-                               RunSummaryBuilder* summary, std::uint64_t& invalid);
+class Recording;
+class LaunchRun;
 
+/// Handlers that feed a recording only (`netkf record`); `invalid` counts the rejected samples.
+BusHandlers recording_handlers(Recording& recording, std::uint64_t& invalid);
+
+/// One launch. Its parts (the plan, the supervisor, the console, the recording, the bus, the
+/// private files) are the room's own: `LaunchRun` (cli/launch/launch_run.hpp) holds them.
 class Launch {
  public:
-  using Clock = std::chrono::steady_clock;
   explicit Launch(LaunchOptions options);
   ~Launch();
   Launch(const Launch&) = delete;
@@ -90,68 +76,7 @@ class Launch {
   int run();
 
  private:
-  void prepare();
-  void read_inputs();
-  void resolve_discovery();
-  void prepare_files();
-  void open_network();
-  void open_console();
-  void open_bus();
-  void start();
-  void start_children();
-  void print_launch_line();
-  void serve();
-  bool serve_step();
-  void stop();
-  int conclude();
-
-  std::vector<dds::PresenceRecord> refresh_processes();
-  void report(const std::vector<SupervisorEvent>& events, bool stopping = false);
-  void write_checkpoint_for_restart();
-  void write_pid_file();
-
-  // In the order of the steps that make them: destroyed in reverse (the bus before the
-  // recording it feeds, the recording before the io_context, the private files last).
-  LaunchOptions o_;
-  Scenario scenario_;
-  RestartPolicy policy_ = RestartPolicy::restart;
-  LaunchRoles roles_;
-  std::uint64_t scenario_hash_ = 0;
-  std::optional<dds::DiscoveryServerAddress> served_;
-  std::optional<dds::DiscoveryServerAddress> discovery_;
-  int domain_ = 0;
-  TopicNaming naming_ = TopicNaming::netkf;  // flag, $NETKF_NAMING, the scenario's (every child gets it)
-  std::vector<Check> checks_;
-  std::unique_ptr<std::ostream> summary_out_;  // --summary (output_file.hpp)
-  // The one live model: the console, the MCAP recorder and the summary read it (declared
-  // before them: destroyed after them).
-  std::unique_ptr<LiveModel> model_;
-  std::unique_ptr<RunSummaryBuilder> summary_;  // only a run that asks keeps its records
-  std::unique_ptr<LaunchFiles> files_;
-  std::filesystem::path scenario_path_;
-  std::filesystem::path checkpoint_path_;
-  std::unique_ptr<dds::Participant> discovery_server_;
-  boost::asio::io_context io_;
-  std::unique_ptr<Recording> recording_;
-  std::unique_ptr<LiveBus> bus_;
-  LiveConsoleOptions console_options_;
-  std::unique_ptr<LiveConsole> console_;
-  std::uint64_t invalid_samples_ = 0;
-  std::uint64_t run_id_ = 0;
-  std::optional<Estimate> last_estimate_;  // the checkpoint a restarted estimator resumes from
-  std::uint64_t fused_periods_ = 0;              // estimates that fused at least one sample
-  int estimator_generation_ = 0;                 // estimators started so far, less one
-  std::unique_ptr<Supervisor> supervisor_;
-  std::string here_;
-  LaunchPlan plan_;
-  std::vector<SupervisorEvent> started_;
-  RunFacts facts_;
-  std::unique_ptr<OutageWatch> outages_;  // who stalled, for a diverged run's message
-  Clock::time_point ended_at_;            // when the serve loop saw the run end
-  std::unique_ptr<boost::asio::signal_set> signals_;
-  Clock::time_point start_;
-  RunEndWatch run_end_{0, std::chrono::seconds(1)};  // without the plant: its end is ours
-  Clock::time_point last_presence_look_;
+  std::unique_ptr<LaunchRun> run_;
 };
 
 }  // namespace netkf::cli

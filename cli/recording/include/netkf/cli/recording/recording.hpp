@@ -16,8 +16,7 @@
 #include <vector>
 
 #include "netkf/cli/common/output_file.hpp"
-#include "netkf/cli/recording/record_csv.hpp"
-#include "netkf/cli/recording/record_mcap.hpp"
+#include "netkf/cli/recording/ros2_bag.hpp"
 #include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
 #include "netkf/records/estimate.hpp"
@@ -26,6 +25,19 @@
 #include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
+
+class LiveModel;
+
+/// True when `path` names an MCAP recording (ends with ".mcap", any case).
+bool is_mcap_path(const std::string& path);
+
+/// The profile of an MCAP recording and, for ros2, the CDR codec (which needs DDS: the
+/// commands give ros2_cdr_codec.hpp's).
+struct McapOptions {
+  McapProfile profile = McapProfile::json;
+  std::shared_ptr<const ros2::Ros2Codec> codec;
+  std::string file_name;  // ros2: the bag metadata's file (the name as given)
+};
 
 class Recording {
  public:
@@ -59,9 +71,9 @@ class Recording {
                                   const std::optional<std::string>& profile,
                                   std::shared_ptr<const ros2::Ros2Codec> codec);
 
-  bool wants_samples() const { return samples_out_ != nullptr; }
-  bool wants_link_status() const { return mcap_ != nullptr; }
-  bool journals_changes() const { return events_file_.has_value(); }
+  bool wants_samples() const;
+  bool wants_link_status() const;
+  bool journals_changes() const;
 
   /// Write what is buffered (whole records: a reader of a killed launch gets all but an MCAP
   /// footer). A failed write is kept in write_error(), never thrown.
@@ -69,31 +81,17 @@ class Recording {
   /// Complete the MCAP file (DataEnd, Footer, magic): on every stop, SIGINT/SIGTERM included.
   void finish();
   /// The first write that failed during the run ("writing run.csv: No space left on device").
-  const std::optional<std::string>& write_error() const { return write_error_; }
+  const std::optional<std::string>& write_error() const;
   /// CSV: rows written; MCAP: estimates (periods) written.
   std::uint64_t rows() const;
 
  private:
-  struct Journaled {
-    std::uint64_t request_id;
-    LinkEvent event;
-  };
+  struct Files;  // the recorders, their streams and the journal (recording.cpp)
   /// Rewrite the journal whole (it is small), so it is complete whenever the launch stops.
   bool write_events();
   void check(const std::ostream& out, const std::string& file, int saved_errno);
 
-  PeriodCsvRecorder periods_;
-  SampleCsvRecorder samples_;
-  std::optional<std::string> periods_file_;
-  std::optional<std::string> samples_file_;
-  std::unique_ptr<std::ostream> periods_out_;
-  std::unique_ptr<std::ostream> samples_out_;
-  std::unique_ptr<std::ostream> mcap_out_;
-  std::unique_ptr<McapRecorder> mcap_;  // declared after its stream: destroyed first
-  std::optional<std::string> events_file_;
-  std::vector<Journaled> journal_;
-  bool journal_changed_ = false;
-  std::optional<std::string> write_error_;
+  std::unique_ptr<Files> f_;
 };
 
 }  // namespace netkf::cli

@@ -29,7 +29,8 @@
 #include <string>
 
 #include "netkf/cli/live/live_model.hpp"
-#include "netkf/cli/recording/mcap_writer.hpp"
+#include "mcap_writer.hpp"
+#include "netkf/cli/recording/recording.hpp"  // McapOptions
 #include "netkf/cli/recording/ros2_bag.hpp"
 #include "netkf/model/scenario.hpp"
 #include "netkf/records/delivered.hpp"
@@ -39,17 +40,6 @@
 #include "netkf/records/truth.hpp"
 
 namespace netkf::cli {
-
-/// True when `path` names an MCAP recording (ends with ".mcap", any case).
-bool is_mcap_path(const std::string& path);
-
-/// The profile of an MCAP recording and, for ros2, the CDR codec (which needs DDS: the
-/// commands give ros2_cdr_codec.hpp's).
-struct McapOptions {
-  McapProfile profile = McapProfile::json;
-  std::shared_ptr<const ros2::Ros2Codec> codec;
-  std::string file_name;  // ros2: the bag metadata's file (the name as given)
-};
 
 class McapRecorder {
  public:

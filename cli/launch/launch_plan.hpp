@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "netkf/cli/launch/launch_supervisor.hpp"
+#include "launch_supervisor.hpp"
 
 namespace netkf::cli {
 
