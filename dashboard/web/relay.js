@@ -48,8 +48,9 @@ function takeLinkModels(schemaText) {
   }
 }
 
-// The model and its parameters in words, from the status's link keys ("bernoulli loss=0.3", as
-// the relay's log says it); a model without keys (trace) by its name alone.
+// The model and its parameters in words, from the status's link keys: the name and each key of
+// the model ("bernoulli loss=0.3", "gilbert_elliott p=0.05 r=0.25 loss_good=0 loss_bad=1"); a
+// model the catalogue does not describe (trace) by its name alone.
 function modelText(s) {
   const model = typeof s.model === 'string' ? s.model : '?';
   return [model, ...(modelKeys.get(model) || []).map((key) => key + '=' + number(s[key]))].join(' ');
