@@ -50,7 +50,9 @@ TEST(DashboardProtocol, AdvertisesEachLinkModelWithItsLabelAndKeys) {
     {"name": "gilbert_elliott", "label": "Gilbert-Elliott", "keys": ["p", "r", "loss_good", "loss_bad"],
      "example": {"p": 0.1, "r": 0.5, "loss_good": 0.0, "loss_bad": 1.0}}])");
   std::map<std::string, json> schemas;
-  for (const auto& c : advertise()["channels"]) schemas[c["topic"]] = json::parse(c["schema"].get<std::string>());
+  const json advertised = advertise();  // held: a range-for over a temporary's member would dangle
+  for (const auto& c : advertised["channels"])
+    schemas[c["topic"].get<std::string>()] = json::parse(c["schema"].get<std::string>());
   const json& status_model = schemas.at("netkf/link/status")["properties"]["model"];
   EXPECT_EQ(status_model["x-netkf-models"], expected);
   EXPECT_EQ(status_model["enum"], json({"bernoulli", "gilbert_elliott"}));
