@@ -26,6 +26,26 @@ json schema_object(json properties, std::vector<std::string> required) {
 json number_array() { return json{{"type", "array"}, {"items", {{"type", "number"}}}}; }
 json nullable_number() { return json{{"type", json::array({"number", "null"})}}; }
 
+// Each loss model as the pages show and edit it: its name, its label and its parameter keys
+// in order, with the values of one valid link of it (core's one_link_of_each_model), so that a
+// model core gains reaches the pages without a change to them (docs/dashboard.md).
+json link_models() {
+  json models = json::array();
+  for (const LinkModel& model : one_link_of_each_model()) {
+    json keys = json::array();
+    json example = json::object();
+    for (const auto& [key, value] : link_parameters(model)) {
+      keys.push_back(key);
+      example[key] = value;
+    }
+    models.push_back({{"name", link_model_name(model)},
+                      {"label", link_model_label(model)},
+                      {"keys", std::move(keys)},
+                      {"example", std::move(example)}});
+  }
+  return models;
+}
+
 // Every link key (netkf/links/link_keys.hpp): a link is shown and set by the names of a scenario file.
 json link_model_schema() {
   json props = json::object();
@@ -33,6 +53,8 @@ json link_model_schema() {
   json models = json::array();
   for (const LinkModel& model : one_link_of_each_model()) models.push_back(link_model_name(model));
   props["model"]["enum"] = models;
+  // An annotation of netkf's own: JSON Schema readers ignore a keyword they do not know.
+  props["model"]["x-netkf-models"] = link_models();
   props["delay_distribution"]["enum"] = {"uniform", "normal", "pareto", "paretonormal"};
   return props;
 }

@@ -1,6 +1,7 @@
 // The foxglove.websocket.v1 client of `netkf launch`: connects (and reconnects with backoff),
 // subscribes to every netkf/ channel advertised, decodes the messages and hands each topic's
 // to its handler; reads, follows and sets the links' parameters.
+import { takeLinkModels } from './constants.js';
 import { $ } from './dom.js';
 import { addEvent, onStatus } from './events.js';
 import { dash } from './probe.js';
@@ -145,6 +146,8 @@ function onAdvertise(channels) {
   const subscriptions = [];
   for (const channel of channels) {
     conn.channels.set(channel.id, channel);
+    // The link models the page shows and edits come with the link status's schema.
+    if (channel.topic === 'netkf/link/status' && !takeLinkModels(channel.schema)) dash.decodeErrors++;
     if (!String(channel.topic).startsWith('netkf/')) continue;
     if (channel.encoding !== 'json' || conn.subscribedChannels.has(channel.id)) continue;
     const id = conn.nextSubscriptionId++;

@@ -7,7 +7,32 @@ export const CARD_LINK_LIMIT = 16;
 // The actuation link (plant.control.link) is link "control": id -1 where links are numbered.
 export const CONTROL_LINK_ID = -1;
 export const linkName = (id) => (id === CONTROL_LINK_ID ? 'control' : String(id));
-export const MODEL_LABEL = { bernoulli: 'Bernoulli', gilbert_elliott: 'Gilbert-Elliott' };
+// The link models as the server describes them (the channel catalogue: the link status
+// schema's `model` property, x-netkf-models; docs/dashboard.md): name -> {label, keys, example},
+// in the server's order, and name -> label. Set from each advertise, before any message comes.
+export const LINK_MODELS = new Map();
+export const MODEL_LABEL = {};
+// The models of a link status channel's schema (JSON text); false when it has none.
+export function takeLinkModels(schemaText) {
+  let models;
+  try {
+    models = JSON.parse(schemaText).properties.model['x-netkf-models'];
+  } catch (err) {
+    return false;
+  }
+  if (!Array.isArray(models)) return false;
+  LINK_MODELS.clear();
+  for (const key of Object.keys(MODEL_LABEL)) delete MODEL_LABEL[key];
+  for (const m of models) {
+    if (!m || typeof m.name !== 'string' || !Array.isArray(m.keys)) continue;
+    const label = typeof m.label === 'string' ? m.label : m.name;
+    LINK_MODELS.set(m.name, { label, keys: m.keys.map(String), example: m.example || {} });
+    MODEL_LABEL[m.name] = label;
+  }
+  return true;
+}
+// The parameter keys of a model ([] for a name the server did not describe).
+export const modelKeys = (model) => (LINK_MODELS.has(model) ? LINK_MODELS.get(model).keys : []);
 export const OBSERVED_WINDOW_SAMPLES = 1000;  // the observed rate window's least span (kWindowSamples, cli/live/include/netkf/cli/live/observed_rate.hpp)
 export const WINDOW_KEY = 'λ last ≥' + OBSERVED_WINDOW_SAMPLES + ' samples';
 

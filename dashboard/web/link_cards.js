@@ -2,7 +2,8 @@
 // change, answered or given up), its status figures, arrival-rate chart and burst-length
 // histogram. Above CARD_LINK_LIMIT links only the card selected in the link table is shown;
 // every link keeps its status and arrival-rate history.
-import { CARD_LINK_LIMIT, COLOR, CONTROL_LINK_ID, linkName, MODEL_LABEL, OBSERVED_WINDOW_SAMPLES, WINDOW_KEY } from './constants.js';
+import { CARD_LINK_LIMIT, COLOR, CONTROL_LINK_ID, LINK_MODELS, linkName, MODEL_LABEL, modelKeys, OBSERVED_WINDOW_SAMPLES,
+  WINDOW_KEY } from './constants.js';
 import { canvasContext, timeChart } from './charts.js';
 import { setParameters } from './connection.js';
 import { $, el } from './dom.js';
@@ -14,30 +15,67 @@ import { currentTime, RecordRing, store, view, windowPeriods } from './state.js'
 const LINK_SAMPLES = 600;         // link status ~1/s: 10 min of arrival-rate history
 const LINK_SAMPLES_TABLE = 120;   // arrival-rate history per link in table mode: 2 min at ~1/s
 const DISTRIBUTIONS = ['uniform', 'normal', 'pareto', 'paretonormal'];
-// Every link key of docs/scenario-format.md ("Links") is a parameter link.ID.KEY.
-const LINK_KEYS = ['model', 'loss', 'p', 'r', 'loss_good', 'loss_bad', 'mean_burst', 'delay_ms', 'jitter_ms',
-  'delay_distribution'];
 const WORD_KEYS = ['model', 'delay_distribution'];
-const LINK_PARAMETER = new RegExp('^link\\.(-?\\d+|control)\\.(' + LINK_KEYS.join('|') + ')$');
-const GILBERT_CHAIN = ['p', 'r', 'loss_good', 'loss_bad'];
-// Used when the user switches a link to a model it has no values for yet.
-const DEFAULT_PARAMS = { loss: 0, p: 0.1, r: 0.5, loss_good: 0, loss_bad: 1, mean_burst: 1,
-  delay_ms: 0, jitter_ms: 0, delay_distribution: 'uniform' };
-// The number rows of a link card, in order: the models that show them (null: every
-// model), the range the field accepts and the one the slider covers ('period': a few
-// periods of the scenario). The server judges combinations (docs/dashboard.md).
+const LINK_PARAMETER = /^link\.(-?\d+|control)\.(\w+)$/;
+// The one model the page knows by name, for math of its own: the Gilbert-Elliott chain has a
+// user's form (loss and mean burst: the simple Gilbert channel) and the statistics
+// gilbertStats computes before the server answers. Everything else about a model (its label,
+// its keys, which rows it shows) comes from the server's catalogue (constants.js, LINK_MODELS).
+const GILBERT = 'gilbert_elliott';
+const USER_FORM = ['loss', 'mean_burst'];
+// Used when the user switches a link to a model it has no values for yet, over the values
+// of the catalogue's example of each model (the model keys none of these name).
+const DEFAULT_PARAMS = { loss: 0, mean_burst: 1, delay_ms: 0, jitter_ms: 0, delay_distribution: 'uniform' };
+// The number rows of a link card, in order: a model shows the rows of its keys (and the
+// Gilbert chain its user's form too), the delay rows show for every model (always). Each
+// has the range the field accepts and the one the slider covers ('period': a few periods of
+// the scenario). The server judges combinations (docs/dashboard.md).
 const PROBABILITY = { min: 0, max: 1, slider: 1, step: 0.001 };
-const DELAY = { models: null, min: 0, max: 60000, slider: 'period', step: 0.5 };   // ms, at most a minute
-const NUMBER_ROWS = [
-  Object.assign({ key: 'p', label: 'p (good→bad)', models: ['gilbert_elliott'] }, PROBABILITY),
-  Object.assign({ key: 'r', label: 'r (bad→good)', models: ['gilbert_elliott'] }, PROBABILITY),
-  Object.assign({ key: 'loss_good', label: 'loss good', models: ['gilbert_elliott'] }, PROBABILITY),
-  Object.assign({ key: 'loss_bad', label: 'loss bad', models: ['gilbert_elliott'] }, PROBABILITY),
-  Object.assign({ key: 'loss', label: 'loss', models: ['bernoulli', 'gilbert_elliott'] }, PROBABILITY),
-  { key: 'mean_burst', label: 'mean burst', models: ['gilbert_elliott'], min: 1, max: Infinity, slider: 20, step: 0.1 },
+const DELAY = { always: true, min: 0, max: 60000, slider: 'period', step: 0.5 };   // ms, at most a minute
+const MODEL_ROWS = [
+  Object.assign({ key: 'p', label: 'p (good→bad)' }, PROBABILITY),
+  Object.assign({ key: 'r', label: 'r (bad→good)' }, PROBABILITY),
+  Object.assign({ key: 'loss_good', label: 'loss good' }, PROBABILITY),
+  Object.assign({ key: 'loss_bad', label: 'loss bad' }, PROBABILITY),
+  Object.assign({ key: 'loss', label: 'loss' }, PROBABILITY),
+  { key: 'mean_burst', label: 'mean burst', min: 1, max: Infinity, slider: 20, step: 0.1 },
+];
+// A key of a model the rows above do not know: named as the server names it, any number ≥ 0.
+const OTHER_KEY = { min: 0, max: Infinity, slider: 1, step: 0.001 };
+const DELAY_ROWS = [
   Object.assign({ key: 'delay_ms', label: 'delay (ms)' }, DELAY),
   Object.assign({ key: 'jitter_ms', label: 'jitter (ms)' }, DELAY),
 ];
+
+// The number rows: those above, then the keys of the catalogue's models they do not name,
+// then the delay.
+function numberRows() {
+  const rows = MODEL_ROWS.slice();
+  for (const m of LINK_MODELS.values()) {
+    for (const key of m.keys) {
+      if (!rows.some((row) => row.key === key)) rows.push(Object.assign({ key, label: key.replace(/_/g, ' ') }, OTHER_KEY));
+    }
+  }
+  return rows.concat(DELAY_ROWS);
+}
+
+// Every link key a card shows or sets, each a parameter link.ID.KEY (docs/dashboard.md).
+function linkKeys() { return ['model', ...numberRows().map((row) => row.key), 'delay_distribution']; }
+
+// Whether a card of a link of `model` shows the row of `key`.
+function modelShows(model, spec) {
+  return spec.always || modelKeys(model).includes(spec.key) || (model === GILBERT && USER_FORM.includes(spec.key));
+}
+
+// The values a link starts from: the catalogue's example of each model, then DEFAULT_PARAMS.
+function defaultParams() {
+  const params = {};
+  for (const m of LINK_MODELS.values()) {
+    for (const key of m.keys) if (!(key in params) && isNum(m.example[key])) params[key] = m.example[key];
+  }
+  return Object.assign(params, DEFAULT_PARAMS);
+}
+
 // Burst lengths in power-of-two bins: short bursts one by one, long ones grouped.
 const BURST_BINS = [
   { lo: 1, hi: 1, label: '1' }, { lo: 2, hi: 2, label: '2' }, { lo: 3, hi: 4, label: '3–4' },
@@ -93,8 +131,9 @@ class LinkView {
     this.name = linkName(sensor.id);   // in parameter names and element ids
     this.actuation = sensor.actuation || null;
     const link = sensor.link || {};
-    this.model = MODEL_LABEL[link.model] ? link.model : 'bernoulli';
-    this.params = Object.assign({}, DEFAULT_PARAMS);   // every key but model
+    // A model the catalogue does not describe (a trace) shows as the catalogue's first model.
+    this.model = MODEL_LABEL[link.model] || !LINK_MODELS.size ? link.model : LINK_MODELS.keys().next().value;
+    this.params = defaultParams();   // every key but model
     this.takeValues(link);
     this.fromParameters = false;   // true once parameterValues told the current values
     this.status = null;
@@ -106,7 +145,7 @@ class LinkView {
     this.actuationTheory = null;    // [configured, observed] of the latest theory (actuation link)
   }
 
-  parameterNames() { return LINK_KEYS.map((key) => 'link.' + this.name + '.' + key); }
+  parameterNames() { return linkKeys().map((key) => 'link.' + this.name + '.' + key); }
 
   mount(box) {
     if (this.root) return;
@@ -136,7 +175,7 @@ class LinkView {
   takeValues(values) {
     if (MODEL_LABEL[values.model]) this.model = values.model;
     if (DISTRIBUTIONS.includes(values.delay_distribution)) this.params.delay_distribution = values.delay_distribution;
-    for (const row of NUMBER_ROWS) {
+    for (const row of numberRows()) {
       if (isNum(values[row.key])) this.params[row.key] = values[row.key];
       else if (row.key === 'mean_burst' && values.mean_burst === null) this.params.mean_burst = null;   // infinite
     }
@@ -158,7 +197,7 @@ class LinkView {
     const periodMs = store.periodS * 1000;
     this.inputs = {};   // key -> {row, range, number, spec}
     const rows = [model.row];
-    for (const spec of NUMBER_ROWS) {
+    for (const spec of numberRows()) {
       if (spec.key === 'loss') {
         rows.push(this.userFormNote = el('div', { class: 'subhead' ,
           text: 'or as loss and mean burst (simple Gilbert channel: loss good 0, loss bad 1)' }));
@@ -274,17 +313,21 @@ class LinkView {
     this.commit({ [key]: value });
   }
 
-  // A model switch sends the model and the parameters the new model needs: Bernoulli
-  // keeps the chain's stationary loss, Gilbert-Elliott takes the chain fields.
+  // A model switch sends the model and the parameters the new model needs (its keys in the
+  // catalogue): Gilbert-Elliott takes the chain fields; another model its keys' values, where a
+  // loss keeps the chain's stationary loss.
   switchModel(model) {
     const values = { model };
-    if (model === 'bernoulli') {
-      // A Gilbert-Elliott link's `loss` is its stationary loss.
-      values.loss = this.model === 'gilbert_elliott' ? +this.params.loss.toFixed(4) : this.params.loss;
-      this.inputs.loss.number.value = fieldText(values.loss);
-      this.inputs.loss.range.value = String(values.loss);
+    if (model !== GILBERT) {
+      for (const key of modelKeys(model)) {
+        const v = this.params[key];
+        // A Gilbert-Elliott link's `loss` is its stationary loss.
+        values[key] = key === 'loss' && this.model === GILBERT && isNum(v) ? +v.toFixed(4) : v;
+        this.inputs[key].number.value = fieldText(values[key]);
+        this.inputs[key].range.value = String(values[key]);
+      }
     } else {
-      for (const key of GILBERT_CHAIN) {
+      for (const key of modelKeys(GILBERT)) {
         const v = this.fieldValue(key);
         if (v === null) return;
         values[key] = v;
@@ -371,11 +414,8 @@ class LinkView {
   }
 
   showModelRows(model) {
-    for (const key of Object.keys(this.inputs)) {
-      const models = this.inputs[key].spec.models;
-      this.inputs[key].row.hidden = models !== null && !models.includes(model);
-    }
-    this.userFormNote.hidden = model !== 'gilbert_elliott';
+    for (const key of Object.keys(this.inputs)) this.inputs[key].row.hidden = !modelShows(model, this.inputs[key].spec);
+    this.userFormNote.hidden = model !== GILBERT;
   }
 
   // Controls follow the current values, except a slider being held or a field being typed
@@ -400,7 +440,7 @@ class LinkView {
         input.number.classList.remove('invalid');
       }
     }
-    this.modelLabel.textContent = MODEL_LABEL[this.model];
+    this.modelLabel.textContent = MODEL_LABEL[this.model] || String(this.model);
   }
 
   renderStats() {
@@ -558,9 +598,10 @@ export function onLinkStatus(st) {
 export function onParameterValues(msg) {
   // Group name link.ID.param by link; a reply to our own request carries its id.
   const perLink = new Map();
+  const keys = linkKeys();
   for (const p of msg.parameters || []) {
     const match = LINK_PARAMETER.exec(String(p.name));
-    if (!match) continue;
+    if (!match || !keys.includes(match[2])) continue;
     const id = match[1] === 'control' ? CONTROL_LINK_ID : Number(match[1]);
     if (!perLink.has(id)) perLink.set(id, {});
     // Words stay words; a number that is not finite (an endless mean burst) comes as null.

@@ -1,6 +1,6 @@
 // The link table, above CARD_LINK_LIMIT links: a row per link (search, sort, "show more"),
 // and the card of the link selected in it.
-import { CONTROL_LINK_ID, MODEL_LABEL, OBSERVED_WINDOW_SAMPLES, WINDOW_KEY } from './constants.js';
+import { CONTROL_LINK_ID, MODEL_LABEL, modelKeys, OBSERVED_WINDOW_SAMPLES, WINDOW_KEY } from './constants.js';
 import { getParameters, subscribeParameterUpdates } from './connection.js';
 import { $, el } from './dom.js';
 import { fmt, isNum, rateText } from './format.js';
@@ -50,8 +50,10 @@ function shortfall(link) {
 function modelText(link) {
   const st = link.status || {};
   const model = MODEL_LABEL[st.model] ? st.model : link.model;
-  const loss = isNum(st.stationary_loss) ? st.stationary_loss : (model === 'bernoulli' ? link.params.loss : null);
-  return MODEL_LABEL[model] + (isNum(loss) ? ' ' + fmt(loss, 3) : '');
+  // Before a status: the loss of a model that has one as a key (as core's describe_link_model
+  // reads it), i.e. a Bernoulli link's.
+  const loss = isNum(st.stationary_loss) ? st.stationary_loss : (modelKeys(model).includes('loss') ? link.params.loss : null);
+  return (MODEL_LABEL[model] || String(model)) + (isNum(loss) ? ' ' + fmt(loss, 3) : '');
 }
 
 // The search: terms separated by spaces or commas, a link shown when any term matches: an

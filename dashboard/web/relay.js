@@ -31,14 +31,29 @@ function addEvent(text) {
   while (list.children.length > 100) list.lastChild.remove();
 }
 
-// The model and its parameters in words, from the status's link keys.
-function modelText(s) {
-  if (s.model === 'gilbert_elliott') {
-    return 'Gilbert-Elliott p=' + number(s.p) + ' r=' + number(s.r) + ' loss_good=' + number(s.loss_good) +
-      ' loss_bad=' + number(s.loss_bad);
+// The link models as the relay's channel catalogue describes them (the link status schema's
+// `model` property, x-netkf-models; docs/dashboard.md): name -> its parameter keys in order.
+const modelKeys = new Map();
+
+function takeLinkModels(schemaText) {
+  let models = null;
+  try {
+    models = JSON.parse(schemaText).properties.model['x-netkf-models'];
+  } catch (err) {
+    /* no models: the card names the model alone */
   }
+  modelKeys.clear();
+  for (const m of Array.isArray(models) ? models : []) {
+    if (m && typeof m.name === 'string' && Array.isArray(m.keys)) modelKeys.set(m.name, m.keys.map(String));
+  }
+}
+
+// The model and its parameters in words, from the status's link keys: the name and each key of
+// the model ("bernoulli loss=0.3", "gilbert_elliott p=0.05 r=0.25 loss_good=0 loss_bad=1"); a
+// model the catalogue does not describe (trace) by its name alone.
+function modelText(s) {
   const model = typeof s.model === 'string' ? s.model : '?';
-  return model + (model === 'bernoulli' ? ' loss=' + number(s.loss) : '');
+  return [model, ...(modelKeys.get(model) || []).map((key) => key + '=' + number(s[key]))].join(' ');
 }
 
 // The delay a delivered sample is held for: fixed, or with jitter and its distribution.
@@ -144,7 +159,8 @@ class Card {
 
   // p and r given: a Gilbert-Elliott link (with the loss, if given, as its bad state's loss);
   // otherwise a Bernoulli link of the given loss; a delay or jitter alone keeps the loss model.
-  // The relay judges the values.
+  // The relay judges the values. This short form is the page's own and names its two models
+  // (another model is set by `netkf ctl set-link` or the relay's events file).
   submit() {
     const read = (i) => (i.value.trim() === '' ? null : Number(i.value));
     const loss = read(this.loss), p = read(this.p), r = read(this.r);
@@ -241,6 +257,7 @@ function onAdvertise(channels) {
   const subscriptions = [];
   for (const channel of channels) {
     if (channel.topic !== STATUS_TOPIC || channel.encoding !== 'json') continue;
+    takeLinkModels(channel.schema);
     const id = conn.nextSubscription++;
     conn.subscriptions.set(id, channel.topic);
     subscriptions.push({ id, channelId: channel.id });

@@ -78,6 +78,12 @@ std::string link_model_name(const LinkModel& model) {
                     model);
 }
 
+std::string link_model_label(const LinkModel& model) {
+  return std::visit(overloaded{[](const BernoulliLink&) { return "Bernoulli"; },
+                               [](const GilbertElliottLink&) { return "Gilbert-Elliott"; }},
+                    model);
+}
+
 std::vector<LinkModel> one_link_of_each_model() {
   // Not default-constructed: a change of one key (r: 0 alone) must meet a chain it leaves valid.
   static constexpr LinkModel kOneOfEach[] = {BernoulliLink{0.5}, GilbertElliottLink{0.1, 0.5, 0.0, 1.0}};

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <limits>
+#include <map>
+#include <string>
 
 #include "netkf/cli/dashboard/dashboard_protocol.hpp"
 #include "netkf/cli/live/live_model.hpp"
@@ -38,6 +40,30 @@ TEST(DashboardProtocol, AdvertisesEveryChannelWithAJsonSchema) {
   const json info = server_info("s1", default_scenario());
   EXPECT_EQ(info["op"], "serverInfo");
   EXPECT_EQ(info["capabilities"], json({"parameters", "parametersSubscribe"}));
+}
+
+// The pages build their model select, rows and texts from this (docs/dashboard.md): every
+// model of core with its label and parameter keys in order, and a valid example of each.
+TEST(DashboardProtocol, AdvertisesEachLinkModelWithItsLabelAndKeys) {
+  const json expected = json::parse(R"([
+    {"name": "bernoulli", "label": "Bernoulli", "keys": ["loss"], "example": {"loss": 0.5}},
+    {"name": "gilbert_elliott", "label": "Gilbert-Elliott", "keys": ["p", "r", "loss_good", "loss_bad"],
+     "example": {"p": 0.1, "r": 0.5, "loss_good": 0.0, "loss_bad": 1.0}}])");
+  std::map<std::string, json> schemas;
+  const json advertised = advertise();  // held: a range-for over a temporary's member would dangle
+  for (const auto& c : advertised["channels"])
+    schemas[c["topic"].get<std::string>()] = json::parse(c["schema"].get<std::string>());
+  const json& status_model = schemas.at("netkf/link/status")["properties"]["model"];
+  EXPECT_EQ(status_model["x-netkf-models"], expected);
+  EXPECT_EQ(status_model["enum"], json({"bernoulli", "gilbert_elliott"}));
+  const json& scenario_link = schemas.at("netkf/scenario")["properties"]["sensors"]["items"]["properties"]["link"];
+  EXPECT_EQ(scenario_link["properties"]["model"]["x-netkf-models"], expected);
+  // Each example is a link the server accepts as it is.
+  for (const auto& m : expected) {
+    LinkKeys keys{{"model", m["name"].get<std::string>()}};
+    for (const auto& key : m["keys"]) keys.push_back({key.get<std::string>(), m["example"][key.get<std::string>()].get<double>()});
+    EXPECT_NO_THROW((void)link_from_keys(keys)) << m["name"];
+  }
 }
 
 TEST(DashboardProtocol, MessageDataFrameIsLittleEndianAsTheSpecSays) {

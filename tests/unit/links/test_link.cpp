@@ -477,6 +477,15 @@ TEST(LinkType, LinkKeysRebuildTheLinkFromAnywhere) {
   }
 }
 
+TEST(LinkType, EachModelHasANameAndALabelAPageShows) {
+  // The pages read the labels from the channel catalogue: one per model, as a person writes it.
+  std::vector<std::pair<std::string, std::string>> seen;
+  for (const netkf::LinkModel& model : netkf::one_link_of_each_model())
+    seen.emplace_back(netkf::link_model_name(model), netkf::link_model_label(model));
+  EXPECT_EQ(seen, (std::vector<std::pair<std::string, std::string>>{{"bernoulli", "Bernoulli"},
+                                                                     {"gilbert_elliott", "Gilbert-Elliott"}}));
+}
+
 TEST(LinkType, LinkKeyValueReadsEveryNumericKey) {
   const LinkSpec bernoulli(BernoulliLink{0.3}, LinkDelay{5.0, 2.0, DelayDistribution::normal});
   EXPECT_EQ(netkf::link_key_value(bernoulli, "loss"), 0.3);

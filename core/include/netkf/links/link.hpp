@@ -134,6 +134,9 @@ void validate_link_model(const LinkModel& model);
 
 /// "bernoulli" or "gilbert_elliott".
 std::string link_model_name(const LinkModel& model);
+/// The model's name as a page shows it to a person: "Bernoulli" or "Gilbert-Elliott" (the
+/// dashboard's pages take it from the channel catalogue, so a new model needs no JavaScript).
+std::string link_model_label(const LinkModel& model);
 
 /// One valid link of each model, in the variant's order: for a check that must try a change
 /// on every model (`netkf ctl set-link` before it sends one) and for the models' names.
