@@ -72,8 +72,8 @@ dashboard::RequestPolicy::FindAsset page_assets(DashboardPage page) {
     case DashboardPage::relay:
       return [](std::string_view path) -> const Asset* {
         if (path == "/index.html") path = "/relay.html";
-        const bool relays = path == "/relay.html" || path == "/relay.js" || path == "/style.css" ||
-                            path == "/uPlot.iife.min.js" || path == "/uPlot.min.css";
+        const bool relays = path == "/relay.html" || path == "/relay.js" || path == "/link_models.js" ||
+                            path == "/style.css" || path == "/uPlot.iife.min.js" || path == "/uPlot.min.css";
         return relays ? dashboard::find_asset(path) : nullptr;
       };
     case DashboardPage::none: break;

@@ -1,5 +1,6 @@
 // What more than one module of the dashboard page needs: the links' names and models, the
 // observed-rate window and the colours (docs/dashboard.md is the contract).
+import { linkModelsOf } from './link_models.js';
 
 // Above this many links the page shows a table of them and the card of the one selected:
 // thousands of cards, each a chart and a dozen controls, would not draw.
@@ -14,20 +15,13 @@ export const LINK_MODELS = new Map();
 export const MODEL_LABEL = {};
 // The models of a link status channel's schema (JSON text); false when it has none.
 export function takeLinkModels(schemaText) {
-  let models;
-  try {
-    models = JSON.parse(schemaText).properties.model['x-netkf-models'];
-  } catch (err) {
-    return false;
-  }
-  if (!Array.isArray(models)) return false;
+  const models = linkModelsOf(schemaText);
+  if (!models) return false;
   LINK_MODELS.clear();
   for (const key of Object.keys(MODEL_LABEL)) delete MODEL_LABEL[key];
-  for (const m of models) {
-    if (!m || typeof m.name !== 'string' || !Array.isArray(m.keys)) continue;
-    const label = typeof m.label === 'string' ? m.label : m.name;
-    LINK_MODELS.set(m.name, { label, keys: m.keys.map(String), example: m.example || {} });
-    MODEL_LABEL[m.name] = label;
+  for (const { name, label, keys, example } of models) {
+    LINK_MODELS.set(name, { label, keys, example });
+    MODEL_LABEL[name] = label;
   }
   return true;
 }

@@ -3,6 +3,8 @@
 // over time (uPlot, loaded before this module as the global uPlot), and a form that changes the
 // topic's link with a setParameters of link.ID.KEY (ID the topic's negative link id). Every
 // string from the network goes into the page as text (textContent), never as HTML.
+import { linkModelsOf } from './link_models.js';
+
 const SUBPROTOCOL = 'foxglove.websocket.v1';
 const STATUS_TOPIC = 'netkf/link/status';
 const PENDING_TIMEOUT_MS = 5000;  // a setParameters without answer is given up after this
@@ -35,17 +37,10 @@ function addEvent(text) {
 // `model` property, x-netkf-models; docs/dashboard.md): name -> its parameter keys in order.
 const modelKeys = new Map();
 
+// A schema without models: each card names its model alone.
 function takeLinkModels(schemaText) {
-  let models = null;
-  try {
-    models = JSON.parse(schemaText).properties.model['x-netkf-models'];
-  } catch (err) {
-    /* no models: the card names the model alone */
-  }
   modelKeys.clear();
-  for (const m of Array.isArray(models) ? models : []) {
-    if (m && typeof m.name === 'string' && Array.isArray(m.keys)) modelKeys.set(m.name, m.keys.map(String));
-  }
+  for (const { name, keys } of linkModelsOf(schemaText) || []) modelKeys.set(name, keys);
 }
 
 // The model and its parameters in words, from the status's link keys: the name and each key of

@@ -199,7 +199,7 @@ TEST(DashboardServer, ServesThePageItsAssetsAndMetrics) {
 
 TEST(DashboardServer, EachPageServesItsOwnFilesOnly) {
   // The launch's dashboard does not serve the relay's page; the relay's serves relay.html at /
-  // and none of the launch's own files (uPlot and the style are shared); --dashboard without a page serves only /metrics.
+  // and none of the launch's own files (uPlot, the style and the link models' reader are shared); --dashboard without a page serves only /metrics.
   ServerFixture launch;
   EXPECT_EQ(get(launch.port(), "/relay.html").result(), http::status::not_found);
   EXPECT_EQ(get(launch.port(), "/relay.js").result(), http::status::not_found);
@@ -212,7 +212,9 @@ TEST(DashboardServer, EachPageServesItsOwnFilesOnly) {
   EXPECT_EQ(page.body().find("/app.js"), std::string::npos);
   EXPECT_EQ(get(relay.port(), "/relay.js").result(), http::status::ok);
   EXPECT_EQ(get(relay.port(), "/style.css").result(), http::status::ok);
-  // The relay's page plots with the same uPlot.
+  // The relay's page plots with the same uPlot and reads the link models as the launch's does.
+  EXPECT_EQ(get(relay.port(), "/link_models.js").result(), http::status::ok);
+  EXPECT_EQ(get(launch.port(), "/link_models.js").result(), http::status::ok);
   EXPECT_EQ(get(relay.port(), "/uPlot.iife.min.js").result(), http::status::ok);
   EXPECT_EQ(get(relay.port(), "/uPlot.min.css").result(), http::status::ok);
   for (const char* path : {"/index.html", "/app.js"}) {
@@ -454,11 +456,27 @@ TEST(DashboardServer, ThePageListsEveryModuleItImportsAndEachNeedsTheToken) {
   }
   EXPECT_GT(reached.size(), 1u) << "app.js imports the page's other modules";
   EXPECT_EQ(listed, reached) << "index.html's import map lists exactly the modules app.js reaches";
-  // The relay's page serves none of them.
+  // The relay's page serves none of them but what relay.js imports, which its page's import map
+  // lists (with the token) likewise.
   DashboardOptions relay_options;
   relay_options.page = DashboardPage::relay;
+  relay_options.token = "s3cret";
   ServerFixture relay(relay_options);
-  for (const auto& path : reached) EXPECT_EQ(get(relay.port(), path).result(), http::status::not_found) << path;
+  const std::string relay_page = get(relay.port(), "/?token=s3cret").body();
+  const std::string relay_js = get(relay.port(), "/relay.js?token=s3cret").body();
+  std::set<std::string> relay_imports;
+  for (std::sregex_iterator it(relay_js.begin(), relay_js.end(), imported), last; it != last; ++it)
+    relay_imports.insert((*it)[1]);
+  std::set<std::string> relay_listed;
+  const std::regex mapped(R"('(/[a-z_]+\.js)': ')");
+  for (std::sregex_iterator it(relay_page.begin(), relay_page.end(), mapped), last; it != last; ++it)
+    relay_listed.insert((*it)[1]);
+  EXPECT_FALSE(relay_imports.empty());
+  EXPECT_EQ(relay_listed, relay_imports) << "relay.html's import map lists exactly the modules relay.js imports";
+  for (const auto& path : reached) {
+    const auto want = relay_imports.count(path) ? http::status::ok : http::status::not_found;
+    EXPECT_EQ(get(relay.port(), path + "?token=s3cret").result(), want) << path;
+  }
 }
 
 TEST(DashboardServer, AtTheCapANewConnectionIsRefusedWhenNoneIsIdle) {
