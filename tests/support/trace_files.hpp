@@ -1,6 +1,6 @@
 #pragma once
 // What the trace tests of the links, the channel and the recording share: a scratch directory
-// per test, removed at the end, and a five-row trace.
+// per test, removed at the end, a five-row trace and a scenario whose link replays a trace.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -37,5 +37,15 @@ inline const char* const kTrace =
     "12,0,\n"
     "13,1,7.5\n"
     "14,1,2\n";
+
+// A one-sensor scenario whose link 1 is `link` (a trace's file is named relative to the
+// scenario, e.g. traces/t.csv in the scratch directory).
+inline std::string trace_scenario_text(const std::string& link) {
+  return "period_ms: 10\n"
+         "seed: 7\n"
+         "plant: { A: [[0.5]], Q: [[1.0]] }\n"
+         "sensors:\n"
+         "  - { id: 1, C: [[1.0]], R: [[1.0]], link: " + link + " }\n";
+}
 
 }  // namespace netkf_test

@@ -29,18 +29,11 @@
 
 namespace {
 
-namespace fs = std::filesystem;
 using netkf::BernoulliLink;
-using netkf::DelayDistribution;
 using netkf::GilbertElliottLink;
-using netkf::LinkDelay;
-using netkf::LinkError;
 using netkf::LinkEvent;
-using netkf::LinkKey;
-using netkf::LinkKeys;
 using netkf::LinkSpec;
 using ::testing::HasSubstr;
-using ::testing::StartsWith;
 
 using netkf_test::num;
 using netkf_test::word;
@@ -50,7 +43,6 @@ const GilbertElliottLink& ge(const LinkSpec& l) { return std::get<GilbertElliott
 using netkf_test::scenario_error_of;
 
 using netkf_test::base_scenario;
-using netkf_test::kFirstEventLine;
 using netkf_test::kScenarioHead;
 using netkf_test::with_events;
 

@@ -22,22 +22,14 @@ using ::testing::HasSubstr;
 using netkf_test::TraceFiles;
 
 using netkf_test::kTrace;
-
-// A scenario in dir_ whose link 1 replays traces/t.csv (named relative to the scenario).
-std::string scenario_text(const std::string& link) {
-  return "period_ms: 10\n"
-         "seed: 7\n"
-         "plant: { A: [[0.5]], Q: [[1.0]] }\n"
-         "sensors:\n"
-         "  - { id: 1, C: [[1.0]], R: [[1.0]], link: " + link + " }\n";
-}
+using netkf_test::trace_scenario_text;
 
 // The channel replays the trace period for period, and a switch to a model and back
 // restarts the trace at its offset from the period the switch took effect.
 TEST_F(TraceFiles, ChannelReplaysTheTraceAndSwitchesToAModelAndBack) {
   write("traces/t.csv", kTrace);
   const netkf::Scenario s =
-      netkf::load_scenario_file(write("s.yaml", scenario_text("{ model: trace, trace: traces/t.csv, offset: 2 }")));
+      netkf::load_scenario_file(write("s.yaml", trace_scenario_text("{ model: trace, trace: traces/t.csv, offset: 2 }")));
   netkf::nodes::ChannelLinks links(s);
   using V = netkf::nodes::SampleFate::Verdict;
   // Rows 2,3,4,0,1: dropped, delivered (7.5 ms), delivered (2 ms), delivered (3 ms), dropped.
@@ -72,7 +64,7 @@ TEST_F(TraceFiles, ChannelReplaysTheTraceAndSwitchesToAModelAndBack) {
 TEST_F(TraceFiles, TimelineSwitchesToATraceReadAtStart) {
   write("traces/t.csv", kTrace);
   const netkf::Scenario s = netkf::load_scenario_file(write(
-      "s.yaml", scenario_text("{ model: bernoulli, loss: 0 }") +
+      "s.yaml", trace_scenario_text("{ model: bernoulli, loss: 0 }") +
                     "events:\n  - { at_period: 3, link: 1, set: { model: trace, trace: traces/t.csv, offset: 1 } }\n"));
   netkf::nodes::ChannelLinks links(s);
   std::filesystem::remove(dir_ / "traces/t.csv");  // read at start: the sample path never opens it

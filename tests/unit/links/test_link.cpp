@@ -48,13 +48,11 @@
 
 namespace {
 
-namespace fs = std::filesystem;
 using netkf::BernoulliLink;
 using netkf::DelayDistribution;
 using netkf::GilbertElliottLink;
 using netkf::LinkDelay;
 using netkf::LinkError;
-using netkf::LinkEvent;
 using netkf::LinkKey;
 using netkf::LinkKeys;
 using netkf::LinkSpec;

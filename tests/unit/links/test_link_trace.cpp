@@ -33,6 +33,7 @@ using netkf::TraceLink;
 using netkf_test::TraceFiles;
 
 using netkf_test::kTrace;
+using netkf_test::trace_scenario_text;
 
 std::vector<int> delivered_per_period(const TraceLink& t, int periods) {
   std::vector<int> out;
@@ -126,18 +127,9 @@ TEST_F(TraceFiles, KeysAreRefusedWithTheirNames) {
               HasSubstr("bad.csv:3:3:"));
 }
 
-// A scenario in dir_ whose link 1 replays traces/t.csv (named relative to the scenario).
-std::string scenario_text(const std::string& link) {
-  return "period_ms: 10\n"
-         "seed: 7\n"
-         "plant: { A: [[0.5]], Q: [[1.0]] }\n"
-         "sensors:\n"
-         "  - { id: 1, C: [[1.0]], R: [[1.0]], link: " + link + " }\n";
-}
-
 TEST_F(TraceFiles, ScenarioNamesTheTraceRelativeToItselfAndErrorsCarryBothPositions) {
   write("traces/t.csv", kTrace);
-  const std::string yaml = write("s.yaml", scenario_text("{ model: trace, trace: traces/t.csv, offset: 1 }"));
+  const std::string yaml = write("s.yaml", trace_scenario_text("{ model: trace, trace: traces/t.csv, offset: 1 }"));
   const netkf::Scenario s = netkf::load_scenario_file(yaml);
   ASSERT_TRUE(s.sensors[0].link.trace);
   EXPECT_EQ(std::filesystem::path(s.sensors[0].link.trace->path), std::filesystem::absolute(dir_ / "traces/t.csv"));
@@ -146,7 +138,7 @@ TEST_F(TraceFiles, ScenarioNamesTheTraceRelativeToItselfAndErrorsCarryBothPositi
   const auto error_of = [&](const std::string& link, const std::string& trace_text) -> std::string {
     write("traces/t.csv", trace_text);
     try {
-      (void)netkf::load_scenario_file(write("s.yaml", scenario_text(link)));
+      (void)netkf::load_scenario_file(write("s.yaml", trace_scenario_text(link)));
     } catch (const netkf::ScenarioError& e) {
       return e.what();
     }
